@@ -1,0 +1,5 @@
+#include <cstdio>
+int main() {
+  std::puts("usage: vismap render SCENE -o OUT");
+  return 2;
+}

@@ -1,0 +1,36 @@
+// Writers: SVG and the binary triangle list (proto/FORMAT.md). Both write to a string; the CLI
+// writes it to a temporary file and renames it, so a failed render leaves nothing half-written.
+#pragma once
+
+#include <string>
+
+#include "core/camera.h"
+#include "core/planar_map.h"
+#include "core/scene.h"
+
+namespace vismap {
+
+enum class Fill { Shade, Id };
+
+// SVG: viewBox in pixels; the fragments of one source triangle in one <path>. Shade fills with a
+// Lambert shade of the source triangle's normal (light at the eye) times the mesh color; Id fills
+// with #RRGGBB = global source triangle id + 1 (Scene::triangle_id_base + face id) and
+// shape-rendering="crispEdges".
+std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& camera, Fill fill);
+
+// Binary triangle list, little-endian, versioned (proto/FORMAT.md). Fragments are fanned into
+// triangles; barycentrics and 1/w are included when the map has them.
+std::string write_bin(const PlanarMap& map, const Scene& scene);
+
+// Reader for the binary format (tests, clients). Throws InputError on malformed bytes.
+struct BinFrame {
+  uint32_t version = 0, width = 0, height = 0, flags = 0;
+  std::vector<float> xy;             // 6 per triangle
+  std::vector<uint32_t> mesh, triangle_id;  // per triangle: mesh index, global source triangle id
+  std::vector<float> bary;           // 9 per triangle when flags & 1
+  std::vector<float> inv_w;          // 3 per triangle when flags & 1
+  size_t triangle_count() const { return mesh.size(); }
+};
+BinFrame read_bin(const std::string& bytes);
+
+}  // namespace vismap

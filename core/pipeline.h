@@ -1,0 +1,68 @@
+// The OpenCL pipeline (DESIGN §2): transform + clip + cull, snap, bin, silhouettes, clipping
+// rounds, occlusion, planar map. Host code owns memory and orders the stages; kernels/ does the
+// per-element work.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/planar_map.h"
+#include "core/scene.h"
+
+namespace vismap {
+
+struct RenderOptions {
+  bool attributes = false;          // barycentrics + 1/w per vertex (binary output, clients)
+  bool exact = false;               // exact homogeneous vertices (checks)
+  bool keep_screen_triangles = false;
+  uint32_t tile_pixels = 0;         // 0: chosen from the input
+  std::function<void(double)> progress;  // called with a fraction in [0,1], if set
+};
+
+struct StageStat {
+  std::string name;
+  double ms = 0;                    // summed OpenCL event time of the stage's kernels
+  uint64_t items_in = 0, items_out = 0;
+  uint32_t launches = 0;
+};
+
+struct RenderStats {
+  std::vector<StageStat> stages;
+  double pipeline_ms = 0;           // host wall time of render(), upload included
+  double upload_ms = 0;
+  uint64_t input_triangles = 0, screen_triangles = 0, silhouette_edges = 0;
+  uint64_t fragments = 0, visible_fragments = 0;
+  uint64_t peak_device_bytes = 0;
+  uint32_t clip_rounds = 0;
+};
+
+struct DeviceInfo {
+  std::string platform, name, version;
+  bool is_gpu = false;
+  std::string id;                   // "P:D" platform and device index
+};
+
+std::vector<DeviceInfo> list_devices();
+
+class Renderer {
+ public:
+  // device: "" picks $VISMAP_DEVICE, else a GPU if there is one, else the first CPU device
+  // (PoCL). Otherwise "P:D" or a case-insensitive substring of the platform or device name.
+  explicit Renderer(const std::string& device = "");
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  const DeviceInfo& device() const;
+  PlanarMap render(const Scene& scene, const Camera& camera, const RenderOptions& opts = {},
+                   RenderStats* stats = nullptr, ScreenTriangles* screen = nullptr);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace vismap

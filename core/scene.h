@@ -1,0 +1,55 @@
+// The scene: triangle meshes in world space, their colors, and an optional camera.
+// Loaders (core/load_*.cpp) fill it; the pipeline (core/pipeline.h) reads it.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/camera.h"
+
+namespace vismap {
+
+struct Mesh {
+  std::string name;                 // for messages: the file's mesh/node/group name or the file stem
+  std::vector<float> positions;     // x,y,z per vertex, world space (node/instance transforms applied)
+  std::vector<uint32_t> indices;    // 3 per triangle, into positions
+  // For each kept triangle, its place in the source's face order (a polygon with k corners counts
+  // as k-2 fan triangles). Degenerate triangles are dropped, so ids can skip; --fill id uses these.
+  std::vector<uint32_t> face_ids;
+  uint32_t source_triangles = 0;    // triangles in the source before dropping (ids run 0..this-1)
+  std::array<float, 3> color{0.8f, 0.8f, 0.8f};  // linear RGB base color in [0,1]
+  bool soup = false;                // true when vertices are not shared (match edges by position)
+
+  size_t vertex_count() const { return positions.size() / 3; }
+  size_t triangle_count() const { return indices.size() / 3; }
+};
+
+struct Scene {
+  std::vector<Mesh> meshes;         // scene order; global triangle ids follow this order
+  std::optional<Camera> camera;     // from the file (glTF camera or scene file), if any
+  uint64_t dropped_degenerate = 0;  // zero-area triangles dropped while loading
+  std::string source;               // path it was loaded from
+
+  size_t triangle_count() const;
+  // Global id of mesh m's first source triangle: sum of source_triangles of meshes before it.
+  std::vector<uint64_t> triangle_id_base() const;
+};
+
+struct LoadOptions {
+  uint64_t max_triangles = 0;       // 0: no limit; otherwise a larger scene is InputError TooLarge
+};
+
+// Loads any supported file by extension: .gltf .glb (tinygltf), .ply .obj .off .stl (OpenMesh),
+// .ply.gz, and .json scene files (which reference other files relative to themselves).
+// Throws InputError naming the file and element on bad input; never returns a half scene.
+Scene load_scene(const std::string& path, const LoadOptions& opts = {});
+
+// The same from bytes in memory (for the server's uploads). `name` is used in messages and its
+// extension picks the format.
+Scene load_scene_from_memory(const std::string& name, const std::string& bytes,
+                             const LoadOptions& opts = {});
+
+}  // namespace vismap

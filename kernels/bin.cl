@@ -1,0 +1,1 @@
+// bin.cl: see docs/ARCHITECTURE.md

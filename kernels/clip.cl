@@ -1,0 +1,1 @@
+// clip.cl: see docs/ARCHITECTURE.md

@@ -1,0 +1,1 @@
+// emit.cl: see docs/ARCHITECTURE.md

@@ -1,0 +1,1 @@
+// geometry.cl: see docs/ARCHITECTURE.md

@@ -1,0 +1,1 @@
+// int128.cl: see docs/ARCHITECTURE.md

@@ -1,0 +1,1 @@
+// layout.h: buffer layouts shared by host and kernels

@@ -1,0 +1,1 @@
+// occlude.cl: see docs/ARCHITECTURE.md

@@ -1,0 +1,1 @@
+// scan.cl: see docs/ARCHITECTURE.md

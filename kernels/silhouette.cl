@@ -1,0 +1,1 @@
+// silhouette.cl: see docs/ARCHITECTURE.md

@@ -1,0 +1,1 @@
+// transform.cl: see docs/ARCHITECTURE.md
