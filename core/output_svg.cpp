@@ -347,23 +347,31 @@ void write_fragment(PathData& d, const QuantizedMap& q, size_t f, bool use_flags
   const uint32_t b = q.off[f], n = q.off[f + 1] - b;
   auto at = [&](uint32_t i) { return q.v[b + i % n]; };
   uint32_t unshared = 0, longest = 0;
-  int64_t longest_len = -1;
+  double longest_len = -1, unshared_len = 0, perimeter = 0;
   if (use_flags) {
     for (uint32_t i = 0; i < n; ++i) {
+      const Q u = at(i), w = at(i + 1);
+      const double l = std::hypot(double(w.x - u.x), double(w.y - u.y));
+      perimeter += l;
       if (q.shared[b + i]) continue;
       ++unshared;
-      const Q u = at(i), w = at(i + 1);
-      const int64_t l2 = (w.x - u.x) * (w.x - u.x) + (w.y - u.y) * (w.y - u.y);
-      if (l2 > longest_len) longest_len = l2, longest = i;
+      unshared_len += l;
+      if (l > longest_len) longest_len = l, longest = i;
     }
   }
+  // With several unshared edges one of them can be the implicit closing segment; the others
+  // are stroked (spilling half a stroke width over the outline along their length) unless the
+  // fragment is cut into centre-fan pieces, whose interior diagonals spill only near their
+  // ends -- but far along them when the fragment is a sliver and a diagonal runs almost
+  // parallel to an outline edge. Short other unshared edges (a sliver's tip): stroke them.
+  if (unshared >= 2 && unshared_len - longest_len <= 0.1 * perimeter) unshared = 1;
   if (unshared == 0) {  // closed polygon, every edge stroked
     d.move(at(0));
     for (uint32_t i = 1; i < n; ++i) d.line(at(i));
     d.close();
     return;
   }
-  if (unshared == 1) {  // open polygon whose implicit closing segment is the unshared edge
+  if (unshared == 1) {  // open polygon whose implicit closing segment is the (longest) unshared edge
     for (uint32_t i = 0; i < n; ++i) {
       const Q p = at(longest + 1 + i);
       if (i == 0) d.move(p); else d.line(p);
