@@ -16,7 +16,7 @@ namespace {
 // Concatenation order of the embedded sources: shared layout first, then one file per stage.
 const char* const kProgramFiles[] = {
     "kernels/layout.h",  "kernels/int128.cl",     "kernels/geometry.cl",
-    "kernels/scan.cl",   "kernels/transform.cl",  "kernels/bin.cl",
+    "kernels/scan.cl",   "kernels/transform.cl",  "kernels/bin.cl", "kernels/crossing.cl",
     "kernels/silhouette.cl", "kernels/clip.cl",   "kernels/occlude.cl",
     "kernels/emit.cl",
 };
