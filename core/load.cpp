@@ -56,23 +56,19 @@ std::string gunzip(const Source& src, std::string_view bytes) {
     fail(InputErrorKind::ParseError, src, "", "", -1, "zlib init failed");
   std::string out;
   if (bytes.size() >= 18) {  // gzip trailer: uncompressed size mod 2^32, a good first guess
-    uint32_t isize;
+    uint32_t isize;        // (capped: deflate expands at most ~1032x, and a cut file lies)
     std::memcpy(&isize, bytes.data() + bytes.size() - 4, 4);
-    out.reserve(std::max<size_t>(isize, bytes.size() * 2) + 1);
+    out.reserve(std::min<uint64_t>(isize, uint64_t(bytes.size()) * 1032));
   }
   z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
   z.avail_in = static_cast<uInt>(bytes.size());
+  std::vector<char> chunk(1 << 18);
   int rc = Z_OK;
   while (rc != Z_STREAM_END) {
-    if (out.size() == out.capacity() || out.capacity() - out.size() < 65536)
-      out.reserve(std::max<size_t>(out.capacity() * 2, 1 << 20));
-    size_t old = out.size();
-    size_t room = std::min<size_t>(out.capacity() - old, 1u << 30);
-    out.resize(old + room);
-    z.next_out = reinterpret_cast<Bytef*>(out.data() + old);
-    z.avail_out = static_cast<uInt>(room);
+    z.next_out = reinterpret_cast<Bytef*>(chunk.data());
+    z.avail_out = static_cast<uInt>(chunk.size());
     rc = inflate(&z, Z_NO_FLUSH);
-    out.resize(old + room - z.avail_out);
+    out.append(chunk.data(), chunk.size() - z.avail_out);
     if (rc == Z_STREAM_END) break;
     if (rc == Z_BUF_ERROR || (rc == Z_OK && z.avail_in == 0 && z.avail_out != 0)) {
       inflateEnd(&z);
