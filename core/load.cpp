@@ -54,21 +54,32 @@ std::string gunzip(const Source& src, std::string_view bytes) {
   z_stream z{};
   if (inflateInit2(&z, 15 + 32) != Z_OK)  // 15 + 32: zlib or gzip header, detected
     fail(InputErrorKind::ParseError, src, "", "", -1, "zlib init failed");
-  std::string out;
-  if (bytes.size() >= 18) {  // gzip trailer: uncompressed size mod 2^32, a good first guess
-    uint32_t isize;        // (capped: deflate expands at most ~1032x, and a cut file lies)
+  // Inflate straight into the result, sized from the gzip trailer (uncompressed size mod 2^32;
+  // capped, since deflate expands at most ~1032x and a cut file's trailer is garbage).
+  size_t guess = bytes.size() * 4;
+  if (bytes.size() >= 18) {
+    uint32_t isize;
     std::memcpy(&isize, bytes.data() + bytes.size() - 4, 4);
-    out.reserve(std::min<uint64_t>(isize, uint64_t(bytes.size()) * 1032));
+    guess = std::min<uint64_t>(isize, uint64_t(bytes.size()) * 1032);
   }
+  std::string out(guess + 1, '\0');  // +1: a full buffer then means "more to come"
+  size_t used = 0;
   z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
   z.avail_in = static_cast<uInt>(bytes.size());
-  std::vector<char> chunk(1 << 18);
   int rc = Z_OK;
   while (rc != Z_STREAM_END) {
-    z.next_out = reinterpret_cast<Bytef*>(chunk.data());
-    z.avail_out = static_cast<uInt>(chunk.size());
+    if (used == out.size()) {
+      if (out.size() > kMaxOut) {
+        inflateEnd(&z);
+        fail(InputErrorKind::TooLarge, src, "", "", -1, "decompresses to more than 4 GiB");
+      }
+      out.resize(out.size() * 2);
+    }
+    size_t room = std::min<size_t>(out.size() - used, 1u << 30);
+    z.next_out = reinterpret_cast<Bytef*>(out.data() + used);
+    z.avail_out = static_cast<uInt>(room);
     rc = inflate(&z, Z_NO_FLUSH);
-    out.append(chunk.data(), chunk.size() - z.avail_out);
+    used += room - z.avail_out;
     if (rc == Z_STREAM_END) break;
     if (rc == Z_BUF_ERROR || (rc == Z_OK && z.avail_in == 0 && z.avail_out != 0)) {
       inflateEnd(&z);
@@ -81,11 +92,8 @@ std::string gunzip(const Source& src, std::string_view bytes) {
       inflateEnd(&z);
       fail(InputErrorKind::ParseError, src, "", "gzip byte", at, "not a valid gzip stream: " + msg);
     }
-    if (out.size() > kMaxOut) {
-      inflateEnd(&z);
-      fail(InputErrorKind::TooLarge, src, "", "", -1, "decompresses to more than 4 GiB");
-    }
   }
+  out.resize(used);
   inflateEnd(&z);
   return out;
 }
