@@ -1,6 +1,7 @@
 // Each format loads with the counts SOURCES.md lists, faces in file order, transforms applied.
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 
 #include "tests/loader_test_util.h"
 
@@ -298,4 +299,24 @@ TEST(LoadOptions, MaxTrianglesIsEnforced) {
   test::expect_error(test::data_dir() + "/bunny.ply", InputErrorKind::TooLarge, {"1000"}, o);
   o.max_triangles = 69451;
   EXPECT_EQ(load_scene(test::data_dir() + "/bunny.ply", o).triangle_count(), 69451u);
+}
+
+TEST(LoadGltf, ExternalBufferRelativeToTheFile) {
+  TempDir dir;
+  std::filesystem::create_directories(dir.path() + "/sub");
+  float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  dir.write("sub/tri.bin", std::string(reinterpret_cast<const char*>(pos), sizeof pos));
+  std::string gltf = R"({"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+    "buffers":[{"byteLength":36,"uri":"tri.bin"}],
+    "bufferViews":[{"buffer":0,"byteLength":36}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}]})";
+  Scene s = load_scene(dir.write("sub/tri.gltf", gltf));
+  EXPECT_EQ(s.triangle_count(), 1u);
+  EXPECT_EQ(s.meshes[0].face_ids, (std::vector<uint32_t>{0}));
+  EXPECT_FALSE(s.camera.has_value());
+  // The same bytes from memory may not read tri.bin; a missing buffer file is FileNotFound.
+  EXPECT_THROW(load_scene_from_memory("up.gltf", gltf), InputError);
+  std::string missing = dir.write("gone.gltf", gltf);
+  test::expect_error(missing, InputErrorKind::FileNotFound, {"tri.bin"});
 }
