@@ -42,6 +42,23 @@ inline int tri_overlap(const VmScreenTri* a, const VmScreenTri* b, double2* out)
  * line, directed so that a is in front on its positive side. Pure function of the two
  * triangles: both members of a pair compute the same answer. */
 inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* line) {
+  /* Mesh neighbours across an edge that lie on opposite sides of it do not overlap: the common
+   * case, decided exactly before any floating point. */
+  int shared = 0, ia = 0, ib = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (a->x[i] == b->x[j] && a->y[i] == b->y[j]) {
+        ++shared;
+        ia += i;
+        ib += j;
+      }
+  if (shared == 2) {
+    int oa = 3 - ia, ob = 3 - ib; /* indices of the unshared vertices */
+    int e0 = oa == 0 ? 1 : 0, e1 = oa == 2 ? 1 : 2;
+    long sa = orient_points(a->x[e0], a->y[e0], a->x[e1], a->y[e1], a->x[oa], a->y[oa]);
+    long sb = orient_points(a->x[e0], a->y[e0], a->x[e1], a->y[e1], b->x[ob], b->y[ob]);
+    if ((sa > 0 && sb < 0) || (sa < 0 && sb > 0)) return VM_REL_NONE;
+  }
   double2 r[9];
   int n = tri_overlap(a, b, r);
   if (n < 3) return VM_REL_NONE;
