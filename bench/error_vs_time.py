@@ -21,7 +21,8 @@ DEFAULT = [os.path.join(SHARED, "stanford/bun_zipper_res4.ply") + ":reference",
 
 
 def run(vismap, scene, mode, tile, size):
-    cmd = [vismap, "check", scene, "--width", str(size), "--height", str(size), "--tile-pixels", str(tile)]
+    cmd = [vismap, "check", scene, "--width", str(size), "--height", str(size)]
+    cmd += ["--tile-pixels", str(tile)] if tile else []
     cmd += ["--pixels", "512"] + (["--reference"] if mode == "reference" else [])
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode not in (0, 4):
