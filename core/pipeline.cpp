@@ -179,7 +179,8 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     g.tile_size = static_cast<int32_t>(tile_px * VM_GRID_SCALE);
     g.tiles_x = static_cast<int32_t>((W + tile_px - 1) / tile_px);
     g.tiles_y = static_cast<int32_t>((H + tile_px - 1) / tile_px);
-    g.pad = 0;
+    g.tile_shift = 0;
+    while ((1 << g.tile_shift) < g.tile_size) ++g.tile_shift;
     return g;
   };
   uint32_t tile_px = opts.tile_pixels;

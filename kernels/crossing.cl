@@ -42,22 +42,18 @@ inline int tri_overlap(const VmScreenTri* a, const VmScreenTri* b, double2* out)
  * line, directed so that a is in front on its positive side. Pure function of the two
  * triangles: both members of a pair compute the same answer. */
 inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* line) {
-  /* Mesh neighbours across an edge that lie on opposite sides of it do not overlap: the common
-   * case, decided exactly before any floating point. */
-  int shared = 0, ia = 0, ib = 0;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      if (a->x[i] == b->x[j] && a->y[i] == b->y[j]) {
-        ++shared;
-        ia += i;
-        ib += j;
-      }
-  if (shared == 2) {
-    int oa = 3 - ia, ob = 3 - ib; /* indices of the unshared vertices */
-    int e0 = oa == 0 ? 1 : 0, e1 = oa == 2 ? 1 : 2;
-    long sa = orient_points(a->x[e0], a->y[e0], a->x[e1], a->y[e1], a->x[oa], a->y[oa]);
-    long sb = orient_points(a->x[e0], a->y[e0], a->x[e1], a->y[e1], b->x[ob], b->y[ob]);
-    if ((sa > 0 && sb < 0) || (sa < 0 && sb > 0)) return VM_REL_NONE;
+  /* Exact separating axes on the grid first: most pairs that get here are mesh neighbours whose
+   * footprints only touch (an edge or a corner in common). */
+  for (int side = 0; side < 2; ++side) {
+    const VmScreenTri* p = side ? b : a;
+    const VmScreenTri* o = side ? a : b;
+    for (int i = 0; i < 3; ++i) {
+      int j = i == 2 ? 0 : i + 1;
+      bool separates = true;
+      for (int k = 0; k < 3 && separates; ++k)
+        separates = orient_points(p->x[i], p->y[i], p->x[j], p->y[j], o->x[k], o->y[k]) <= 0;
+      if (separates) return VM_REL_NONE;
+    }
   }
   double2 r[9];
   int n = tri_overlap(a, b, r);
@@ -133,8 +129,8 @@ inline uint crossings_of(uint t, __global const VmScreenTri* tris, __global cons
   int4 tb = tri_bb[t];
   VmScreenTri me = tris[t];
   double qmin = fmin(fmin(me.q[0], me.q[1]), me.q[2]), qmax = fmax(fmax(me.q[0], me.q[1]), me.q[2]);
-  int tx0 = tile_coord(tb.x, g.tile_size, g.tiles_x), tx1 = tile_coord(tb.z, g.tile_size, g.tiles_x);
-  int ty0 = tile_coord(tb.y, g.tile_size, g.tiles_y), ty1 = tile_coord(tb.w, g.tile_size, g.tiles_y);
+  int tx0 = tile_coord(tb.x, g.tile_shift, g.tiles_x), tx1 = tile_coord(tb.z, g.tile_shift, g.tiles_x);
+  int ty0 = tile_coord(tb.y, g.tile_shift, g.tiles_y), ty1 = tile_coord(tb.w, g.tile_shift, g.tiles_y);
   uint count = 0;
   for (int ty = ty0; ty <= ty1; ++ty)
     for (int tx = tx0; tx <= tx1; ++tx) {
@@ -147,8 +143,8 @@ inline uint crossings_of(uint t, __global const VmScreenTri* tris, __global cons
         int ix0 = max(tb.x, ob.x), iy0 = max(tb.y, ob.y);
         int ix1 = min(tb.z, ob.z), iy1 = min(tb.w, ob.w);
         if (ix0 >= ix1 || iy0 >= iy1) continue;
-        if (tile_coord(ix0, g.tile_size, g.tiles_x) != tx ||
-            tile_coord(iy0, g.tile_size, g.tiles_y) != ty)
+        if (tile_coord(ix0, g.tile_shift, g.tiles_x) != tx ||
+            tile_coord(iy0, g.tile_shift, g.tiles_y) != ty)
           continue;
         VmScreenTri other = tris[o];
         if (other.mesh == me.mesh && other.tri == me.tri) continue;

@@ -97,7 +97,7 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
   }
   VmScreenTri t = tris[m.tri];
   int gx = (int)(px >> VM_POINT_BITS), gy = (int)(py >> VM_POINT_BITS);
-  uint tile = tile_coord(gy, g.tile_size, g.tiles_y) * g.tiles_x + tile_coord(gx, g.tile_size, g.tiles_x);
+  uint tile = tile_coord(gy, g.tile_shift, g.tiles_y) * g.tiles_x + tile_coord(gx, g.tile_shift, g.tiles_x);
   uint off = tile_offset[tile], cnt = tile_count[tile];
   for (uint k = 0; k < cnt; ++k) {
     uint o = tile_list[off + k];
