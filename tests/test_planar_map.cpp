@@ -9,7 +9,7 @@
 #include "core/camera.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
-#include "tests/support/planar_check.h"
+#include "core/reference/planar_check.h"
 
 namespace {
 
