@@ -116,6 +116,8 @@ void WsClient::connect(const std::string& url, double timeout_s) {
   run_until(impl_->ioc, [&] { return result.has_value(); }, deadline + secs(1));
   if (!result || *result) throw std::runtime_error("connect " + u.host + ":" + u.port + ": " + (result ? result->message() : "timeout"));
   tcp_layer.expires_never();
+  beast::error_code ignored;
+  tcp_layer.socket().set_option(tcp::no_delay(true), ignored);
   impl_->ws.set_option(websocket::stream_base::timeout{secs(timeout_s), websocket::stream_base::none(), false});
   impl_->ws.read_message_max(1ull << 30);
   result.reset();

@@ -702,6 +702,8 @@ void Server::Impl::accept() {
       if (ec == net::error::operation_aborted || stopping) return;
       log.warn("accept_error", {{"message", ec.message()}});
     } else {
+      beast::error_code ignored;
+      s.set_option(tcp::no_delay(true), ignored);  // frames are latency-bound: no Nagle delay
       std::make_shared<HttpSession>(std::move(s), *this)->run();
     }
     if (!stopping) accept();
