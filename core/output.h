@@ -18,6 +18,10 @@ enum class Fill { Shade, Id };
 // shape-rendering="crispEdges".
 std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& camera, Fill fill);
 
+// How write_svg prints a coordinate: rounded to 1/100 pixel, trailing zeros and a leading "0"
+// dropped ("12.5", ".25", "-.05", "3"). Equal doubles print equal text.
+std::string svg_number(double v);
+
 // Binary triangle list, little-endian, versioned (proto/FORMAT.md). Fragments are fanned into
 // triangles; barycentrics and 1/w are included when the map has them.
 std::string write_bin(const PlanarMap& map, const Scene& scene);

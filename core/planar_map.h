@@ -3,6 +3,7 @@
 // pipeline (core/pipeline.cpp), read by the writers (core/output_*.cpp) and the checkers.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 

@@ -1,1 +1,88 @@
-// bin.cl: see docs/ARCHITECTURE.md
+/* Stage: binning into uniform tiles (MPR-style: a tile keeps only what can touch it).
+ * Items are given by grid bounding boxes (int4: x0, y0, x1, y1, inclusive); count per tile,
+ * scan (host), fill per tile, and sort each tile's list by item id so that everything downstream
+ * is deterministic whatever order the atomics ran in. */
+
+__kernel void tri_bbox(__global const VmScreenTri* tris, uint n, __global int4* bb) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  VmScreenTri t = tris[i];
+  bb[i] = (int4)(min(min(t.x[0], t.x[1]), t.x[2]), min(min(t.y[0], t.y[1]), t.y[2]),
+                 max(max(t.x[0], t.x[1]), t.x[2]), max(max(t.y[0], t.y[1]), t.y[2]));
+}
+
+__kernel void edge_bbox(__global const VmEdge* edges, uint n, __global int4* bb) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  VmEdge e = edges[i];
+  bb[i] = (int4)(min(e.x0, e.x1), min(e.y0, e.y1), max(e.x0, e.x1), max(e.y0, e.y1));
+}
+
+inline int tile_coord(int v, int size, int count) { return clamp(v / size, 0, count - 1); }
+
+__kernel void bin_count(__global const int4* bb, uint n, VmGrid g, __global uint* tile_count) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  int4 b = bb[i];
+  int tx0 = tile_coord(b.x, g.tile_size, g.tiles_x), tx1 = tile_coord(b.z, g.tile_size, g.tiles_x);
+  int ty0 = tile_coord(b.y, g.tile_size, g.tiles_y), ty1 = tile_coord(b.w, g.tile_size, g.tiles_y);
+  for (int ty = ty0; ty <= ty1; ++ty)
+    for (int tx = tx0; tx <= tx1; ++tx) atomic_inc(&tile_count[ty * g.tiles_x + tx]);
+}
+
+__kernel void bin_fill(__global const int4* bb, uint n, VmGrid g, __global const uint* tile_offset,
+                       __global uint* tile_cursor, __global uint* list) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  int4 b = bb[i];
+  int tx0 = tile_coord(b.x, g.tile_size, g.tiles_x), tx1 = tile_coord(b.z, g.tile_size, g.tiles_x);
+  int ty0 = tile_coord(b.y, g.tile_size, g.tiles_y), ty1 = tile_coord(b.w, g.tile_size, g.tiles_y);
+  for (int ty = ty0; ty <= ty1; ++ty)
+    for (int tx = tx0; tx <= tx1; ++tx) {
+      uint t = ty * g.tiles_x + tx;
+      list[tile_offset[t] + atomic_inc(&tile_cursor[t])] = i;
+    }
+}
+
+/* One work-item per tile: insertion sort for short lists, heap sort for long ones. */
+__kernel void bin_sort(__global const uint* tile_offset, __global const uint* tile_count,
+                       uint ntiles, __global uint* list) {
+  uint t = get_global_id(0);
+  if (t >= ntiles) return;
+  __global uint* a = list + tile_offset[t];
+  int n = (int)tile_count[t];
+  if (n <= 32) {
+    for (int i = 1; i < n; ++i) {
+      uint v = a[i];
+      int j = i - 1;
+      while (j >= 0 && a[j] > v) {
+        a[j + 1] = a[j];
+        --j;
+      }
+      a[j + 1] = v;
+    }
+    return;
+  }
+  /* heap sort */
+  for (int start = n / 2 - 1; start >= 0; --start) {
+    int root = start;
+    while (2 * root + 1 < n) {
+      int child = 2 * root + 1;
+      if (child + 1 < n && a[child] < a[child + 1]) ++child;
+      if (a[root] >= a[child]) break;
+      uint tmp = a[root]; a[root] = a[child]; a[child] = tmp;
+      root = child;
+    }
+  }
+  for (int end = n - 1; end > 0; --end) {
+    uint tmp = a[0]; a[0] = a[end]; a[end] = tmp;
+    int root = 0;
+    while (2 * root + 1 < end) {
+      int child = 2 * root + 1;
+      if (child + 1 < end && a[child] < a[child + 1]) ++child;
+      if (a[root] >= a[child]) break;
+      uint t2 = a[root]; a[root] = a[child]; a[child] = t2;
+      root = child;
+    }
+  }
+}

@@ -1,1 +1,213 @@
-// clip.cl: see docs/ARCHITECTURE.md
+/* Stage: clipping fragments by the silhouette edges in front of them (SVGPU §3.2), as a Reyes
+ * work queue: every round each fragment looks along its candidate list for the first edge that
+ * really cuts it, and is either split in two (both sides kept, both continue after that edge)
+ * or finished. A scan of the per-item output counts places the children; no atomics decide
+ * where anything goes, so the result is the same on every device.
+ *
+ * A fragment is a convex polygon stored by its supporting lines (each through two grid points),
+ * never by rounded vertices, so every split is exact (DESIGN §3). */
+
+#ifndef VM_MAXL
+#define VM_MAXL 16
+#endif
+
+#define VM_NONE 0xffffffffu
+
+/* Candidate edges of a screen triangle: silhouette edges whose segment meets the triangle's
+ * interior, whose line strictly separates its corners, and which may be in front of it
+ * somewhere (nearness is affine along the edge and over the triangle's plane, so checking the
+ * two endpoints against the plane, with the tie band doubled, is conservative). */
+inline bool edge_is_candidate(__global const VmScreenTri* T, VmEdge E) {
+  Line3 LE = line_of(E.x0, E.y0, E.x1, E.y1);
+  int pos = 0, neg = 0;
+  for (int i = 0; i < 3; ++i) {
+    long s = line_eval_point(LE, T->x[i], T->y[i]);
+    pos |= s > 0;
+    neg |= s < 0;
+  }
+  if (!(pos && neg)) return false;
+  for (int i = 0; i < 3; ++i) {
+    int j = i == 2 ? 0 : i + 1;
+    Line3 L = line_of(T->x[i], T->y[i], T->x[j], T->y[j]);
+    if (line_eval_point(L, E.x0, E.y0) <= 0 && line_eval_point(L, E.x1, E.y1) <= 0) return false;
+  }
+  VmScreenTri t = *T;
+  double qa = tri_depth_at(&t, (double)E.x0, (double)E.y0);
+  double qb = tri_depth_at(&t, (double)E.x1, (double)E.y1);
+  double scale = fmax(fmax(fabs(qa), fabs(qb)), fmax(fabs(E.q0), fabs(E.q1)));
+  double band = 2.0 * VM_TIE_EPS * scale;
+  return E.q0 - qa > -band || E.q1 - qb > -band;
+}
+
+inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
+                          __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
+                          __global const uint* tile_offset, __global const uint* tile_count,
+                          __global const uint* tile_list, __global uint* out) {
+  int4 tb = tri_bb[t];
+  int tx0 = tile_coord(tb.x, g.tile_size, g.tiles_x), tx1 = tile_coord(tb.z, g.tile_size, g.tiles_x);
+  int ty0 = tile_coord(tb.y, g.tile_size, g.tiles_y), ty1 = tile_coord(tb.w, g.tile_size, g.tiles_y);
+  uint count = 0;
+  for (int ty = ty0; ty <= ty1; ++ty)
+    for (int tx = tx0; tx <= tx1; ++tx) {
+      uint tile = ty * g.tiles_x + tx;
+      uint off = tile_offset[tile], n = tile_count[tile];
+      for (uint k = 0; k < n; ++k) {
+        uint e = tile_list[off + k];
+        int4 eb = edge_bb[e];
+        int ix0 = max(tb.x, eb.x), iy0 = max(tb.y, eb.y);
+        int ix1 = min(tb.z, eb.z), iy1 = min(tb.w, eb.w);
+        if (ix0 > ix1 || iy0 > iy1) continue;
+        /* A pair is looked at only in the tile holding the low corner of its box overlap. */
+        if (tile_coord(ix0, g.tile_size, g.tiles_x) != tx ||
+            tile_coord(iy0, g.tile_size, g.tiles_y) != ty)
+          continue;
+        if (!edge_is_candidate(&tris[t], edges[e])) continue;
+        if (out) out[count] = e;
+        ++count;
+      }
+    }
+  return count;
+}
+
+__kernel void cand_count(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
+                         __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
+                         __global const uint* tile_offset, __global const uint* tile_count,
+                         __global const uint* tile_list, __global uint* counts) {
+  uint t = get_global_id(0);
+  if (t >= ntris) return;
+  counts[t] = candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_offset, tile_count, tile_list, 0);
+}
+
+__kernel void cand_fill(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
+                        __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
+                        __global const uint* tile_offset, __global const uint* tile_count,
+                        __global const uint* tile_list, __global const uint* offsets,
+                        __global uint* cand) {
+  uint t = get_global_id(0);
+  if (t >= ntris) return;
+  candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_offset, tile_count, tile_list,
+                cand + offsets[t]);
+}
+
+/* The root fragment of every screen triangle: its three edges. */
+__kernel void frag_init(__global const VmScreenTri* tris, uint ntris, __global VmFragMeta* meta,
+                        __global VmLine* lines) {
+  uint t = get_global_id(0);
+  if (t >= ntris) return;
+  VmScreenTri s = tris[t];
+  VmFragMeta m;
+  m.tri = t;
+  m.nlines = 3;
+  m.next = 0;
+  m.pad = 0;
+  meta[t] = m;
+  for (int i = 0; i < 3; ++i) {
+    int j = i == 2 ? 0 : i + 1;
+    VmLine l;
+    l.x0 = s.x[i]; l.y0 = s.y[i]; l.x1 = s.x[j]; l.y1 = s.y[j];
+    lines[(size_t)t * VM_MAXL + i] = l;
+  }
+}
+
+/* Signs of the fragment's vertices (vertex i = line i ^ line i+1) with respect to LE, and
+ * whether the segment E really cuts the fragment's interior: its line strictly separates two
+ * vertices, and no fragment edge line has both segment ends on its closed outer side
+ * (separating axes of a convex polygon and a segment). */
+inline bool cuts(__global const VmLine* L, uint n, VmEdge E, int* sgn) {
+  for (uint i = 0; i < n; ++i) {
+    Line3 Li = line_of_vm(L[i]);
+    if (line_eval_point(Li, E.x0, E.y0) <= 0 && line_eval_point(Li, E.x1, E.y1) <= 0) return false;
+  }
+  Line3 LE = line_of(E.x0, E.y0, E.x1, E.y1);
+  int pos = 0, neg = 0;
+  Line3 first = line_of_vm(L[0]);
+  Line3 cur = first;
+  for (uint i = 0; i < n; ++i) {
+    Line3 nxt = i + 1 == n ? first : line_of_vm(L[i + 1]);
+    int s = vertex_side(cur, nxt, LE);
+    sgn[i] = s;
+    pos |= s > 0;
+    neg |= s < 0;
+    cur = nxt;
+  }
+  return pos && neg;
+}
+
+/* Lines of one side of the split: edges with a vertex strictly on that side, and the cutting
+ * line right after the edge whose end leaves that side. Returns the line count. */
+inline uint split_side(__global const VmLine* L, uint n, const int* sgn, int side, VmLine cut,
+                       __global VmLine* out, int write) {
+  uint m = 0;
+  for (uint i = 0; i < n; ++i) {
+    int s_prev = side * sgn[i == 0 ? n - 1 : i - 1], s_end = side * sgn[i];
+    if (s_prev > 0 || s_end > 0) {
+      if (write && m < VM_MAXL) out[m] = L[i];
+      ++m;
+      if (s_end <= 0) {
+        if (write && m < VM_MAXL) out[m] = cut;
+        ++m;
+      }
+    }
+  }
+  return m;
+}
+
+__kernel void clip_find(__global const VmFragMeta* meta, __global const VmLine* lines, uint nq,
+                        __global const uint* cand_offset, __global const uint* cand_count,
+                        __global const uint* cand, __global const VmEdge* edges,
+                        __global uint* split_at, __global uint* next_count,
+                        __global uint* done_count, __global uint* status) {
+  uint i = get_global_id(0);
+  if (i >= nq) return;
+  VmFragMeta m = meta[i];
+  __global const VmLine* L = lines + (size_t)i * VM_MAXL;
+  uint off = cand_offset[m.tri], n = cand_count[m.tri];
+  int sgn[VM_MAXL];
+  for (uint k = m.next; k < n; ++k) {
+    VmEdge E = edges[cand[off + k]];
+    if (cuts(L, m.nlines, E, sgn)) {
+      VmLine cut = {E.x0, E.y0, E.x1, E.y1};
+      uint np = split_side(L, m.nlines, sgn, 1, cut, 0, 0);
+      uint nn = split_side(L, m.nlines, sgn, -1, cut, 0, 0);
+      if (np > VM_MAXL || nn > VM_MAXL) atomic_or(status, VM_STATUS_LINES_OVERFLOW);
+      split_at[i] = k;
+      next_count[i] = 2;
+      done_count[i] = 0;
+      return;
+    }
+  }
+  split_at[i] = VM_NONE;
+  next_count[i] = 0;
+  done_count[i] = 1;
+}
+
+__kernel void clip_apply(__global const VmFragMeta* meta, __global const VmLine* lines, uint nq,
+                         __global const uint* cand_offset, __global const uint* cand,
+                         __global const VmEdge* edges, __global const uint* split_at,
+                         __global const uint* next_offset, __global const uint* done_offset,
+                         uint done_base, __global VmFragMeta* next_meta, __global VmLine* next_lines,
+                         __global VmFragMeta* done_meta, __global VmLine* done_lines) {
+  uint i = get_global_id(0);
+  if (i >= nq) return;
+  VmFragMeta m = meta[i];
+  __global const VmLine* L = lines + (size_t)i * VM_MAXL;
+  uint k = split_at[i];
+  if (k == VM_NONE) {
+    uint d = done_base + done_offset[i];
+    done_meta[d] = m;
+    for (uint j = 0; j < m.nlines; ++j) done_lines[(size_t)d * VM_MAXL + j] = L[j];
+    return;
+  }
+  VmEdge E = edges[cand[cand_offset[m.tri] + k]];
+  int sgn[VM_MAXL];
+  cuts(L, m.nlines, E, sgn);
+  uint o = next_offset[i];
+  VmLine cut = {E.x0, E.y0, E.x1, E.y1};
+  VmLine rev = {E.x1, E.y1, E.x0, E.y0};
+  VmFragMeta c = m;
+  c.next = k + 1;
+  c.nlines = split_side(L, m.nlines, sgn, 1, cut, next_lines + (size_t)o * VM_MAXL, 1);
+  next_meta[o] = c;
+  c.nlines = split_side(L, m.nlines, sgn, -1, rev, next_lines + (size_t)(o + 1) * VM_MAXL, 1);
+  next_meta[o + 1] = c;
+}

@@ -1,1 +1,84 @@
-// geometry.cl: see docs/ARCHITECTURE.md
+/* Exact 2D predicates on the grid (DESIGN §3, docs/NUMERICS.md).
+ * Grid coordinates are below 2^22, so a line through two grid points has |a|,|b| <= 2^23 and
+ * |c| <= 2^46; products of two coefficients fit in 64 bits, and the 3x3 determinants that
+ * decide the side of an intersection vertex fit in 128 bits. No epsilon anywhere. */
+
+typedef struct {
+  long a, b, c;
+} Line3;
+
+/* a*x + b*y + c = orient(p0, p1, (x, y)) */
+inline Line3 line_of(int x0, int y0, int x1, int y1) {
+  Line3 L;
+  L.a = -(long)(y1 - y0);
+  L.b = (long)(x1 - x0);
+  L.c = -(L.a * (long)x0 + L.b * (long)y0);
+  return L;
+}
+
+inline Line3 line_of_vm(VmLine l) { return line_of(l.x0, l.y0, l.x1, l.y1); }
+
+inline Line3 line_reversed(Line3 L) {
+  Line3 R;
+  R.a = -L.a;
+  R.b = -L.b;
+  R.c = -L.c;
+  return R;
+}
+
+/* Exact side of a grid point: |a*x|, |b*y| <= 2^45, |c| <= 2^46. */
+inline long line_eval_point(Line3 L, long x, long y) { return L.a * x + L.b * y + L.c; }
+
+inline long orient_points(long x0, long y0, long x1, long y1, long x2, long y2) {
+  return (x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0);
+}
+
+/* Side of the vertex Li ^ Lj with respect to Lm: sign(det[Li; Lj; Lm]) * sign(w) where the
+ * vertex is (X, Y, w) = Li x Lj and w = ai*bj - aj*bi. Each 2x2 minor is below 2^47, each
+ * product with a c below 2^93, the sum below 2^95. Li and Lj must not be parallel. */
+inline int vertex_side(Line3 Li, Line3 Lj, Line3 Lm) {
+  long m_jm = Lj.a * Lm.b - Lm.a * Lj.b;
+  long m_im = Li.a * Lm.b - Lm.a * Li.b;
+  long m_ij = Li.a * Lj.b - Lj.a * Li.b;
+  i128 d = i128_mul64(Li.c, m_jm);
+  d = i128_sub(d, i128_mul64(Lj.c, m_im));
+  d = i128_add(d, i128_mul64(Lm.c, m_ij));
+  int s = i128_sign(d);
+  return m_ij > 0 ? s : -s;
+}
+
+/* A vertex as doubles (grid units), for choosing sample points only: never for decisions. */
+inline double2 vertex_approx(Line3 Li, Line3 Lj) {
+  i128 X = i128_sub(i128_mul64(Li.b, Lj.c), i128_mul64(Lj.b, Li.c));
+  i128 Y = i128_sub(i128_mul64(Li.c, Lj.a), i128_mul64(Lj.c, Li.a));
+  double w = (double)(Li.a * Lj.b - Lj.a * Li.b);
+  return (double2)(i128_to_double(X) / w, i128_to_double(Y) / w);
+}
+
+/* Exact side of a fine sample point (px, py) / 2^VM_POINT_BITS. */
+inline int line_side_fine(Line3 L, long px, long py) {
+  i128 s = i128_add(i128_mul64(L.a, px), i128_mul64(L.b, py));
+  s = i128_add(s, i128_mul64(L.c, (long)1 << VM_POINT_BITS));
+  return i128_sign(s);
+}
+
+/* Nearness of a screen triangle's plane at a point (grid units): affine interpolation. */
+inline double tri_depth_at(const VmScreenTri* t, double x, double y) {
+  double dx1 = (double)(t->x[1] - t->x[0]), dy1 = (double)(t->y[1] - t->y[0]);
+  double dx2 = (double)(t->x[2] - t->x[0]), dy2 = (double)(t->y[2] - t->y[0]);
+  double dq1 = t->q[1] - t->q[0], dq2 = t->q[2] - t->q[0];
+  double det = dx1 * dy2 - dx2 * dy1;
+  double gx = (dq1 * dy2 - dq2 * dy1) / det;
+  double gy = (dq2 * dx1 - dq1 * dx2) / det;
+  return t->q[0] + gx * (x - (double)t->x[0]) + gy * (y - (double)t->y[0]);
+}
+
+/* Does triangle `o` win over triangle `t` where their nearness is qo and qt? Ties within the
+ * relative band VM_TIE_EPS go to the lower (mesh, triangle): a fixed rule, never chance. */
+inline bool in_front(double qo, double qt, uint mesh_o, uint tri_o, uint mesh_t, uint tri_t) {
+  double scale = fmax(fabs(qo), fabs(qt));
+  double d = qo - qt;
+  if (d > VM_TIE_EPS * scale) return true;
+  if (d < -VM_TIE_EPS * scale) return false;
+  return mesh_o < mesh_t || (mesh_o == mesh_t && tri_o < tri_t);
+}

@@ -1,1 +1,90 @@
-// layout.h: buffer layouts shared by host and kernels
+/* Buffer layouts shared by the host (C++) and the kernels (OpenCL C). One truth: both sides
+ * include this file; the host static_asserts sizes and offsets. Fixed-width types only. */
+#ifndef VISMAP_KERNELS_LAYOUT_H
+#define VISMAP_KERNELS_LAYOUT_H
+
+#ifdef __OPENCL_VERSION__
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+typedef int vm_i32;
+typedef uint vm_u32;
+typedef long vm_i64;
+typedef ulong vm_u64;
+#else
+#include <cstddef>
+#include <cstdint>
+typedef int32_t vm_i32;
+typedef uint32_t vm_u32;
+typedef int64_t vm_i64;
+typedef uint64_t vm_u64;
+#endif
+
+/* Grid units per pixel: every 2D decision works on integer coordinates of this grid. */
+#define VM_GRID_SCALE 256
+/* Largest viewport side in pixels; grid coordinates stay below 2^22 (docs/NUMERICS.md). */
+#define VM_MAX_VIEWPORT 16384
+/* Interior sample points carry this many extra fraction bits below the grid. */
+#define VM_POINT_BITS 24
+/* Relative depth difference under which two surfaces tie (the fixed tie rule decides). */
+#define VM_TIE_EPS 1e-6
+
+/* Per-mesh cull mode (host decides; only closed meshes seen from outside are culled). */
+#define VM_CULL_NONE 0
+#define VM_CULL_POSITIVE 1 /* drop triangles whose snapped grid orientation is > 0 */
+#define VM_CULL_NEGATIVE 2 /* drop triangles whose snapped grid orientation is < 0 */
+
+/* A triangle after transform, clipping, culling and snapping. Vertices are on the grid (y down)
+ * and ordered so that orient(v0, v1, v2) > 0. q is the nearness (1/w for perspective, -z_ndc
+ * for orthographic): larger is closer and it is affine on the screen. */
+typedef struct {
+  vm_i32 x[3];
+  vm_i32 y[3];
+  vm_u32 mesh;
+  vm_u32 tri; /* source triangle within its mesh */
+  double q[3];
+  vm_u32 src; /* global input triangle index (row in the uploaded index buffer) */
+  vm_u32 pad;
+} VmScreenTri;
+
+/* A silhouette edge: a segment between two grid points with the nearness at each end. */
+typedef struct {
+  vm_i32 x0, y0, x1, y1;
+  double q0, q1;
+} VmEdge;
+
+/* A directed line through two grid points; a fragment's interior is on its positive side:
+ * orient(p0, p1, p) = (x1-x0)(py-y0) - (y1-y0)(px-x0) > 0. */
+typedef struct {
+  vm_i32 x0, y0, x1, y1;
+} VmLine;
+
+/* Per fragment in the clip work queue: the screen triangle it came from, its line count, the
+ * next candidate edge to look at. Lines are stored in a parallel buffer, VM_MAXL per fragment. */
+typedef struct {
+  vm_u32 tri;
+  vm_u32 nlines;
+  vm_u32 next;
+  vm_u32 pad;
+} VmFragMeta;
+
+/* The bin grid: uniform tiles of tile_size grid units. */
+typedef struct {
+  vm_i32 tile_size;
+  vm_i32 tiles_x;
+  vm_i32 tiles_y;
+  vm_i32 pad;
+} VmGrid;
+
+/* Status flags a kernel can raise (read back by the host). */
+#define VM_STATUS_LINES_OVERFLOW 1u
+#define VM_STATUS_HASH_FULL 2u
+
+#ifndef __OPENCL_VERSION__
+static_assert(sizeof(VmScreenTri) == 64, "VmScreenTri layout");
+static_assert(offsetof(VmScreenTri, q) == 32, "VmScreenTri.q offset");
+static_assert(sizeof(VmEdge) == 32, "VmEdge layout");
+static_assert(sizeof(VmLine) == 16, "VmLine layout");
+static_assert(sizeof(VmFragMeta) == 16, "VmFragMeta layout");
+static_assert(sizeof(VmGrid) == 16, "VmGrid layout");
+#endif
+
+#endif

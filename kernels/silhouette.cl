@@ -1,1 +1,115 @@
-// silhouette.cl: see docs/ARCHITECTURE.md
+/* Stage: silhouette edges from a spatial hash (SVGPU §3.1). Every screen-triangle edge is keyed
+ * by its two endpoints' snapped position and nearness (so shared edges of indexed meshes and of
+ * soup with duplicated vertices meet, and so do the pieces of an edge split by the near plane).
+ * An edge is NOT a silhouette only when exactly two triangles share it and they lie on opposite
+ * sides of it on the screen (the surface continues across it). Boundary edges (one triangle),
+ * non-manifold edges (three or more) and folds (both on the same side) are silhouettes. Treating
+ * an edge as a silhouette when in doubt is always safe: it only adds clipping lines. */
+
+typedef struct {
+  int x0, y0, x1, y1;
+  ulong q0, q1;
+} EdgeKey;
+
+inline bool vtx_before(int xa, int ya, ulong qa, int xb, int yb, ulong qb) {
+  if (xa != xb) return xa < xb;
+  if (ya != yb) return ya < yb;
+  return qa < qb;
+}
+
+inline EdgeKey edge_key(__global const VmScreenTri* tris, uint e) {
+  uint t = e / 3, k = e % 3, k1 = k == 2 ? 0 : k + 1;
+  __global const VmScreenTri* s = &tris[t];
+  int xa = s->x[k], ya = s->y[k], xb = s->x[k1], yb = s->y[k1];
+  ulong qa = as_ulong(s->q[k]), qb = as_ulong(s->q[k1]);
+  EdgeKey key;
+  if (vtx_before(xb, yb, qb, xa, ya, qa)) {
+    key.x0 = xb; key.y0 = yb; key.q0 = qb; key.x1 = xa; key.y1 = ya; key.q1 = qa;
+  } else {
+    key.x0 = xa; key.y0 = ya; key.q0 = qa; key.x1 = xb; key.y1 = yb; key.q1 = qb;
+  }
+  return key;
+}
+
+inline bool key_equal(EdgeKey a, EdgeKey b) {
+  return a.x0 == b.x0 && a.y0 == b.y0 && a.x1 == b.x1 && a.y1 == b.y1 && a.q0 == b.q0 &&
+         a.q1 == b.q1;
+}
+
+inline uint key_hash(EdgeKey k) {
+  ulong h = 1469598103934665603UL;
+  h = (h ^ (uint)k.x0) * 1099511628211UL;
+  h = (h ^ (uint)k.y0) * 1099511628211UL;
+  h = (h ^ (uint)k.x1) * 1099511628211UL;
+  h = (h ^ (uint)k.y1) * 1099511628211UL;
+  h = (h ^ k.q0) * 1099511628211UL;
+  h = (h ^ k.q1) * 1099511628211UL;
+  return (uint)(h ^ (h >> 29));
+}
+
+/* table: 0 = empty, else edge id + 1. slot_min/slot_max start at 0xffffffff / 0. */
+__kernel void edge_insert(__global const VmScreenTri* tris, uint nedges, __global uint* table,
+                          uint mask, __global uint* slot_of_edge, __global uint* slot_count,
+                          __global uint* slot_min, __global uint* slot_max,
+                          __global uint* status) {
+  uint e = get_global_id(0);
+  if (e >= nedges) return;
+  EdgeKey key = edge_key(tris, e);
+  uint h = key_hash(key) & mask;
+  for (uint probe = 0; probe <= mask; ++probe) {
+    uint old = atomic_cmpxchg(&table[h], 0u, e + 1);
+    if (old == 0 || key_equal(edge_key(tris, old - 1), key)) {
+      slot_of_edge[e] = h;
+      atomic_inc(&slot_count[h]);
+      atomic_min(&slot_min[h], e);
+      atomic_max(&slot_max[h], e);
+      return;
+    }
+    h = (h + 1) & mask;
+  }
+  atomic_or(status, VM_STATUS_HASH_FULL);
+}
+
+/* The vertex of triangle t opposite its edge k. */
+inline void opposite_vertex(__global const VmScreenTri* tris, uint e, long* x, long* y) {
+  uint t = e / 3, k2 = (e % 3 + 2) % 3;
+  *x = tris[t].x[k2];
+  *y = tris[t].y[k2];
+}
+
+/* flags[e] = 1 when edge e is the representative (lowest id) of a silhouette edge. */
+__kernel void edge_classify(__global const VmScreenTri* tris, uint nedges,
+                            __global const uint* slot_of_edge, __global const uint* slot_count,
+                            __global const uint* slot_min, __global const uint* slot_max,
+                            __global uint* flags) {
+  uint e = get_global_id(0);
+  if (e >= nedges) return;
+  uint s = slot_of_edge[e];
+  if (slot_min[s] != e) {
+    flags[e] = 0;
+    return;
+  }
+  uint f = 1;
+  if (slot_count[s] == 2) {
+    EdgeKey key = edge_key(tris, e);
+    long ax, ay, bx, by;
+    opposite_vertex(tris, e, &ax, &ay);
+    opposite_vertex(tris, slot_max[s], &bx, &by);
+    long sa = orient_points(key.x0, key.y0, key.x1, key.y1, ax, ay);
+    long sb = orient_points(key.x0, key.y0, key.x1, key.y1, bx, by);
+    if ((sa > 0 && sb < 0) || (sa < 0 && sb > 0)) f = 0;
+  }
+  flags[e] = f;
+}
+
+__kernel void edge_emit(__global const VmScreenTri* tris, uint nedges, __global const uint* flags,
+                        __global const uint* offsets, __global VmEdge* edges) {
+  uint e = get_global_id(0);
+  if (e >= nedges || !flags[e]) return;
+  EdgeKey key = edge_key(tris, e);
+  VmEdge out;
+  out.x0 = key.x0; out.y0 = key.y0; out.x1 = key.x1; out.y1 = key.y1;
+  out.q0 = as_double(key.q0);
+  out.q1 = as_double(key.q1);
+  edges[offsets[e]] = out;
+}

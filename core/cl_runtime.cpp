@@ -1,0 +1,263 @@
+#include "core/cl_runtime.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace vismap {
+
+namespace {
+
+// Concatenation order of the embedded sources: shared layout first, then one file per stage.
+const char* const kProgramFiles[] = {
+    "kernels/layout.h",  "kernels/int128.cl",     "kernels/geometry.cl",
+    "kernels/scan.cl",   "kernels/transform.cl",  "kernels/bin.cl",
+    "kernels/silhouette.cl", "kernels/clip.cl",   "kernels/occlude.cl",
+    "kernels/emit.cl",
+};
+
+constexpr size_t kScanWg = 256, kScanBlock = 256 * 8, kLocal = 64;
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+uint64_t fnv1a(const std::string& s, uint64_t h = 1469598103934665603ull) {
+  for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+std::filesystem::path cache_dir() {
+  if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return std::filesystem::path(x) / "vismap";
+  if (const char* h = std::getenv("HOME"); h && *h) return std::filesystem::path(h) / ".cache" / "vismap";
+  return {};
+}
+
+struct Found {
+  cl::Platform platform;
+  cl::Device device;
+  DeviceInfo info;
+};
+
+std::vector<Found> enumerate() {
+  std::vector<Found> out;
+  std::vector<cl::Platform> platforms;
+  if (cl::Platform::get(&platforms) != CL_SUCCESS) return out;
+  for (size_t p = 0; p < platforms.size(); ++p) {
+    std::vector<cl::Device> devices;
+    try {
+      platforms[p].getDevices(CL_DEVICE_TYPE_ALL, &devices);
+    } catch (const cl::Error&) {
+      continue;
+    }
+    for (size_t d = 0; d < devices.size(); ++d) {
+      Found f{platforms[p], devices[d], {}};
+      f.info.platform = platforms[p].getInfo<CL_PLATFORM_NAME>();
+      f.info.name = devices[d].getInfo<CL_DEVICE_NAME>();
+      f.info.version = devices[d].getInfo<CL_DEVICE_VERSION>();
+      f.info.is_gpu = (devices[d].getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_GPU) != 0;
+      f.info.id = std::to_string(p) + ":" + std::to_string(d);
+      out.push_back(f);
+    }
+  }
+  return out;
+}
+
+Found pick(const std::string& requested) {
+  std::vector<Found> all = enumerate();
+  if (all.empty()) throw DeviceError("no OpenCL device found (is pocl-opencl-icd installed?)");
+  std::string spec = requested;
+  if (spec.empty())
+    if (const char* env = std::getenv("VISMAP_DEVICE"); env && *env) spec = env;
+  if (spec.empty()) {
+    for (const Found& f : all)
+      if (f.info.is_gpu) return f;
+    return all.front();
+  }
+  for (const Found& f : all)
+    if (f.info.id == spec) return f;
+  std::string want = lower(spec);
+  for (const Found& f : all)
+    if (lower(f.info.name).find(want) != std::string::npos ||
+        lower(f.info.platform).find(want) != std::string::npos)
+      return f;
+  std::string names;
+  for (const Found& f : all) names += "\n  " + f.info.id + " " + f.info.platform + " / " + f.info.name;
+  throw DeviceError("no OpenCL device matches '" + spec + "'; devices:" + names);
+}
+
+}  // namespace
+
+std::vector<DeviceInfo> list_devices() {
+  std::vector<DeviceInfo> out;
+  for (const Found& f : enumerate()) out.push_back(f.info);
+  return out;
+}
+
+ClRuntime::ClRuntime(const std::string& device_spec) {
+  Found f = pick(device_spec);
+  platform_ = f.platform;
+  device_ = f.device;
+  info_ = f.info;
+  ctx_ = cl::Context(device_);
+  queue_ = cl::CommandQueue(ctx_, device_, CL_QUEUE_PROFILING_ENABLE);
+  scratch_total_ = cl::Buffer(ctx_, CL_MEM_READ_WRITE, sizeof(uint32_t));
+}
+
+void ClRuntime::build(uint32_t maxl) {
+  if (maxl == maxl_ && program_()) return;
+  std::string source;
+  for (const char* f : kProgramFiles) {
+    auto it = kernel_sources().find(f);
+    if (it == kernel_sources().end()) throw DeviceError(std::string("missing embedded kernel ") + f);
+    source += "/* ---- " + std::string(f) + " ---- */\n" + it->second + "\n";
+  }
+  std::string options = "-cl-std=CL1.2 -DVM_MAXL=" + std::to_string(maxl);
+  uint64_t key = fnv1a(source, fnv1a(options, fnv1a(info_.platform + "|" + info_.name + "|" +
+                                                    info_.version + "|" +
+                                                    device_.getInfo<CL_DRIVER_VERSION>())));
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(key));
+  std::filesystem::path dir = cache_dir(), file = dir.empty() ? dir : dir / (std::string(hex) + ".bin");
+
+  cl::Program program;
+  bool built = false;
+  if (!file.empty() && std::filesystem::exists(file)) {
+    std::ifstream in(file, std::ios::binary);
+    std::vector<unsigned char> bin((std::istreambuf_iterator<char>(in)), {});
+    try {
+      cl::Program::Binaries bins{bin};
+      program = cl::Program(ctx_, {device_}, bins);
+      program.build({device_}, options.c_str());
+      built = true;
+    } catch (const cl::Error&) {
+      built = false;  // stale or foreign cache entry: rebuild from source
+    }
+  }
+  if (!built) {
+    program = cl::Program(ctx_, source);
+    try {
+      program.build({device_}, options.c_str());
+    } catch (const cl::Error&) {
+      std::string log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
+      throw DeviceError("OpenCL program build failed on " + info_.name + ":\n" + log);
+    }
+    if (!file.empty()) {
+      try {
+        auto bins = program.getInfo<CL_PROGRAM_BINARIES>();
+        if (!bins.empty() && !bins[0].empty()) {
+          std::filesystem::create_directories(dir);
+          std::filesystem::path tmp = file;
+          tmp += ".tmp" + std::to_string(::getpid());
+          std::ofstream(tmp, std::ios::binary)
+              .write(reinterpret_cast<const char*>(bins[0].data()), static_cast<std::streamsize>(bins[0].size()));
+          std::filesystem::rename(tmp, file);
+        }
+      } catch (...) {
+        // The cache is an optimisation: a read-only home must not fail a render.
+      }
+    }
+  }
+  program_ = program;
+  maxl_ = maxl;
+  kernels_.clear();
+}
+
+cl::Kernel& ClRuntime::kernel(const char* name) {
+  auto it = kernels_.find(name);
+  if (it != kernels_.end()) return it->second;
+  try {
+    return kernels_.emplace(name, cl::Kernel(program_, name)).first->second;
+  } catch (const cl::Error& e) {
+    throw DeviceError(std::string("kernel '") + name + "' not found in the program: " + e.what());
+  }
+}
+
+void ClRuntime::enqueue(const char* stage, const char* name, cl::Kernel& k, size_t n, size_t local) {
+  size_t l = local ? local : kLocal;
+  size_t global = (n + l - 1) / l * l;
+  cl::Event ev;
+  cl_int err = queue_.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(global), cl::NDRange(l),
+                                          nullptr, &ev);
+  if (err != CL_SUCCESS)
+    throw DeviceError(std::string("launch of ") + name + " (stage " + stage + ", " +
+                      std::to_string(n) + " items) failed: error " + std::to_string(err));
+  launches_.push_back({stage, ev});
+}
+
+cl::Buffer ClRuntime::alloc(size_t bytes, const char* what) {
+  bytes = std::max<size_t>(bytes, 16);
+  try {
+    cl::Buffer b(ctx_, CL_MEM_READ_WRITE, bytes);
+    allocated_ += bytes;
+    return b;
+  } catch (const cl::Error& e) {
+    throw DeviceError(std::string("allocating ") + std::to_string(bytes) + " bytes for " + what +
+                      " failed: " + e.what() + " (" + std::to_string(e.err()) + ")");
+  }
+}
+
+void ClRuntime::fill_u32(cl::Buffer& b, uint32_t value, size_t count, const char* stage) {
+  if (count == 0) return;
+  cl::Event ev;
+  queue_.enqueueFillBuffer(b, value, 0, count * sizeof(uint32_t), nullptr, &ev);
+  launches_.push_back({stage, ev});
+}
+
+void ClRuntime::scan_level(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
+  uint32_t blocks = static_cast<uint32_t>((n + kScanBlock - 1) / kScanBlock);
+  cl::Buffer sums = alloc(blocks * sizeof(uint32_t), "scan block sums");
+  cl::Kernel& k = kernel("scan_blocks");
+  set_args(k, 0, counts, offsets, n, sums);
+  enqueue(stage, "scan_blocks", k, size_t(blocks) * kScanWg, kScanWg);
+  if (blocks > 1) {
+    cl::Buffer sum_offsets = alloc(blocks * sizeof(uint32_t), "scan block offsets");
+    scan_level(stage, sums, sum_offsets, blocks);
+    launch(stage, "scan_add", n, offsets, n, sum_offsets);
+  }
+}
+
+void ClRuntime::scan_to(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n,
+                        cl::Buffer& totals, uint32_t slot) {
+  if (n == 0) {
+    cl::Event ev;
+    queue_.enqueueFillBuffer(totals, uint32_t(0), slot * sizeof(uint32_t), sizeof(uint32_t), nullptr, &ev);
+    launches_.push_back({stage, ev});
+    return;
+  }
+  scan_level(stage, counts, offsets, n);
+  launch(stage, "scan_total", 1, counts, offsets, n, totals, slot);
+}
+
+uint32_t ClRuntime::scan(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
+  if (n == 0) return 0;
+  scan_level(stage, counts, offsets, n);
+  launch(stage, "scan_total", 1, counts, offsets, n, scratch_total_, 0u);
+  uint32_t total = 0;
+  queue_.enqueueReadBuffer(scratch_total_, CL_TRUE, 0, sizeof total, &total);
+  return total;
+}
+
+void ClRuntime::reset_profile() { launches_.clear(); }
+
+std::map<std::string, std::pair<double, uint32_t>> ClRuntime::collect_profile() {
+  queue_.finish();
+  std::map<std::string, std::pair<double, uint32_t>> out;
+  for (Launch& l : launches_) {
+    cl_ulong s = l.event.getProfilingInfo<CL_PROFILING_COMMAND_START>();
+    cl_ulong e = l.event.getProfilingInfo<CL_PROFILING_COMMAND_END>();
+    auto& slot = out[l.stage];
+    slot.first += (e - s) * 1e-6;
+    slot.second += 1;
+  }
+  launches_.clear();
+  return out;
+}
+
+}  // namespace vismap

@@ -1,0 +1,90 @@
+// OpenCL runtime: device choice, the program built from the embedded kernels (cached on disk by
+// a hash of platform, device, options and source), one dispatch helper that names every launch
+// for profiling and error messages, and the device-side scan.
+#pragma once
+
+#include <CL/opencl.hpp>
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/pipeline.h"
+
+namespace vismap {
+
+const std::map<std::string, std::string>& kernel_sources();  // generated at build time
+
+class ClRuntime {
+ public:
+  explicit ClRuntime(const std::string& device_spec);
+
+  const DeviceInfo& info() const { return info_; }
+  cl::Context& context() { return ctx_; }
+  cl::CommandQueue& queue() { return queue_; }
+
+  // Builds (or loads from the cache) the program with -DVM_MAXL=maxl; kernels by name.
+  void build(uint32_t maxl);
+  uint32_t maxl() const { return maxl_; }
+  cl::Kernel& kernel(const char* name);
+
+  // Enqueues kernel `name` over n work-items (rounded up to the work-group multiple) with the
+  // given arguments, recording its event under `stage`.
+  template <class... Args>
+  void launch(const char* stage, const char* name, size_t n, const Args&... args) {
+    if (n == 0) return;
+    cl::Kernel& k = kernel(name);
+    set_args(k, 0, args...);
+    enqueue(stage, name, k, n, 0);
+  }
+  void enqueue(const char* stage, const char* name, cl::Kernel& k, size_t n, size_t local);
+
+  cl::Buffer alloc(size_t bytes, const char* what);
+  template <class T>
+  cl::Buffer upload(const std::vector<T>& v, const char* what) {
+    cl::Buffer b = alloc(std::max<size_t>(v.size() * sizeof(T), sizeof(T)), what);
+    if (!v.empty()) queue_.enqueueWriteBuffer(b, CL_TRUE, 0, v.size() * sizeof(T), v.data());
+    return b;
+  }
+  void fill_u32(cl::Buffer& b, uint32_t value, size_t count, const char* stage);
+
+  // Exclusive scan of n counts into offsets (device), returning the total (one read back).
+  uint32_t scan(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n);
+  // Same, without reading back: the total lands in totals[slot].
+  void scan_to(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n,
+               cl::Buffer& totals, uint32_t slot);
+
+  // Profiling: per-stage event times since the last reset (waits for the queue).
+  void reset_profile();
+  std::map<std::string, std::pair<double, uint32_t>> collect_profile();
+  uint64_t allocated_bytes() const { return allocated_; }
+  void reset_allocated() { allocated_ = 0; }
+
+ private:
+  template <class A, class... Rest>
+  void set_args(cl::Kernel& k, cl_uint i, const A& a, const Rest&... rest) {
+    k.setArg(i, a);
+    set_args(k, i + 1, rest...);
+  }
+  void set_args(cl::Kernel&, cl_uint) {}
+  void scan_level(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n);
+
+  DeviceInfo info_;
+  cl::Platform platform_;
+  cl::Device device_;
+  cl::Context ctx_;
+  cl::CommandQueue queue_;
+  cl::Program program_;
+  uint32_t maxl_ = 0;
+  std::map<std::string, cl::Kernel> kernels_;
+  struct Launch {
+    std::string stage;
+    cl::Event event;
+  };
+  std::vector<Launch> launches_;
+  uint64_t allocated_ = 0;
+  cl::Buffer scratch_total_;
+};
+
+}  // namespace vismap

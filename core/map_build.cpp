@@ -1,0 +1,108 @@
+#include "core/map_build.h"
+
+#include <cmath>
+
+namespace vismap {
+
+namespace {
+
+struct L3 {
+  int64_t a, b, c;
+};
+
+L3 coeffs(const VmLine& l) {
+  L3 r;
+  r.a = -(int64_t(l.y1) - l.y0);
+  r.b = int64_t(l.x1) - l.x0;
+  r.c = -(r.a * l.x0 + r.b * l.y0);
+  return r;
+}
+
+__int128 round_div(__int128 num, __int128 den) {  // round(num / den), den > 0, ties up
+  __int128 n2 = 2 * num + den, d2 = 2 * den;
+  __int128 q = n2 / d2;
+  if ((n2 % d2 != 0) && (n2 < 0)) --q;  // floor for negatives
+  return q;
+}
+
+Int128Parts parts(__int128 v) {
+  Int128Parts p;
+  p.lo = static_cast<uint64_t>(v);
+  p.hi = static_cast<int64_t>(v >> 64);
+  return p;
+}
+
+}  // namespace
+
+HomPoint intersect(const VmLine& la, const VmLine& lb) {
+  L3 a = coeffs(la), b = coeffs(lb);
+  HomPoint p;
+  p.x = __int128(a.b) * b.c - __int128(b.b) * a.c;
+  p.y = __int128(a.c) * b.a - __int128(b.c) * a.a;
+  p.w = __int128(a.a) * b.b - __int128(b.a) * a.b;
+  if (p.w < 0) {
+    p.x = -p.x;
+    p.y = -p.y;
+    p.w = -p.w;
+  }
+  return p;
+}
+
+double to_pixels(__int128 num, __int128 w, uint32_t grid_scale) {
+  constexpr int kBits = 20;
+  __int128 q = round_div(num * (__int128(1) << kBits), w);
+  return static_cast<double>(static_cast<int64_t>(q)) / (double(grid_scale) * double(1 << kBits));
+}
+
+void build_planar_map(const VisibleFragments& frags, bool exact, bool orthographic,
+                      const std::vector<VmScreenTri>* tris, const std::vector<float>* tri_bary,
+                      PlanarMap& map) {
+  const uint32_t S = VM_GRID_SCALE;
+  const bool attributes = tris && tri_bary;
+  map.grid_scale = S;
+  for (size_t f = 0; f < frags.meta.size(); ++f) {
+    const VmFragMeta& m = frags.meta[f];
+    const VmLine* L = &frags.lines[f * frags.maxl];
+    const uint32_t n = m.nlines;
+    for (uint32_t i = 0; i < n; ++i) {
+      HomPoint p = intersect(L[i], L[(i + 1) % n]);
+      double x = to_pixels(p.x, p.w, S), y = to_pixels(p.y, p.w, S);
+      map.xy.push_back(x);
+      map.xy.push_back(y);
+      if (exact) {
+        map.hx.push_back(parts(p.x));
+        map.hy.push_back(parts(p.y));
+        map.hw.push_back(parts(p.w));
+      }
+      if (attributes) {
+        const VmScreenTri& t = (*tris)[m.tri];
+        const float* sb = &(*tri_bary)[9 * size_t(m.tri)];
+        // 2D barycentrics of the vertex in the snapped screen triangle (grid units).
+        double gx = x * S, gy = y * S;
+        double x0 = t.x[0], y0 = t.y[0], x1 = t.x[1], y1 = t.y[1], x2 = t.x[2], y2 = t.y[2];
+        double det = (x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0);
+        double b1 = ((gx - x0) * (y2 - y0) - (gy - y0) * (x2 - x0)) / det;
+        double b2 = ((x1 - x0) * (gy - y0) - (y1 - y0) * (gx - x0)) / det;
+        double b0 = 1.0 - b1 - b2;
+        double w0 = b0, w1 = b1, w2 = b2, inv_w = 1.0;
+        if (!orthographic) {  // perspective-correct: weights by 1/w (= nearness q)
+          w0 *= t.q[0];
+          w1 *= t.q[1];
+          w2 *= t.q[2];
+          inv_w = w0 + w1 + w2;
+          w0 /= inv_w;
+          w1 /= inv_w;
+          w2 /= inv_w;
+        }
+        for (int k = 0; k < 3; ++k)
+          map.bary.push_back(static_cast<float>(w0 * sb[k] + w1 * sb[3 + k] + w2 * sb[6 + k]));
+        map.inv_w.push_back(static_cast<float>(inv_w));
+      }
+    }
+    map.offsets.push_back(static_cast<uint32_t>(map.xy.size() / 2));
+    map.mesh.push_back(frags.mesh[f]);
+    map.triangle.push_back(frags.triangle[f]);
+  }
+}
+
+}  // namespace vismap

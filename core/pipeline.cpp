@@ -1,0 +1,406 @@
+// Host side of the pipeline: orders the stages, owns the buffers, sizes every buffer from a
+// count (count, scan, allocate, fill), and turns the result into a PlanarMap. The per-element
+// work is in kernels/ (see docs/ARCHITECTURE.md for the stage-by-stage map).
+#include "core/pipeline.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/cl_runtime.h"
+#include "core/error.h"
+#include "core/map_build.h"
+#include "core/mesh_topology.h"
+
+namespace vismap {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+uint32_t next_pow2(uint64_t v) {
+  uint64_t p = 1;
+  while (p < v) p <<= 1;
+  return static_cast<uint32_t>(p);
+}
+
+// Totals buffer slots: one small read per clip round brings back all of them.
+enum Slot : uint32_t { kStatus = 0, kSlivers = 1, kNextTotal = 2, kDoneTotal = 3, kSlots = 4 };
+
+struct LinesOverflow {};
+
+}  // namespace
+
+struct Renderer::Impl {
+  explicit Impl(const std::string& device) : rt(device) { rt.build(16); }
+
+  ClRuntime rt;
+
+  // The uploaded scene; re-uploaded when a different scene comes in.
+  const Scene* scene_key = nullptr;
+  size_t key_tris = 0;
+  const float* key_pos = nullptr;
+  cl::Buffer pos, idx, tri_mesh, tri_local;
+  uint32_t nv = 0, ntri = 0;
+  std::vector<int8_t> closed;  // per mesh: closed_orientation()
+
+  void upload(const Scene& scene, RenderStats& st);
+  std::vector<uint32_t> cull_modes(const Scene& scene, const Camera& cam) const;
+  PlanarMap run(const Scene& scene, const Camera& cam, const RenderOptions& opts, RenderStats& st,
+                ScreenTriangles* screen);
+};
+
+void Renderer::Impl::upload(const Scene& scene, RenderStats& st) {
+  const float* first = scene.meshes.empty() ? nullptr : scene.meshes[0].positions.data();
+  if (scene_key == &scene && key_tris == scene.triangle_count() && key_pos == first) return;
+  auto t0 = Clock::now();
+  std::vector<float> p;
+  std::vector<uint32_t> ix, tm, tl;
+  uint64_t vbase = 0;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const Mesh& mesh = scene.meshes[m];
+    p.insert(p.end(), mesh.positions.begin(), mesh.positions.end());
+    for (uint32_t i : mesh.indices) ix.push_back(static_cast<uint32_t>(vbase + i));
+    for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+      tm.push_back(static_cast<uint32_t>(m));
+      tl.push_back(static_cast<uint32_t>(t));
+    }
+    vbase += mesh.vertex_count();
+  }
+  if (vbase >= (1ull << 32) || tm.size() >= (1ull << 30))
+    throw InputError(InputErrorKind::TooLarge, scene.source, "", "", -1,
+                     "scene too large for 32-bit indices");
+  nv = static_cast<uint32_t>(vbase);
+  ntri = static_cast<uint32_t>(tm.size());
+  pos = rt.upload(p, "positions");
+  idx = rt.upload(ix, "indices");
+  tri_mesh = rt.upload(tm, "triangle mesh ids");
+  tri_local = rt.upload(tl, "triangle ids");
+  closed.clear();
+  for (const Mesh& mesh : scene.meshes) closed.push_back(closed_orientation(mesh));
+  scene_key = &scene;
+  key_tris = scene.triangle_count();
+  key_pos = first;
+  st.upload_ms = ms_since(t0);
+}
+
+// Back faces are culled only where that cannot change the picture: a closed, consistently
+// oriented mesh lying wholly in front of the near plane (so the eye is outside it and no cut
+// opens it). Everything else is two-sided.
+std::vector<uint32_t> Renderer::Impl::cull_modes(const Scene& scene, const Camera& cam) const {
+  Mat4 vp = cam.view_projection();
+  std::vector<uint32_t> modes(scene.meshes.size(), VM_CULL_NONE);
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    if (closed[m] == 0) continue;
+    const std::vector<float>& P = scene.meshes[m].positions;
+    bool in_front = true;
+    for (size_t v = 0; v + 2 < P.size() && in_front; v += 3) {
+      double x = P[v], y = P[v + 1], z = P[v + 2];
+      double cz = vp[2] * x + vp[6] * y + vp[10] * z + vp[14];
+      double cw = vp[3] * x + vp[7] * y + vp[11] * z + vp[15];
+      in_front = cz + cw > 0 && cw > 0;
+    }
+    if (!in_front) continue;
+    // Outward faces are counter-clockwise in NDC when they face the eye, i.e. negative grid
+    // orientation with y down; their back faces have positive grid orientation.
+    modes[m] = closed[m] > 0 ? VM_CULL_POSITIVE : VM_CULL_NEGATIVE;
+  }
+  return modes;
+}
+
+PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const RenderOptions& opts,
+                              RenderStats& st, ScreenTriangles* screen) {
+  cam.validate();
+  const uint32_t W = cam.width, H = cam.height;
+  const bool ortho = cam.projection == Camera::Projection::Orthographic;
+  PlanarMap map;
+  map.width = W;
+  map.height = H;
+  map.grid_scale = VM_GRID_SCALE;
+  upload(scene, st);
+  st.input_triangles = ntri;
+  rt.reset_profile();
+  rt.reset_allocated();
+  if (ntri == 0) return map;
+  auto& q = rt.queue();
+  const bool want_bary = opts.attributes;
+
+  // ---- transform + clip + cull + snap -------------------------------------------------------
+  Mat4 vp = cam.view_projection();
+  cl::Buffer mat = rt.upload(std::vector<double>(vp.begin(), vp.end()), "view-projection");
+  cl::Buffer mesh_cull = rt.upload(cull_modes(scene, cam), "cull modes");
+  cl::Buffer clip = rt.alloc(size_t(nv) * sizeof(cl_double4), "clip-space vertices");
+  rt.launch("transform", "transform_vertices", nv, pos, nv, mat, clip);
+  cl::Buffer counts = rt.alloc(size_t(ntri) * 4, "clip counts");
+  cl::Buffer offsets = rt.alloc(size_t(ntri) * 4, "clip offsets");
+  cl_int iortho = ortho ? 1 : 0;
+  rt.launch("transform", "clip_count", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
+            iortho, counts);
+  const uint32_t S = rt.scan("transform", counts, offsets, ntri);
+  st.screen_triangles = S;
+  if (S == 0) return map;
+  cl::Buffer tris = rt.alloc(size_t(S) * sizeof(VmScreenTri), "screen triangles");
+  cl::Buffer tri_bary = rt.alloc(want_bary ? size_t(S) * 9 * sizeof(float) : 16, "screen barycentrics");
+  cl_int iwant = want_bary ? 1 : 0;
+  rt.launch("transform", "clip_fill", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
+            iortho, offsets, tris, tri_bary, iwant);
+
+  cl::Buffer totals = rt.alloc(kSlots * 4, "totals");
+  rt.fill_u32(totals, 0, kSlots, "transform");
+
+  // ---- silhouette edges (hash) --------------------------------------------------------------
+  const uint32_t nedges = 3 * S;
+  const uint32_t table_size = next_pow2(uint64_t(nedges) * 2);
+  cl::Buffer table = rt.alloc(size_t(table_size) * 4, "edge hash table");
+  cl::Buffer slot_count = rt.alloc(size_t(table_size) * 4, "edge slot counts");
+  cl::Buffer slot_min = rt.alloc(size_t(table_size) * 4, "edge slot min");
+  cl::Buffer slot_max = rt.alloc(size_t(table_size) * 4, "edge slot max");
+  cl::Buffer slot_of_edge = rt.alloc(size_t(nedges) * 4, "edge slots");
+  rt.fill_u32(table, 0, table_size, "silhouettes");
+  rt.fill_u32(slot_count, 0, table_size, "silhouettes");
+  rt.fill_u32(slot_min, 0xffffffffu, table_size, "silhouettes");
+  rt.fill_u32(slot_max, 0, table_size, "silhouettes");
+  rt.launch("silhouettes", "edge_insert", nedges, tris, nedges, table, table_size - 1, slot_of_edge,
+            slot_count, slot_min, slot_max, totals);
+  cl::Buffer eflags = rt.alloc(size_t(nedges) * 4, "edge flags");
+  cl::Buffer eoffs = rt.alloc(size_t(nedges) * 4, "edge offsets");
+  rt.launch("silhouettes", "edge_classify", nedges, tris, nedges, slot_of_edge, slot_count, slot_min,
+            slot_max, eflags);
+  const uint32_t E = rt.scan("silhouettes", eflags, eoffs, nedges);
+  st.silhouette_edges = E;
+  cl::Buffer edges = rt.alloc(size_t(E) * sizeof(VmEdge), "silhouette edges");
+  rt.launch("silhouettes", "edge_emit", nedges, tris, nedges, eflags, eoffs, edges);
+
+  // ---- bins ---------------------------------------------------------------------------------
+  auto make_grid = [&](uint32_t tile_px) {
+    VmGrid g;
+    g.tile_size = static_cast<int32_t>(tile_px * VM_GRID_SCALE);
+    g.tiles_x = static_cast<int32_t>((W + tile_px - 1) / tile_px);
+    g.tiles_y = static_cast<int32_t>((H + tile_px - 1) / tile_px);
+    g.pad = 0;
+    return g;
+  };
+  uint32_t tile_px = opts.tile_pixels;
+  if (tile_px == 0) {
+    double side = 2.0 * std::sqrt(double(W) * H / std::max<uint32_t>(S, 1));
+    tile_px = std::clamp<uint32_t>(next_pow2(static_cast<uint64_t>(std::ceil(side))), 8, 512);
+  }
+  const VmGrid eg = make_grid(tile_px);
+  const VmGrid og = make_grid(std::max<uint32_t>(tile_px / 2, 4));
+
+  cl::Buffer tri_bb = rt.alloc(size_t(S) * sizeof(cl_int4), "triangle boxes");
+  rt.launch("bin", "tri_bbox", S, tris, S, tri_bb);
+  cl::Buffer edge_bb = rt.alloc(std::max<size_t>(E, 1) * sizeof(cl_int4), "edge boxes");
+  rt.launch("bin", "edge_bbox", E, edges, E, edge_bb);
+
+  struct Bins {
+    cl::Buffer count, offset, list;
+    uint32_t pairs = 0;
+  };
+  auto bin = [&](const char* stage, cl::Buffer& bb, uint32_t n, const VmGrid& g, bool sort) {
+    const uint32_t ntiles = uint32_t(g.tiles_x) * uint32_t(g.tiles_y);
+    Bins b;
+    b.count = rt.alloc(size_t(ntiles) * 4, "tile counts");
+    b.offset = rt.alloc(size_t(ntiles) * 4, "tile offsets");
+    rt.fill_u32(b.count, 0, ntiles, stage);
+    rt.launch(stage, "bin_count", n, bb, n, g, b.count);
+    b.pairs = rt.scan(stage, b.count, b.offset, ntiles);
+    b.list = rt.alloc(std::max<size_t>(b.pairs, 1) * 4, "tile lists");
+    cl::Buffer cursor = rt.alloc(size_t(ntiles) * 4, "tile cursors");
+    rt.fill_u32(cursor, 0, ntiles, stage);
+    rt.launch(stage, "bin_fill", n, bb, n, g, b.offset, cursor, b.list);
+    if (sort) rt.launch(stage, "bin_sort", ntiles, b.offset, b.count, ntiles, b.list);
+    return b;
+  };
+  Bins ebins = bin("bin", edge_bb, E, eg, true);
+
+  // ---- candidate edges per triangle ---------------------------------------------------------
+  cl::Buffer cand_count = rt.alloc(size_t(S) * 4, "candidate counts");
+  cl::Buffer cand_offset = rt.alloc(size_t(S) * 4, "candidate offsets");
+  rt.launch("candidates", "cand_count", S, tris, S, tri_bb, edges, edge_bb, eg, ebins.offset,
+            ebins.count, ebins.list, cand_count);
+  const uint32_t C = rt.scan("candidates", cand_count, cand_offset, S);
+  cl::Buffer cand = rt.alloc(std::max<size_t>(C, 1) * 4, "candidates");
+  rt.launch("candidates", "cand_fill", S, tris, S, tri_bb, edges, edge_bb, eg, ebins.offset,
+            ebins.count, ebins.list, cand_offset, cand);
+
+  // ---- clipping rounds (work queue) ---------------------------------------------------------
+  cl::Buffer done_meta, done_lines;
+  uint32_t nd = 0, rounds = 0;
+  uint64_t clipped_total = 0;
+  for (;;) {
+    const uint32_t L = rt.maxl();
+    try {
+      cl::Buffer qmeta = rt.alloc(size_t(S) * sizeof(VmFragMeta), "fragment queue");
+      cl::Buffer qlines = rt.alloc(size_t(S) * L * sizeof(VmLine), "fragment lines");
+      rt.launch("clip", "frag_init", S, tris, S, qmeta, qlines);
+      uint32_t nq = S, done_cap = std::max<uint32_t>(S, 1024);
+      done_meta = rt.alloc(size_t(done_cap) * sizeof(VmFragMeta), "finished fragments");
+      done_lines = rt.alloc(size_t(done_cap) * L * sizeof(VmLine), "finished fragment lines");
+      nd = 0;
+      rounds = 0;
+      clipped_total = 0;
+      while (nq > 0) {
+        ++rounds;
+        cl::Buffer split_at = rt.alloc(size_t(nq) * 4, "split edges");
+        cl::Buffer ncount = rt.alloc(size_t(nq) * 4, "queue counts");
+        cl::Buffer dcount = rt.alloc(size_t(nq) * 4, "done counts");
+        cl::Buffer noff = rt.alloc(size_t(nq) * 4, "queue offsets");
+        cl::Buffer doff = rt.alloc(size_t(nq) * 4, "done offsets");
+        rt.launch("clip", "clip_find", nq, qmeta, qlines, nq, cand_offset, cand_count, cand, edges,
+                  split_at, ncount, dcount, totals);
+        rt.scan_to("clip", ncount, noff, nq, totals, kNextTotal);
+        rt.scan_to("clip", dcount, doff, nq, totals, kDoneTotal);
+        uint32_t tot[kSlots];
+        q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof tot, tot);
+        if (tot[kStatus] & VM_STATUS_LINES_OVERFLOW) throw LinesOverflow{};
+        if (tot[kStatus] & VM_STATUS_HASH_FULL) throw DeviceError("edge hash table full");
+        const uint32_t nn = tot[kNextTotal], dn = tot[kDoneTotal];
+        if (uint64_t(nd) + dn > done_cap) {  // grow the finished list, keeping what it holds
+          uint32_t cap = std::max<uint32_t>(done_cap * 2, nd + dn);
+          cl::Buffer m2 = rt.alloc(size_t(cap) * sizeof(VmFragMeta), "finished fragments");
+          cl::Buffer l2 = rt.alloc(size_t(cap) * L * sizeof(VmLine), "finished fragment lines");
+          if (nd) {
+            q.enqueueCopyBuffer(done_meta, m2, 0, 0, size_t(nd) * sizeof(VmFragMeta));
+            q.enqueueCopyBuffer(done_lines, l2, 0, 0, size_t(nd) * L * sizeof(VmLine));
+          }
+          done_meta = m2;
+          done_lines = l2;
+          done_cap = cap;
+        }
+        cl::Buffer nmeta = rt.alloc(std::max<size_t>(nn, 1) * sizeof(VmFragMeta), "fragment queue");
+        cl::Buffer nlines = rt.alloc(std::max<size_t>(nn, 1) * L * sizeof(VmLine), "fragment lines");
+        rt.launch("clip", "clip_apply", nq, qmeta, qlines, nq, cand_offset, cand, edges, split_at,
+                  noff, doff, nd, nmeta, nlines, done_meta, done_lines);
+        clipped_total += nn;
+        nd += dn;
+        nq = nn;
+        qmeta = nmeta;
+        qlines = nlines;
+        if (opts.progress) opts.progress(0.2 + 0.6 * (1.0 - 1.0 / (1.0 + rounds * 0.1)));
+      }
+      break;
+    } catch (const LinesOverflow&) {
+      // A fragment needs more supporting lines than the program was built for: rebuild with
+      // twice as many and run the clipping again. Nothing is dropped.
+      if (L >= 256) throw DeviceError("a fragment needs more than 256 supporting lines");
+      rt.build(L * 2);
+      rt.fill_u32(totals, 0, kSlots, "clip");
+    }
+  }
+  st.clip_rounds = rounds;
+  st.fragments = nd;
+  const uint32_t L = rt.maxl();
+
+  // ---- occlusion ----------------------------------------------------------------------------
+  Bins tbins = bin("occlusion", tri_bb, S, og, false);
+  cl::Buffer visible = rt.alloc(std::max<size_t>(nd, 1) * 4, "visibility");
+  cl::Buffer voff = rt.alloc(std::max<size_t>(nd, 1) * 4, "visible offsets");
+  rt.launch("occlusion", "occlude", nd, done_meta, done_lines, nd, tris, og, tbins.offset,
+            tbins.count, tbins.list, visible, totals);
+  const uint32_t V = rt.scan("occlusion", visible, voff, nd);
+  st.visible_fragments = V;
+
+  // ---- planar map ---------------------------------------------------------------------------
+  VisibleFragments vf;
+  vf.maxl = L;
+  vf.meta.resize(V);
+  vf.lines.resize(size_t(V) * L);
+  std::vector<cl_uint2> src(V);
+  if (V > 0) {
+    cl::Buffer om = rt.alloc(size_t(V) * sizeof(VmFragMeta), "visible fragments");
+    cl::Buffer ol = rt.alloc(size_t(V) * L * sizeof(VmLine), "visible lines");
+    cl::Buffer os = rt.alloc(size_t(V) * sizeof(cl_uint2), "visible sources");
+    rt.launch("emit", "emit_visible", nd, done_meta, done_lines, nd, visible, voff, tris, om, ol, os);
+    q.enqueueReadBuffer(om, CL_FALSE, 0, size_t(V) * sizeof(VmFragMeta), vf.meta.data());
+    q.enqueueReadBuffer(ol, CL_FALSE, 0, size_t(V) * L * sizeof(VmLine), vf.lines.data());
+    q.enqueueReadBuffer(os, CL_TRUE, 0, size_t(V) * sizeof(cl_uint2), src.data());
+  }
+  uint32_t tot[kSlots];
+  q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof tot, tot);
+  st.sliver_fragments = tot[kSlivers];
+  vf.mesh.resize(V);
+  vf.triangle.resize(V);
+  for (uint32_t i = 0; i < V; ++i) {
+    vf.mesh[i] = src[i].s[0];
+    vf.triangle[i] = src[i].s[1];
+  }
+
+  std::vector<VmScreenTri> host_tris;
+  std::vector<float> host_bary;
+  if (want_bary || screen) {
+    host_tris.resize(S);
+    q.enqueueReadBuffer(tris, CL_TRUE, 0, size_t(S) * sizeof(VmScreenTri), host_tris.data());
+  }
+  if (want_bary) {
+    host_bary.resize(size_t(S) * 9);
+    q.enqueueReadBuffer(tri_bary, CL_TRUE, 0, host_bary.size() * sizeof(float), host_bary.data());
+  }
+  auto profile = rt.collect_profile();
+  auto t_emit = Clock::now();
+  build_planar_map(vf, opts.exact, ortho, want_bary ? &host_tris : nullptr,
+                   want_bary ? &host_bary : nullptr, map);
+  profile["emit"].first += ms_since(t_emit);
+
+  if (screen) {
+    screen->grid_scale = VM_GRID_SCALE;
+    screen->xy.clear();
+    screen->depth.clear();
+    screen->mesh.clear();
+    screen->triangle.clear();
+    for (const VmScreenTri& t : host_tris) {
+      for (int k = 0; k < 3; ++k) {
+        screen->xy.push_back(t.x[k]);
+        screen->xy.push_back(t.y[k]);
+        screen->depth.push_back(t.q[k]);
+      }
+      screen->mesh.push_back(t.mesh);
+      screen->triangle.push_back(t.tri);
+    }
+  }
+
+  const std::pair<const char*, std::pair<uint64_t, uint64_t>> order[] = {
+      {"transform", {ntri, S}},   {"silhouettes", {uint64_t(3) * S, E}},
+      {"bin", {E, ebins.pairs}},  {"candidates", {S, C}},
+      {"clip", {S, nd}},          {"occlusion", {nd, V}},
+      {"emit", {V, map.vertex_count()}},
+  };
+  for (const auto& [name, io] : order) {
+    StageStat s;
+    s.name = name;
+    s.ms = profile[name].first;
+    s.launches = profile[name].second;
+    s.items_in = io.first;
+    s.items_out = io.second;
+    st.stages.push_back(s);
+  }
+  st.peak_device_bytes = rt.allocated_bytes();
+  return map;
+}
+
+Renderer::Renderer(const std::string& device) : impl_(std::make_unique<Impl>(device)) {}
+Renderer::~Renderer() = default;
+
+const DeviceInfo& Renderer::device() const { return impl_->rt.info(); }
+
+PlanarMap Renderer::render(const Scene& scene, const Camera& camera, const RenderOptions& opts,
+                           RenderStats* stats, ScreenTriangles* screen) {
+  RenderStats local;
+  RenderStats& st = stats ? *stats : local;
+  st = RenderStats{};
+  auto t0 = Clock::now();
+  try {
+    PlanarMap map = impl_->run(scene, camera, opts, st, screen);
+    st.pipeline_ms = ms_since(t0);
+    return map;
+  } catch (const cl::Error& e) {
+    throw DeviceError(std::string("OpenCL error in ") + e.what() + " (" + std::to_string(e.err()) +
+                      ") on " + impl_->rt.info().name);
+  }
+}
+
+}  // namespace vismap

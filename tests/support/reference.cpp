@@ -1,0 +1,286 @@
+// The CGAL translation unit of the checkers (slow to compile; keep CGAL code here): the union
+// of the screen triangles, the exact reference visibility (DESIGN §4) and the comparison of a
+// planar map with it. Exact kernel with Boolean set operations throughout.
+#include <CGAL/Boolean_set_operations_2.h>
+#include <CGAL/Exact_predicates_exact_constructions_kernel.h>
+#include <CGAL/Polygon_set_2.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <chrono>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "tests/support/exact_geom.h"
+#include "tests/support/planar_check.h"
+
+namespace vismap::check {
+
+namespace {
+
+using K = CGAL::Exact_predicates_exact_constructions_kernel;
+using FT = K::FT;
+using Point = K::Point_2;
+using Poly = CGAL::Polygon_2<K>;
+using PolyH = CGAL::Polygon_with_holes_2<K>;
+using PSet = CGAL::Polygon_set_2<K>;
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+uint64_t source_key(uint32_t mesh, uint32_t tri) { return (uint64_t(mesh) << 32) | tri; }
+
+mpq_class to_mpq(const FT& v) {
+  std::ostringstream os;
+  os << CGAL::exact(v);
+  mpq_class q(os.str());
+  q.canonicalize();
+  return q;
+}
+
+// Exactly, from 32-bit pieces (each an exact double).
+FT to_ft(detail::i128 v) {
+  bool neg = v < 0;
+  unsigned __int128 m = neg ? -static_cast<unsigned __int128>(v) : static_cast<unsigned __int128>(v);
+  FT r = 0;
+  for (int k = 3; k >= 0; --k) r = r * FT(4294967296.0) + FT(double(uint32_t(m >> (32 * k))));
+  return neg ? -r : r;
+}
+
+FT area(const PSet& s) {
+  std::vector<PolyH> parts;
+  s.polygons_with_holes(std::back_inserter(parts));
+  FT a = 0;
+  for (const PolyH& p : parts) {
+    a += p.outer_boundary().area();
+    for (auto h = p.holes_begin(); h != p.holes_end(); ++h) a += h->area();  // holes are clockwise
+  }
+  return a;
+}
+
+Poly screen_triangle(const ScreenTriangles& s, size_t t) {
+  Poly p;
+  for (int k = 0; k < 3; ++k) p.push_back(Point(s.xy[6 * t + 2 * k], s.xy[6 * t + 2 * k + 1]));
+  if (p.orientation() == CGAL::CLOCKWISE) p.reverse_orientation();
+  return p;
+}
+
+// Depth as an affine function a·x + b·y + c of grid coordinates, exactly from the doubles.
+struct Plane {
+  FT a, b, c;
+};
+Plane depth_plane(const ScreenTriangles& s, size_t t) {
+  const int32_t* v = &s.xy[6 * t];
+  const double* d = &s.depth[3 * t];
+  FT ux = v[2] - v[0], uy = v[3] - v[1], wx = v[4] - v[0], wy = v[5] - v[1];
+  FT d1 = FT(d[1]) - FT(d[0]), d2 = FT(d[2]) - FT(d[0]);
+  FT det = ux * wy - uy * wx;  // non-zero: zero-area triangles are not in the input
+  Plane p;
+  p.a = (d1 * wy - d2 * uy) / det;
+  p.b = (ux * d2 - wx * d1) / det;
+  p.c = FT(d[0]) - p.a * v[0] - p.b * v[1];
+  return p;
+}
+
+// The part of triangle `tri` where a·x + b·y + c > 0 (as a closed polygon; (a, b) != 0).
+Poly clip_halfplane(const Poly& tri, const FT& a, const FT& b, const FT& c) {
+  Poly out;
+  size_t n = tri.size();
+  std::vector<FT> s(n);
+  for (size_t i = 0; i < n; ++i) s[i] = a * tri[i].x() + b * tri[i].y() + c;
+  for (size_t i = 0; i < n; ++i) {
+    size_t j = (i + 1) % n;
+    CGAL::Sign si = CGAL::sign(s[i]), sj = CGAL::sign(s[j]);
+    if (si != CGAL::NEGATIVE) out.push_back(tri[i]);
+    if ((si == CGAL::POSITIVE && sj == CGAL::NEGATIVE) || (si == CGAL::NEGATIVE && sj == CGAL::POSITIVE)) {
+      FT t = s[i] / (s[i] - s[j]);
+      out.push_back(Point(tri[i].x() + t * (tri[j].x() - tri[i].x()), tri[i].y() + t * (tri[j].y() - tri[i].y())));
+    }
+  }
+  return out;
+}
+
+uint32_t morton(uint32_t x, uint32_t y) {
+  auto spread = [](uint32_t v) {
+    v &= 0xffff;
+    v = (v | (v << 8)) & 0x00ff00ff;
+    v = (v | (v << 4)) & 0x0f0f0f0f;
+    v = (v | (v << 2)) & 0x33333333;
+    return (v | (v << 1)) & 0x55555555;
+  };
+  return spread(x) | (spread(y) << 1);
+}
+
+}  // namespace
+
+namespace detail {
+
+mpq_class union_area2(const ScreenTriangles& screen) {
+  size_t n = screen.size();
+  if (n == 0) return 0;
+  // Join in Morton order of the centroids so partial unions stay compact.
+  int64_t x0 = INT64_MAX, y0 = INT64_MAX, x1 = INT64_MIN, y1 = INT64_MIN;
+  for (size_t i = 0; i < screen.xy.size(); i += 2) {
+    x0 = std::min<int64_t>(x0, screen.xy[i]), x1 = std::max<int64_t>(x1, screen.xy[i]);
+    y0 = std::min<int64_t>(y0, screen.xy[i + 1]), y1 = std::max<int64_t>(y1, screen.xy[i + 1]);
+  }
+  double scale = 65535.0 / std::max<int64_t>(1, std::max(x1 - x0, y1 - y0));
+  std::vector<std::pair<uint32_t, uint32_t>> order(n);
+  for (size_t t = 0; t < n; ++t) {
+    const int32_t* v = &screen.xy[6 * t];
+    double cx = (double(v[0]) + v[2] + v[4]) / 3 - x0, cy = (double(v[1]) + v[3] + v[5]) / 3 - y0;
+    order[t] = {morton(uint32_t(cx * scale), uint32_t(cy * scale)), uint32_t(t)};
+  }
+  std::sort(order.begin(), order.end());
+  std::vector<Poly> tris;
+  tris.reserve(n);
+  for (auto& o : order) tris.push_back(screen_triangle(screen, o.second));
+  std::vector<PolyH> parts;
+  CGAL::join(tris.begin(), tris.end(), std::back_inserter(parts));
+  FT a = 0;
+  for (const PolyH& p : parts) {
+    a += p.outer_boundary().area();
+    for (auto h = p.holes_begin(); h != p.holes_end(); ++h) a += h->area();
+  }
+  return to_mpq(a) * 2;
+}
+
+}  // namespace detail
+
+struct ReferenceResult::Impl {
+  uint32_t gs = 1;
+  std::vector<PSet> visible;  // per screen triangle, grid units
+};
+
+ReferenceResult exact_visibility(const ScreenTriangles& screen) {
+  auto t0 = Clock::now();
+  auto impl = std::make_shared<ReferenceResult::Impl>();
+  impl->gs = screen.grid_scale ? screen.grid_scale : 1;
+  size_t n = screen.size();
+  std::vector<Poly> tri(n);
+  std::vector<Plane> plane(n);
+  std::vector<std::array<int32_t, 4>> box(n);
+  for (size_t t = 0; t < n; ++t) {
+    tri[t] = screen_triangle(screen, t);
+    plane[t] = depth_plane(screen, t);
+    const int32_t* v = &screen.xy[6 * t];
+    box[t] = {std::min({v[0], v[2], v[4]}), std::min({v[1], v[3], v[5]}), std::max({v[0], v[2], v[4]}),
+              std::max({v[1], v[3], v[5]})};
+  }
+  // Bounding-box filter: sweep over x.
+  std::vector<uint32_t> by_x(n);
+  for (size_t t = 0; t < n; ++t) by_x[t] = uint32_t(t);
+  std::sort(by_x.begin(), by_x.end(), [&](uint32_t a, uint32_t b) { return box[a][0] < box[b][0]; });
+
+  ReferenceResult r;
+  r.visible_area.resize(n);
+  impl->visible.resize(n);
+  FT total = 0;
+  for (size_t t = 0; t < n; ++t) {
+    uint64_t kt = source_key(screen.mesh[t], screen.triangle[t]);
+    std::vector<Poly> occluders;
+    for (uint32_t o : by_x) {
+      if (box[o][0] >= box[t][2]) break;
+      if (o == t || box[o][2] <= box[t][0] || box[o][1] >= box[t][3] || box[o][3] <= box[t][1]) continue;
+      FT a = plane[o].a - plane[t].a, b = plane[o].b - plane[t].b, c = plane[o].c - plane[t].c;
+      if (CGAL::is_zero(a) && CGAL::is_zero(b)) {
+        CGAL::Sign s = CGAL::sign(c);
+        uint64_t ko = source_key(screen.mesh[o], screen.triangle[o]);
+        if (s == CGAL::POSITIVE || (s == CGAL::ZERO && ko < kt)) occluders.push_back(tri[o]);
+        continue;
+      }
+      Poly part = clip_halfplane(tri[o], a, b, c);
+      if (part.size() >= 3 && part.is_simple() && !CGAL::is_zero(part.area())) occluders.push_back(part);
+    }
+    PSet vis(tri[t]);
+    if (!occluders.empty()) {
+      PSet occ;
+      occ.join(occluders.begin(), occluders.end());
+      vis.difference(occ);
+    }
+    FT a = area(vis);
+    total += a;
+    r.visible_area[t] = CGAL::to_double(a) / (double(impl->gs) * impl->gs);
+    impl->visible[t] = std::move(vis);
+  }
+  r.total_visible_area = CGAL::to_double(total) / (double(impl->gs) * impl->gs);
+  r.impl = impl;
+  r.ms = ms_since(t0);
+  return r;
+}
+
+ReferenceReport compare_with_reference(const PlanarMap& map, const ScreenTriangles& screen,
+                                       const ReferenceResult& reference) {
+  auto t0 = Clock::now();
+  if (!reference.impl) throw std::invalid_argument("compare_with_reference: empty reference");
+  const ReferenceResult::Impl& ref = *reference.impl;
+  ReferenceReport r;
+  size_t nv = map.vertex_count();
+  r.exact = map.hx.size() == nv && map.hy.size() == nv && map.hw.size() == nv && nv > 0;
+  uint32_t gs = ref.gs;
+  if (map.grid_scale && map.grid_scale != gs)
+    throw std::invalid_argument("compare_with_reference: map and screen triangles differ in grid_scale");
+
+  // visible(source): union of its screen triangles' visible regions.
+  std::map<uint64_t, PSet> visible;
+  for (size_t t = 0; t < screen.size(); ++t) visible[source_key(screen.mesh[t], screen.triangle[t])].join(ref.visible[t]);
+
+  std::map<uint64_t, PSet> output;
+  FT total_visible = 0, xor_area = 0;
+  r.fragments = map.fragment_count();
+  for (size_t f = 0; f < map.fragment_count(); ++f) {
+    Poly p;
+    for (uint32_t v = map.offsets[f]; v < map.offsets[f + 1]; ++v) {
+      Point q;
+      if (r.exact) {
+        FT w = to_ft(detail::to_i128(map.hw[v]));
+        q = Point(to_ft(detail::to_i128(map.hx[v])) / w, to_ft(detail::to_i128(map.hy[v])) / w);
+      } else {
+        q = Point(FT(map.xy[2 * v]) * FT(int(gs)), FT(map.xy[2 * v + 1]) * FT(int(gs)));
+      }
+      if (p.size() > 0 && (p.vertices_end() - 1)->x() == q.x() && (p.vertices_end() - 1)->y() == q.y()) continue;
+      p.push_back(q);
+    }
+    while (p.size() > 1 && p[0] == p[p.size() - 1]) p.erase(p.vertices_end() - 1);
+    if (p.size() < 3 || !p.is_simple() || CGAL::is_zero(p.area())) continue;  // check_planar_map counts these
+    if (p.orientation() == CGAL::CLOCKWISE) p.reverse_orientation();
+    uint64_t key = source_key(map.mesh[f], map.triangle[f]);
+    output[key].join(p);
+    FT a = p.area(), inside = 0;
+    auto it = visible.find(key);
+    if (it != visible.end()) {
+      PSet part(p);
+      part.intersection(it->second);
+      inside = area(part);
+    }
+    FT out = a - inside;
+    if (out > a / 2) ++r.wrong_source;
+    if (r.exact ? CGAL::is_positive(out) : out > a * 1e-9) ++r.partly_outside;
+  }
+  for (auto& [key, vis] : visible) {
+    total_visible += area(vis);
+    auto it = output.find(key);
+    if (it == output.end()) {
+      xor_area += area(vis);
+      continue;
+    }
+    PSet x = it->second;
+    x.symmetric_difference(vis);
+    xor_area += area(x);
+  }
+  for (auto& [key, out] : output)
+    if (!visible.count(key)) xor_area += area(out);
+
+  double g2 = double(gs) * gs;
+  r.total_visible_area = CGAL::to_double(total_visible) / g2;
+  r.xor_area = CGAL::to_double(xor_area) / g2;
+  r.area_error = CGAL::is_zero(total_visible) ? (CGAL::is_zero(xor_area) ? 0 : INFINITY)
+                                              : CGAL::to_double(xor_area / total_visible);
+  r.ms = ms_since(t0);
+  return r;
+}
+
+}  // namespace vismap::check
