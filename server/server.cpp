@@ -501,16 +501,18 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   void send(Out o) {
     if (closing_ && !closing_flush_) return;
     out_.push_back(std::move(o));
-    if (out_.size() == 1) do_write();
+    if (!writing_) do_write();
   }
 
   void do_write() {
+    writing_ = true;
     ws_.binary(out_.front().binary);
     ws_.async_write(net::buffer(*out_.front().data),
                     beast::bind_front_handler(&WsSession::on_write, shared_from_this()));
   }
 
   void on_write(beast::error_code ec, size_t bytes) {
+    writing_ = false;  // after_frame() below may send(), which starts the next write itself
     Out done = std::move(out_.front());
     out_.pop_front();
     if (ec) {
@@ -524,6 +526,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       busy_ = false;
       after_frame();
     }
+    if (writing_) return;
     if (!out_.empty()) return do_write();
     if (closing_flush_) return do_close();
     if (!reading_ && !closing_) do_read();
@@ -588,6 +591,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   std::deque<Out> out_;
   bool discarding_ = false;
   uint64_t discarded_ = 0;
+  bool writing_ = false;
   bool reading_ = false, busy_ = false, loading_ = false, stopping_ = false;
   bool closing_ = false, closing_flush_ = false, writing_close_ = false, finished_ = false;
   uint64_t idle_gen_ = 0;
