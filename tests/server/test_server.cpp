@@ -341,6 +341,62 @@ TEST_F(ServerTest, FiftyConcurrentSessions) {
   EXPECT_EQ(ok, kSessions);
 }
 
+// A height field of n x n quads (2 n^2 triangles), as OBJ text.
+std::string grid_obj(int n) {
+  std::string s;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i)
+      s += "v " + std::to_string(double(i) / n) + " " + std::to_string(0.1 * std::sin(i * 0.7) * std::cos(j * 0.3)) +
+           " " + std::to_string(double(j) / n) + "\n";
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      int a = j * (n + 1) + i + 1, b = a + 1, c = a + n + 1, d = c + 1;
+      s += "f " + std::to_string(a) + " " + std::to_string(c) + " " + std::to_string(b) + "\n";
+      s += "f " + std::to_string(b) + " " + std::to_string(c) + " " + std::to_string(d) + "\n";
+    }
+  return s;
+}
+
+// A session that streams cameras for a big scene as fast as it can holds at most one pending
+// frame, so a small session keeps getting its frames: at least one per heavy frame, never
+// behind a backlog of the heavy session's cameras.
+TEST_F(ServerTest, HeavySessionCannotStarveALightOne) {
+  start();
+  WsClient heavy;
+  hello(heavy);
+  std::string big = grid_obj(150);  // 45,000 triangles
+  upload(heavy, "grid.obj", big);
+  ASSERT_EQ(next(heavy, 120)["type"], "scene_ready");
+  std::atomic<bool> stop{false};
+  std::atomic<uint64_t> heavy_sent{0};
+  std::thread spam([&] {  // 5 cameras per frame read: the server renders only the latest
+    try {
+      for (uint64_t i = 0; !stop;) {
+        for (int k = 0; k < 5; ++k, ++i)
+          heavy.send_text(json{{"type", "camera"}, {"seq", i}, {"eye", {0.5 + 2 * std::sin(0.01 * i), 1.5, 2 * std::cos(0.01 * i)}},
+                               {"target", {0.5, 0, 0.5}}}.dump());
+        heavy_sent = i;
+        EXPECT_EQ(next(heavy, 60)["type"], "frame");
+        heavy.read(60);
+      }
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "heavy session: " << e.what();
+    }
+  });
+  WsClient light;
+  hello(light);
+  ready(light);
+  uint64_t frames_before = server_->metrics().frames;
+  for (int i = 0; i < 20; ++i) frame(light, i, 0.2 * i);
+  uint64_t total = server_->metrics().frames - frames_before;  // light (20) + heavy frames meanwhile
+  stop = true;
+  spam.join();
+  std::printf("light frames 20, heavy frames meanwhile %llu, heavy cameras sent %llu\n",
+              static_cast<unsigned long long>(total - 20), static_cast<unsigned long long>(heavy_sent.load()));
+  EXPECT_LE(total - 20, 20u + 2);  // the heavy session got no more turns than the light one
+  EXPECT_GT(heavy_sent.load(), total - 20);  // while sending many more cameras than it got frames
+}
+
 TEST_F(ServerTest, SlowClientGetsTheLatestCamera) {
   start();
   WsClient c;
