@@ -17,8 +17,15 @@ const json* field(const json& j, const char* key) {
   return it == j.end() || it->is_null() ? nullptr : &*it;
 }
 
-double number(const json& j, const char* key) {
+// The helpers below read a field that must be there (callers test optional ones with field()).
+const json* required(const json& j, const char* key) {
   const json* v = field(j, key);
+  if (!v) bad(std::string("'") + key + "' is required");
+  return v;
+}
+
+double number(const json& j, const char* key) {
+  const json* v = required(j, key);
   if (!v->is_number()) bad(std::string("'") + key + "' must be a number");
   double d = v->get<double>();
   if (!std::isfinite(d)) bad(std::string("'") + key + "' must be finite");
@@ -26,7 +33,7 @@ double number(const json& j, const char* key) {
 }
 
 uint64_t uint(const json& j, const char* key, uint64_t hi) {
-  const json* v = field(j, key);
+  const json* v = required(j, key);
   if (!v->is_number_unsigned() && !(v->is_number_integer() && v->get<int64_t>() >= 0))
     bad(std::string("'") + key + "' must be a non-negative integer");
   uint64_t n = v->get<uint64_t>();
@@ -35,13 +42,13 @@ uint64_t uint(const json& j, const char* key, uint64_t hi) {
 }
 
 std::string string(const json& j, const char* key) {
-  const json* v = field(j, key);
+  const json* v = required(j, key);
   if (!v->is_string()) bad(std::string("'") + key + "' must be a string");
   return v->get<std::string>();
 }
 
 Vec3 vec3(const json& j, const char* key) {
-  const json* v = field(j, key);
+  const json* v = required(j, key);
   if (!v->is_array() || v->size() != 3) bad(std::string("'") + key + "' must be [x, y, z]");
   Vec3 r{};
   for (int i = 0; i < 3; ++i) {

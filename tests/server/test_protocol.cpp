@@ -109,3 +109,9 @@ TEST(Protocol, ErrorJson) {
   EXPECT_EQ(j["fatal"], true);
   EXPECT_EQ(j["seq"], 4);
 }
+
+// Found by tests/fuzz/fuzz_protocol.cpp: a viewport without "height" dereferenced a null field.
+TEST(Protocol, RegressionViewportMissingHeight) {
+  EXPECT_EQ(code_of(R"({"type":"hello","version":1,"viewport":{"width":64,"h*ight":64}})"), "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"camera","viewport":{"height":64}})"), "bad_message");
+}
