@@ -160,7 +160,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       srv_.metrics.sessions_refused++;
       return fail(code::shutting_down, "server is stopping", true, std::nullopt);
     }
-    if (srv_.session_count() >= L.max_sessions) {
+    // Reserve a place atomically: accepts on other io threads may race for the last one.
+    if (srv_.metrics.sessions_active.fetch_add(1) >= static_cast<int64_t>(L.max_sessions)) {
+      srv_.metrics.sessions_active--;
       srv_.metrics.sessions_refused++;
       srv_.log.warn("session_refused", {{"peer", peer_}, {"reason", "max_sessions"}});
       return fail(code::busy, "server has its maximum of " + std::to_string(L.max_sessions) + " sessions",
@@ -169,7 +171,6 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     id_ = srv_.queue.add_session();
     registered_ = true;
     srv_.add(id_, shared_from_this());
-    srv_.metrics.sessions_active++;
     srv_.metrics.sessions_total++;
     srv_.log.info("session_open", {{"session", id_}, {"peer", peer_}});
     hello_timer_.expires_after(seconds(L.handshake_timeout_s));

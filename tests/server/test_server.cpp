@@ -167,7 +167,13 @@ TEST_F(ServerTest, UploadAndSvgFrames) {
     EXPECT_NE(p.data.find("<svg"), std::string::npos);
     EXPECT_GE(h["render_ms"].get<double>(), 0);
   }
-  EXPECT_NE(http_get("127.0.0.1", port_, "/metrics").body.find("vismap_frames_total 3"), std::string::npos);
+  // Counted when the server's write completes, which may be just after the client has the bytes.
+  bool counted = false;
+  for (int i = 0; i < 200 && !counted; ++i) {
+    counted = http_get("127.0.0.1", port_, "/metrics").body.find("vismap_frames_total 3\n") != std::string::npos;
+    if (!counted) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_TRUE(counted);
 }
 
 TEST_F(ServerTest, Base64UploadAndBinFrames) {
