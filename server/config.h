@@ -14,6 +14,7 @@ struct Limits {
   uint64_t max_triangles = 5'000'000;         // per scene
   uint64_t max_session_bytes = 512ull << 20;  // upload + loaded scene, per session
   uint32_t max_sessions = 64;
+  uint32_t max_connections = 256;             // TCP connections, upgraded or not
   uint32_t max_viewport = 8192;               // width and height
   double handshake_timeout_s = 5;        // TCP accept -> WebSocket upgrade, and upgrade -> hello
   double idle_timeout_s = 60;            // no message from the client for this long

@@ -68,6 +68,18 @@ static json camera_json(const Camera& c) {
 
 class WsSession;
 
+// Holds one of max_connections while a connection is open (moved from HTTP to WebSocket).
+struct ConnectionSlot {
+  std::atomic<uint32_t>* n = nullptr;
+  ConnectionSlot() = default;
+  explicit ConnectionSlot(std::atomic<uint32_t>& c) : n(&c) {}
+  ConnectionSlot(ConnectionSlot&& o) noexcept : n(std::exchange(o.n, nullptr)) {}
+  ConnectionSlot& operator=(ConnectionSlot&&) = delete;
+  ~ConnectionSlot() {
+    if (n) --*n;
+  }
+};
+
 struct Server::Impl {
   Config cfg;
   Metrics metrics;
@@ -80,6 +92,7 @@ struct Server::Impl {
   std::vector<std::thread> threads;
   std::atomic<bool> stopping{false};
   std::atomic<bool> stopped{false};
+  std::atomic<uint32_t> connections{0};  // open TCP connections (HTTP and WebSocket)
   std::mutex sessions_mu;
   std::map<uint64_t, std::weak_ptr<WsSession>> sessions;
   std::string www;
@@ -114,7 +127,8 @@ struct Server::Impl {
 
 class WsSession : public std::enable_shared_from_this<WsSession> {
  public:
-  WsSession(tcp::socket&& socket, Server::Impl& srv) : ws_(std::move(socket)), srv_(srv),
+  WsSession(tcp::socket&& socket, Server::Impl& srv, ConnectionSlot slot)
+      : slot_(std::move(slot)), ws_(std::move(socket)), srv_(srv),
         hello_timer_(ws_.get_executor()), idle_timer_(ws_.get_executor()) {
     beast::error_code ec;
     auto ep = beast::get_lowest_layer(ws_).socket().remote_endpoint(ec);
@@ -580,6 +594,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
 
   static constexpr size_t kMaxOut = 32;
 
+  ConnectionSlot slot_;
   websocket::stream<beast::tcp_stream> ws_;
   Server::Impl& srv_;
   net::steady_timer hello_timer_, idle_timer_;
@@ -622,7 +637,8 @@ static const char* mime(const std::string& path) {
 
 class HttpSession : public std::enable_shared_from_this<HttpSession> {
  public:
-  HttpSession(tcp::socket&& s, Server::Impl& srv) : stream_(std::move(s)), srv_(srv) {}
+  HttpSession(tcp::socket&& s, Server::Impl& srv, ConnectionSlot slot)
+      : slot_(std::move(slot)), stream_(std::move(s)), srv_(srv) {}
   void run() {
     net::dispatch(stream_.get_executor(), beast::bind_front_handler(&HttpSession::read, shared_from_this()));
   }
@@ -647,7 +663,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     if (websocket::is_upgrade(req)) {
       if (target != "/" && target != "/ws" && target.rfind("/?", 0) != 0 && target.rfind("/ws?", 0) != 0)
         return respond(http::status::not_found, "text/plain", "WebSocket endpoint is / or /ws\n");
-      auto s = std::make_shared<WsSession>(stream_.release_socket(), srv_);
+      auto s = std::make_shared<WsSession>(stream_.release_socket(), srv_, std::move(slot_));
       return s->run(parser_->release());
     }
     srv_.metrics.http_requests++;
@@ -695,6 +711,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     });
   }
 
+  ConnectionSlot slot_;
   beast::tcp_stream stream_;
   beast::flat_buffer buf_;
   std::optional<http::request_parser<http::string_body>> parser_;
@@ -708,8 +725,14 @@ void Server::Impl::accept() {
       log.warn("accept_error", {{"message", ec.message()}});
     } else {
       beast::error_code ignored;
-      s.set_option(tcp::no_delay(true), ignored);  // frames are latency-bound: no Nagle delay
-      std::make_shared<HttpSession>(std::move(s), *this)->run();
+      if (connections.fetch_add(1) >= cfg.limits.max_connections) {
+        --connections;  // over the cap: close at once, before reading a byte
+        metrics.sessions_refused++;
+        s.close(ignored);
+      } else {
+        s.set_option(tcp::no_delay(true), ignored);  // frames are latency-bound: no Nagle delay
+        std::make_shared<HttpSession>(std::move(s), *this, ConnectionSlot(connections))->run();
+      }
     }
     if (!stopping) accept();
   });

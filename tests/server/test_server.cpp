@@ -296,6 +296,24 @@ TEST_F(ServerTest, LimitOnSessionCount) {
   hello(d);
 }
 
+TEST_F(ServerTest, LimitOnConnections) {
+  cfg_.limits.max_connections = 3;
+  cfg_.limits.max_sessions = 10;
+  start();
+  WsClient a, b;
+  hello(a);
+  hello(b);
+  WsClient c;  // third connection: allowed
+  hello(c);
+  EXPECT_GE(wait_for_server_close("127.0.0.1", port_, "", 5), 0);  // fourth: closed at once
+  EXPECT_LT(wait_for_server_close("127.0.0.1", port_, "", 5), 1.0);
+  c.close();
+  for (int i = 0; i < 200 && server_->metrics().sessions_active > 2; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  WsClient d;
+  hello(d);
+}
+
 TEST_F(ServerTest, HandshakeAndIdleTimeouts) {
   cfg_.limits.handshake_timeout_s = 0.3;
   cfg_.limits.idle_timeout_s = 0.5;
