@@ -54,25 +54,32 @@ std::string gunzip(const Source& src, std::string_view bytes) {
   z_stream z{};
   if (inflateInit2(&z, 15 + 32) != Z_OK)  // 15 + 32: zlib or gzip header, detected
     fail(InputErrorKind::ParseError, src, "", "", -1, "zlib init failed");
-  std::string out;
-  if (bytes.size() >= 18) {  // gzip trailer: uncompressed size mod 2^32, a good first guess
+  // Inflate straight into the result, sized from the gzip trailer (uncompressed size mod 2^32;
+  // capped, since deflate expands at most ~1032x and a cut file's trailer is garbage).
+  size_t guess = bytes.size() * 4;
+  if (bytes.size() >= 18) {
     uint32_t isize;
     std::memcpy(&isize, bytes.data() + bytes.size() - 4, 4);
-    out.reserve(std::max<size_t>(isize, bytes.size() * 2) + 1);
+    guess = std::min<uint64_t>(isize, uint64_t(bytes.size()) * 1032);
   }
+  std::string out(guess + 1, '\0');  // +1: a full buffer then means "more to come"
+  size_t used = 0;
   z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
   z.avail_in = static_cast<uInt>(bytes.size());
   int rc = Z_OK;
   while (rc != Z_STREAM_END) {
-    if (out.size() == out.capacity() || out.capacity() - out.size() < 65536)
-      out.reserve(std::max<size_t>(out.capacity() * 2, 1 << 20));
-    size_t old = out.size();
-    size_t room = std::min<size_t>(out.capacity() - old, 1u << 30);
-    out.resize(old + room);
-    z.next_out = reinterpret_cast<Bytef*>(out.data() + old);
+    if (used == out.size()) {
+      if (out.size() > kMaxOut) {
+        inflateEnd(&z);
+        fail(InputErrorKind::TooLarge, src, "", "", -1, "decompresses to more than 4 GiB");
+      }
+      out.resize(out.size() * 2);
+    }
+    size_t room = std::min<size_t>(out.size() - used, 1u << 30);
+    z.next_out = reinterpret_cast<Bytef*>(out.data() + used);
     z.avail_out = static_cast<uInt>(room);
     rc = inflate(&z, Z_NO_FLUSH);
-    out.resize(old + room - z.avail_out);
+    used += room - z.avail_out;
     if (rc == Z_STREAM_END) break;
     if (rc == Z_BUF_ERROR || (rc == Z_OK && z.avail_in == 0 && z.avail_out != 0)) {
       inflateEnd(&z);
@@ -85,11 +92,8 @@ std::string gunzip(const Source& src, std::string_view bytes) {
       inflateEnd(&z);
       fail(InputErrorKind::ParseError, src, "", "gzip byte", at, "not a valid gzip stream: " + msg);
     }
-    if (out.size() > kMaxOut) {
-      inflateEnd(&z);
-      fail(InputErrorKind::TooLarge, src, "", "", -1, "decompresses to more than 4 GiB");
-    }
   }
+  out.resize(used);
   inflateEnd(&z);
   return out;
 }

@@ -75,7 +75,7 @@ M4 entry_transform(const Checker& ck, const json& e, const std::string& path) {
     for (const char* k : {"translate", "rotate_deg", "rotate_axis_angle", "scale"})
       if (e.contains(k)) ck.bad(path + ".matrix", std::string("'matrix' cannot be combined with '") + k + "'");
     auto v = ck.numbers(e["matrix"], path + ".matrix", 16);
-    M4 m;
+    M4 m{};
     std::copy(v.begin(), v.end(), m.begin());
     return m;
   }
@@ -166,7 +166,14 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
     if (e.contains("name") && !e["name"].is_string()) ck.bad(path + ".name", "expected a string");
     std::string full = file[0] == '/' ? file : src.base_dir + file;
     auto it = loaded.find(full);
-    if (it == loaded.end()) it = loaded.emplace(full, load_scene(full, opts)).first;
+    if (it == loaded.end()) {
+      try {
+        it = loaded.emplace(full, load_scene(full, opts)).first;
+      } catch (const InputError& e) {  // the referenced file's error, saying who referenced it
+        throw InputError(e.kind(), e.file(), e.mesh(), e.element(), e.index(),
+                         e.detail() + " (referenced by " + src.file + " " + path + ")");
+      }
+    }
     double det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
                  m[8] * (m[1] * m[6] - m[5] * m[2]);
     const Scene& part = it->second;

@@ -172,8 +172,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
             slot_max, eflags);
   const uint32_t E = rt.scan("silhouettes", eflags, eoffs, nedges);
   st.silhouette_edges = E;
-  cl::Buffer edges = rt.alloc(size_t(E) * sizeof(VmEdge), "silhouette edges");
-  rt.launch("silhouettes", "edge_emit", nedges, tris, nedges, eflags, eoffs, edges);
 
   // ---- bins ---------------------------------------------------------------------------------
   auto make_grid = [&](uint32_t tile_px) {
@@ -181,7 +179,8 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     g.tile_size = static_cast<int32_t>(tile_px * VM_GRID_SCALE);
     g.tiles_x = static_cast<int32_t>((W + tile_px - 1) / tile_px);
     g.tiles_y = static_cast<int32_t>((H + tile_px - 1) / tile_px);
-    g.pad = 0;
+    g.tile_shift = 0;
+    while ((1 << g.tile_shift) < g.tile_size) ++g.tile_shift;
     return g;
   };
   uint32_t tile_px = opts.tile_pixels;
@@ -192,10 +191,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   const VmGrid eg = make_grid(tile_px);
   const VmGrid og = make_grid(std::max<uint32_t>(tile_px / 2, 4));
 
-  cl::Buffer tri_bb = rt.alloc(size_t(S) * sizeof(cl_int4), "triangle boxes");
-  rt.launch("bin", "tri_bbox", S, tris, S, tri_bb);
-  cl::Buffer edge_bb = rt.alloc(std::max<size_t>(E, 1) * sizeof(cl_int4), "edge boxes");
-  rt.launch("bin", "edge_bbox", E, edges, E, edge_bb);
 
   struct Bins {
     cl::Buffer count, offset, list;
@@ -216,17 +211,38 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     if (sort) rt.launch(stage, "bin_sort", ntiles, b.offset, b.count, ntiles, b.list);
     return b;
   };
+  // Triangles on the fine grid (crossing pairs, occlusion), sorted so that every list a kernel
+  // walks is in a fixed order.
+  cl::Buffer tri_bb = rt.alloc(size_t(S) * sizeof(cl_int4), "triangle boxes");
+  rt.launch("bin", "tri_bbox", S, tris, S, tri_bb);
+  Bins tbins = bin("bin", tri_bb, S, og, true);
+
+  // ---- penetrating pairs --------------------------------------------------------------------
+  cl::Buffer cross_count = rt.alloc(size_t(S) * 4, "crossing counts");
+  cl::Buffer cross_offset = rt.alloc(size_t(S) * 4, "crossing offsets");
+  rt.launch("crossings", "cross_count", S, tris, S, tri_bb, og, tbins.offset, tbins.count,
+            tbins.list, cross_count);
+  const uint32_t X = rt.scan("crossings", cross_count, cross_offset, S);
+  st.crossing_lines = X;
+  cl::Buffer edges = rt.alloc((size_t(E) + X) * sizeof(VmEdge), "clipping edges");
+  cl::Buffer partner = rt.alloc(std::max<size_t>(X, 1) * 4, "crossing partners");
+  rt.launch("silhouettes", "edge_emit", nedges, tris, nedges, eflags, eoffs, edges);
+  rt.launch("crossings", "cross_fill", S, tris, S, tri_bb, og, tbins.offset, tbins.count,
+            tbins.list, cross_offset, E, edges, partner);
+
+  cl::Buffer edge_bb = rt.alloc(std::max<size_t>(E, 1) * sizeof(cl_int4), "edge boxes");
+  rt.launch("bin", "edge_bbox", E, edges, E, edge_bb);
   Bins ebins = bin("bin", edge_bb, E, eg, true);
 
   // ---- candidate edges per triangle ---------------------------------------------------------
   cl::Buffer cand_count = rt.alloc(size_t(S) * 4, "candidate counts");
   cl::Buffer cand_offset = rt.alloc(size_t(S) * 4, "candidate offsets");
   rt.launch("candidates", "cand_count", S, tris, S, tri_bb, edges, edge_bb, eg, ebins.offset,
-            ebins.count, ebins.list, cand_count);
+            ebins.count, ebins.list, cross_count, cand_count);
   const uint32_t C = rt.scan("candidates", cand_count, cand_offset, S);
   cl::Buffer cand = rt.alloc(std::max<size_t>(C, 1) * 4, "candidates");
   rt.launch("candidates", "cand_fill", S, tris, S, tri_bb, edges, edge_bb, eg, ebins.offset,
-            ebins.count, ebins.list, cand_offset, cand);
+            ebins.count, ebins.list, cross_offset, cross_count, E, cand_offset, cand);
 
   // ---- clipping rounds (work queue) ---------------------------------------------------------
   cl::Buffer done_meta, done_lines;
@@ -297,11 +313,10 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   const uint32_t L = rt.maxl();
 
   // ---- occlusion ----------------------------------------------------------------------------
-  Bins tbins = bin("occlusion", tri_bb, S, og, false);
   cl::Buffer visible = rt.alloc(std::max<size_t>(nd, 1) * 4, "visibility");
   cl::Buffer voff = rt.alloc(std::max<size_t>(nd, 1) * 4, "visible offsets");
   rt.launch("occlusion", "occlude", nd, done_meta, done_lines, nd, tris, og, tbins.offset,
-            tbins.count, tbins.list, visible, totals);
+            tbins.count, tbins.list, edges, E, cross_offset, cross_count, partner, visible, totals);
   const uint32_t V = rt.scan("occlusion", visible, voff, nd);
   st.visible_fragments = V;
 
@@ -365,7 +380,8 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
 
   const std::pair<const char*, std::pair<uint64_t, uint64_t>> order[] = {
       {"transform", {ntri, S}},   {"silhouettes", {uint64_t(3) * S, E}},
-      {"bin", {E, ebins.pairs}},  {"candidates", {S, C}},
+      {"bin", {uint64_t(S) + E, uint64_t(tbins.pairs) + ebins.pairs}},
+      {"crossings", {S, X}},      {"candidates", {S, C}},
       {"clip", {S, nd}},          {"occlusion", {nd, V}},
       {"emit", {V, map.vertex_count()}},
   };

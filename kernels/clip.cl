@@ -16,7 +16,7 @@
 /* Candidate edges of a screen triangle: silhouette edges whose segment meets the triangle's
  * interior, whose line strictly separates its corners, and which may be in front of it
  * somewhere (nearness is affine along the edge and over the triangle's plane, so checking the
- * two endpoints against the plane, with the tie band doubled, is conservative). */
+ * two endpoints against the plane, with a band, is conservative). */
 inline bool edge_is_candidate(__global const VmScreenTri* T, VmEdge E) {
   Line3 LE = line_of(E.x0, E.y0, E.x1, E.y1);
   int pos = 0, neg = 0;
@@ -32,10 +32,14 @@ inline bool edge_is_candidate(__global const VmScreenTri* T, VmEdge E) {
     if (line_eval_point(L, E.x0, E.y0) <= 0 && line_eval_point(L, E.x1, E.y1) <= 0) return false;
   }
   VmScreenTri t = *T;
-  double qa = tri_depth_at(&t, (double)E.x0, (double)E.y0);
-  double qb = tri_depth_at(&t, (double)E.x1, (double)E.y1);
+  DepthPlane P = depth_plane(&t);
+  double qa = plane_at(P, (double)E.x0, (double)E.y0);
+  double qb = plane_at(P, (double)E.x1, (double)E.y1);
   double scale = fmax(fmax(fabs(qa), fabs(qb)), fmax(fabs(E.q0), fabs(E.q1)));
-  double band = 2.0 * VM_TIE_EPS * scale;
+  /* Snapping moved every vertex by up to half a grid unit, so a point on the edge and the plane
+   * of T can disagree by the plane's change over about one grid unit: the band covers that,
+   * twice the tie band, and nothing that could be in front is left out. */
+  double band = 2.0 * VM_TIE_EPS * scale + 2.0 * (fabs(P.gx) + fabs(P.gy));
   return E.q0 - qa > -band || E.q1 - qb > -band;
 }
 
@@ -44,8 +48,8 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
                           __global const uint* tile_offset, __global const uint* tile_count,
                           __global const uint* tile_list, __global uint* out) {
   int4 tb = tri_bb[t];
-  int tx0 = tile_coord(tb.x, g.tile_size, g.tiles_x), tx1 = tile_coord(tb.z, g.tile_size, g.tiles_x);
-  int ty0 = tile_coord(tb.y, g.tile_size, g.tiles_y), ty1 = tile_coord(tb.w, g.tile_size, g.tiles_y);
+  int tx0 = tile_coord(tb.x, g.tile_shift, g.tiles_x), tx1 = tile_coord(tb.z, g.tile_shift, g.tiles_x);
+  int ty0 = tile_coord(tb.y, g.tile_shift, g.tiles_y), ty1 = tile_coord(tb.w, g.tile_shift, g.tiles_y);
   uint count = 0;
   for (int ty = ty0; ty <= ty1; ++ty)
     for (int tx = tx0; tx <= tx1; ++tx) {
@@ -58,8 +62,8 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
         int ix1 = min(tb.z, eb.z), iy1 = min(tb.w, eb.w);
         if (ix0 > ix1 || iy0 > iy1) continue;
         /* A pair is looked at only in the tile holding the low corner of its box overlap. */
-        if (tile_coord(ix0, g.tile_size, g.tiles_x) != tx ||
-            tile_coord(iy0, g.tile_size, g.tiles_y) != ty)
+        if (tile_coord(ix0, g.tile_shift, g.tiles_x) != tx ||
+            tile_coord(iy0, g.tile_shift, g.tiles_y) != ty)
           continue;
         if (!edge_is_candidate(&tris[t], edges[e])) continue;
         if (out) out[count] = e;
@@ -69,24 +73,31 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
   return count;
 }
 
+/* A triangle's candidates: first its crossing lines (edges[nsil + cross_offset[t] ...]), then
+ * the silhouette edges in front of it. */
 __kernel void cand_count(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
                          __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
                          __global const uint* tile_offset, __global const uint* tile_count,
-                         __global const uint* tile_list, __global uint* counts) {
+                         __global const uint* tile_list, __global const uint* cross_count,
+                         __global uint* counts) {
   uint t = get_global_id(0);
   if (t >= ntris) return;
-  counts[t] = candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_offset, tile_count, tile_list, 0);
+  counts[t] = cross_count[t] +
+              candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_offset, tile_count, tile_list, 0);
 }
 
 __kernel void cand_fill(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
                         __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
                         __global const uint* tile_offset, __global const uint* tile_count,
-                        __global const uint* tile_list, __global const uint* offsets,
+                        __global const uint* tile_list, __global const uint* cross_offset,
+                        __global const uint* cross_count, uint nsil, __global const uint* offsets,
                         __global uint* cand) {
   uint t = get_global_id(0);
   if (t >= ntris) return;
+  uint nc = cross_count[t];
+  for (uint k = 0; k < nc; ++k) cand[offsets[t] + k] = nsil + cross_offset[t] + k;
   candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_offset, tile_count, tile_list,
-                cand + offsets[t]);
+                cand + offsets[t] + nc);
 }
 
 /* The root fragment of every screen triangle: its three edges. */
@@ -114,7 +125,8 @@ __kernel void frag_init(__global const VmScreenTri* tris, uint ntris, __global V
  * vertices, and no fragment edge line has both segment ends on its closed outer side
  * (separating axes of a convex polygon and a segment). */
 inline bool cuts(__global const VmLine* L, uint n, VmEdge E, int* sgn) {
-  for (uint i = 0; i < n; ++i) {
+  /* Crossing lines (q = +inf) are infinite: only the segment of a silhouette edge is tested. */
+  for (uint i = 0; i < n && !isinf(E.q0); ++i) {
     Line3 Li = line_of_vm(L[i]);
     if (line_eval_point(Li, E.x0, E.y0) <= 0 && line_eval_point(Li, E.x1, E.y1) <= 0) return false;
   }
@@ -163,8 +175,26 @@ __kernel void clip_find(__global const VmFragMeta* meta, __global const VmLine* 
   __global const VmLine* L = lines + (size_t)i * VM_MAXL;
   uint off = cand_offset[m.tri], n = cand_count[m.tri];
   int sgn[VM_MAXL];
+  /* The fragment's box (from approximate vertices, widened by a grid unit: only a filter) lets
+   * most far-away segments go without the exact tests. */
+  double2 lo = (double2)(INFINITY, INFINITY), hi = (double2)(-INFINITY, -INFINITY);
+  {
+    Line3 first = line_of_vm(L[0]), cur = first;
+    for (uint j = 0; j < m.nlines; ++j) {
+      Line3 nxt = j + 1 == m.nlines ? first : line_of_vm(L[j + 1]);
+      double2 v = vertex_approx(cur, nxt);
+      lo = fmin(lo, v);
+      hi = fmax(hi, v);
+      cur = nxt;
+    }
+    lo -= (double2)(1.0, 1.0);
+    hi += (double2)(1.0, 1.0);
+  }
   for (uint k = m.next; k < n; ++k) {
     VmEdge E = edges[cand[off + k]];
+    if (!isinf(E.q0) && (fmax((double)E.x0, (double)E.x1) < lo.x || fmin((double)E.x0, (double)E.x1) > hi.x ||
+                         fmax((double)E.y0, (double)E.y1) < lo.y || fmin((double)E.y0, (double)E.y1) > hi.y))
+      continue;
     if (cuts(L, m.nlines, E, sgn)) {
       VmLine cut = {E.x0, E.y0, E.x1, E.y1};
       uint np = split_side(L, m.nlines, sgn, 1, cut, 0, 0);

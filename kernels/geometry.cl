@@ -62,15 +62,32 @@ inline int line_side_fine(Line3 L, long px, long py) {
   return i128_sign(s);
 }
 
-/* Nearness of a screen triangle's plane at a point (grid units): affine interpolation. */
-inline double tri_depth_at(const VmScreenTri* t, double x, double y) {
+/* A screen triangle's depth plane: nearness q(x, y) = q0 + gx*(x - x0) + gy*(y - y0) in grid
+ * units, the affine interpolation of its three vertices' nearness. */
+typedef struct {
+  double x0, y0, q0, gx, gy;
+} DepthPlane;
+
+inline DepthPlane depth_plane(const VmScreenTri* t) {
   double dx1 = (double)(t->x[1] - t->x[0]), dy1 = (double)(t->y[1] - t->y[0]);
   double dx2 = (double)(t->x[2] - t->x[0]), dy2 = (double)(t->y[2] - t->y[0]);
   double dq1 = t->q[1] - t->q[0], dq2 = t->q[2] - t->q[0];
   double det = dx1 * dy2 - dx2 * dy1;
-  double gx = (dq1 * dy2 - dq2 * dy1) / det;
-  double gy = (dq2 * dx1 - dq1 * dx2) / det;
-  return t->q[0] + gx * (x - (double)t->x[0]) + gy * (y - (double)t->y[0]);
+  DepthPlane p;
+  p.x0 = (double)t->x[0];
+  p.y0 = (double)t->y[0];
+  p.q0 = t->q[0];
+  p.gx = (dq1 * dy2 - dq2 * dy1) / det;
+  p.gy = (dq2 * dx1 - dq1 * dx2) / det;
+  return p;
+}
+
+inline double plane_at(DepthPlane p, double x, double y) {
+  return p.q0 + p.gx * (x - p.x0) + p.gy * (y - p.y0);
+}
+
+inline double tri_depth_at(const VmScreenTri* t, double x, double y) {
+  return plane_at(depth_plane(t), x, y);
 }
 
 /* Does triangle `o` win over triangle `t` where their nearness is qo and qt? Ties within the

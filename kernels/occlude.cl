@@ -49,11 +49,42 @@ inline bool covers(__global const VmScreenTri* o, long px, long py) {
   return true;
 }
 
+/* Does screen triangle o hide screen triangle t at the fine point (px, py), which both cover?
+ * Crossing pairs: by the side of their snapped intersection line (t's copy is directed so that
+ * t is in front on its positive side). Other pairs: by the depth difference where it is clear
+ * of the tie band, else by the relation of the pair over its whole overlap, so that all points
+ * of the overlap get the same answer. */
+inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, long px, long py,
+                  __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
+                  __global const uint* cross_count, __global const uint* partner) {
+  uint co = cross_offset[t], cn = cross_count[t];
+  for (uint k = 0; k < cn; ++k)
+    if (partner[co + k] == o) {
+      VmEdge e = edges[nsil + co + k];
+      if (isinf(e.q0)) return line_side_fine(line_of(e.x0, e.y0, e.x1, e.y1), px, py) < 0;
+    }
+  const double inv = 1.0 / (double)((long)1 << VM_POINT_BITS);
+  double fx = (double)px * inv, fy = (double)py * inv;
+  double qt = tri_depth_at(T, fx, fy), qo = tri_depth_at(O, fx, fy);
+  double band = VM_TIE_EPS * fmax(fabs(qt), fabs(qo));
+  if (qo - qt > band) return true;
+  if (qt - qo > band) return false;
+  VmLine unused;
+  int rel = t < o ? pair_relation(T, O, &unused) : pair_relation(O, T, &unused);
+  bool t_is_a = t < o;
+  if ((rel & 3) == VM_REL_A_FRONT) return !t_is_a;
+  if ((rel & 3) == VM_REL_B_FRONT) return t_is_a;
+  /* No overlap of positive area found (or a crossing too short to snap): the tie rule. */
+  return in_front(qo, qt, O->mesh, O->tri, T->mesh, T->tri);
+}
+
 /* visible[i] = 1 when no screen triangle covers fragment i's interior point in front of it;
  * 0 when one does; 0 (and counted in status[1]) when the fragment has no interior point. */
 __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* lines, uint n,
                       __global const VmScreenTri* tris, VmGrid g, __global const uint* tile_offset,
                       __global const uint* tile_count, __global const uint* tile_list,
+                      __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
+                      __global const uint* cross_count, __global const uint* partner,
                       __global uint* visible, __global uint* status) {
   uint i = get_global_id(0);
   if (i >= n) return;
@@ -65,21 +96,16 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
     return;
   }
   VmScreenTri t = tris[m.tri];
-  const double inv = 1.0 / (double)((long)1 << VM_POINT_BITS);
-  double fx = (double)px * inv, fy = (double)py * inv;
-  double qt = tri_depth_at(&t, fx, fy);
   int gx = (int)(px >> VM_POINT_BITS), gy = (int)(py >> VM_POINT_BITS);
-  uint tile = tile_coord(gy, g.tile_size, g.tiles_y) * g.tiles_x + tile_coord(gx, g.tile_size, g.tiles_x);
+  uint tile = tile_coord(gy, g.tile_shift, g.tiles_y) * g.tiles_x + tile_coord(gx, g.tile_shift, g.tiles_x);
   uint off = tile_offset[tile], cnt = tile_count[tile];
   for (uint k = 0; k < cnt; ++k) {
     uint o = tile_list[off + k];
     if (o == m.tri) continue;
-    __global const VmScreenTri* ot = &tris[o];
-    if (ot->mesh == t.mesh && ot->tri == t.tri) continue; /* pieces of one source never overlap */
-    if (!covers(ot, px, py)) continue;
-    VmScreenTri oc = *ot;
-    double qo = tri_depth_at(&oc, fx, fy);
-    if (in_front(qo, qt, oc.mesh, oc.tri, t.mesh, t.tri)) {
+    VmScreenTri ot = tris[o];
+    if (ot.mesh == t.mesh && ot.tri == t.tri) continue; /* pieces of one source never overlap */
+    if (!covers(&tris[o], px, py)) continue;
+    if (hides(m.tri, o, &t, &ot, px, py, edges, nsil, cross_offset, cross_count, partner)) {
       visible[i] = 0;
       return;
     }

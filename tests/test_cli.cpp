@@ -1,0 +1,130 @@
+// The command-line tool end to end: real files in, real files out, errors on bad input with
+// nothing half-written.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/output.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+  int status = -1;
+  std::string err;
+};
+
+CliRun run(const std::string& args, const fs::path& dir) {
+  fs::path err = dir / "stderr.txt";
+  std::string cmd = std::string(VISMAP_CLI) + " " + args + " 2>" + err.string() + " >/dev/null";
+  int rc = std::system(cmd.c_str());
+  CliRun r;
+  r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  std::ifstream in(err);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  r.err = ss.str();
+  return r;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = fs::temp_directory_path() / ("vismap_cli_" + std::to_string(::getpid()) + "_" +
+                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  fs::path dir;
+  const std::string bunny = std::string(VISMAP_SOURCE_DIR) + "/data/bunny.ply";
+};
+
+TEST_F(Cli, RendersBunnySvgWithStats) {
+  fs::path out = dir / "bunny.svg";
+  CliRun r = run("render " + bunny + " -o " + out.string() + " --width 512 --height 512 --stats", dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::string svg = slurp(out);
+  EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+  EXPECT_NE(svg.find("viewBox=\"0 0 512 512\""), std::string::npos);
+  EXPECT_NE(svg.find("</svg>"), std::string::npos);
+  for (const char* s : {"transform", "silhouettes", "clip", "occlusion", "total", "output:"})
+    EXPECT_NE(r.err.find(s), std::string::npos) << s << "\n" << r.err;
+  // No temporary file left behind.
+  size_t files = 0;
+  for (auto& e : fs::directory_iterator(dir)) files += e.path().filename() != "stderr.txt";
+  EXPECT_EQ(files, 1u);
+}
+
+TEST_F(Cli, BinaryOutputRoundTrips) {
+  fs::path out = dir / "bunny.bin";
+  CliRun r = run("render " + bunny + " -o " + out.string() + " --format bin --width 300 --height 200 "
+              "--eye 0,0.1,0.4 --target 0,0.1,0 --fov-y 40",
+              dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  vismap::BinFrame f = vismap::read_bin(slurp(out));
+  EXPECT_EQ(f.width, 300u);
+  EXPECT_EQ(f.height, 200u);
+  EXPECT_EQ(f.flags & 1u, 1u);  // barycentrics and 1/w present
+  ASSERT_GT(f.triangle_count(), 1000u);
+  for (size_t i = 0; i < f.triangle_count(); ++i) {
+    EXPECT_LT(f.triangle_id[i], 69451u);
+    for (int k = 0; k < 3; ++k) {
+      float s = f.bary[9 * i + 3 * k] + f.bary[9 * i + 3 * k + 1] + f.bary[9 * i + 3 * k + 2];
+      ASSERT_NEAR(s, 1.0f, 1e-3f);
+      ASSERT_GT(f.inv_w[3 * i + k], 0.0f);
+    }
+  }
+}
+
+TEST_F(Cli, IdFillIsCrisp) {
+  fs::path out = dir / "id.svg";
+  CliRun r = run("render " + bunny + " -o " + out.string() + " --fill id --ortho 0.2 --width 256", dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::string svg = slurp(out);
+  EXPECT_NE(svg.find("crispEdges"), std::string::npos);
+  EXPECT_NE(svg.find("fill=\"#"), std::string::npos);
+}
+
+TEST_F(Cli, BadInputFailsCleanly) {
+  fs::path out = dir / "out.svg";
+  CliRun missing = run("render " + (dir / "nope.ply").string() + " -o " + out.string(), dir);
+  EXPECT_EQ(missing.status, 1);
+  EXPECT_NE(missing.err.find("nope.ply"), std::string::npos) << missing.err;
+
+  std::ofstream(dir / "nan.obj") << "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n";
+  CliRun nan = run("render " + (dir / "nan.obj").string() + " -o " + out.string(), dir);
+  EXPECT_EQ(nan.status, 1);
+  EXPECT_NE(nan.err.find("nan.obj"), std::string::npos) << nan.err;
+  EXPECT_NE(nan.err.find("vertex 1"), std::string::npos) << nan.err;
+
+  std::ofstream(dir / "scene.xyz") << "hello";
+  CliRun unknown = run("render " + (dir / "scene.xyz").string() + " -o " + out.string(), dir);
+  EXPECT_EQ(unknown.status, 1);
+  EXPECT_NE(unknown.err.find("scene.xyz"), std::string::npos) << unknown.err;
+
+  CliRun cam = run("render " + bunny + " -o " + out.string() + " --eye 0,0,0 --target 0,0,0", dir);
+  EXPECT_NE(cam.status, 0);
+  CliRun usage = run("render " + bunny + " -o " + out.string() + " --format pdf", dir);
+  EXPECT_EQ(usage.status, 2);
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator{}), 3);  // stderr.txt, nan.obj, scene.xyz
+}
+
+TEST_F(Cli, ListsDevices) {
+  CliRun r = run("devices", dir);
+  EXPECT_EQ(r.status, 0) << r.err;
+}
+
+}  // namespace

@@ -1,0 +1,322 @@
+// Each format loads with the counts SOURCES.md lists, faces in file order, transforms applied.
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+
+#include "tests/loader_test_util.h"
+
+using namespace vismap;
+using vismap::test::TempDir;
+
+namespace {
+
+void expect_ids_in_order(const Mesh& m) {
+  ASSERT_EQ(m.face_ids.size(), m.triangle_count());
+  for (size_t i = 1; i < m.face_ids.size(); ++i) {
+    ASSERT_LT(m.face_ids[i - 1], m.face_ids[i]);
+  }
+  if (!m.face_ids.empty()) {
+    EXPECT_LT(m.face_ids.back(), m.source_triangles);
+  }
+}
+
+#define REQUIRE_SHARED()                  \
+  if (!vismap::test::have_shared()) {     \
+    GTEST_SKIP() << "no ../shared/data"; \
+  }
+
+}  // namespace
+
+TEST(LoadPly, BunnyAsciiEveryFaceInOrder) {
+  std::string path = test::data_dir() + "/bunny.ply";
+  Scene s = load_scene(path);
+  ASSERT_EQ(s.meshes.size(), 1u);
+  const Mesh& m = s.meshes[0];
+  EXPECT_EQ(m.vertex_count(), 35947u);
+  EXPECT_EQ(m.triangle_count(), 69451u);
+  EXPECT_EQ(m.source_triangles, 69451u);
+  EXPECT_EQ(s.dropped_degenerate, 0u);
+  EXPECT_FALSE(m.soup);
+  EXPECT_EQ(m.name, "bunny");
+  EXPECT_EQ(s.source, path);
+  EXPECT_FLOAT_EQ(m.positions[0], -0.0378297f);
+  EXPECT_FLOAT_EQ(m.positions[2], 0.00447467f);
+  // The last face of the file is "3 17277 17346 17345".
+  EXPECT_EQ(m.face_ids.back(), 69450u);
+  EXPECT_EQ(m.indices[3 * 69450 + 0], 17277u);
+  EXPECT_EQ(m.indices[3 * 69450 + 2], 17345u);
+  expect_ids_in_order(m);
+}
+
+TEST(LoadPly, NonManifoldHappyBuddhaKeepsAllFaces) {
+  REQUIRE_SHARED();
+  Scene s = load_scene(test::shared_dir() + "/stanford/happy_vrip_res3.ply");
+  EXPECT_EQ(s.meshes[0].vertex_count(), 32328u);
+  EXPECT_EQ(s.meshes[0].source_triangles, 67240u);
+  EXPECT_EQ(s.triangle_count(), 67240u);  // duplicate faces included: SOURCES.md, zero_area_tris=0
+}
+
+TEST(LoadPly, BinaryTristripsIgea) {
+  REQUIRE_SHARED();
+  Scene s = load_scene(test::shared_dir() + "/extra_scans/igea.ply");
+  EXPECT_EQ(s.meshes[0].vertex_count(), 134345u);
+  EXPECT_EQ(s.meshes[0].source_triangles, 268686u);
+  EXPECT_EQ(s.triangle_count() + s.dropped_degenerate, 268686u);
+  expect_ids_in_order(s.meshes[0]);
+}
+
+TEST(LoadPly, AsciiBinaryLittleAndBigEndianAgree) {
+  TempDir dir;
+  const char* head =
+      "element vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+      "property uchar red\nelement face 2\nproperty list uchar int vertex_indices\n"
+      "property int flags\nend_header\n";
+  std::string ascii = std::string("ply\nformat ascii 1.0\ncomment test\n") + head +
+                      "0 0 0 1\n1 0 0 2\n1 1 0 3\n0 1 0 4\n0.5 0.5 1 5\n4 0 1 2 3 7\n3 3 2 4 8\n";
+  auto binary = [&](bool big) {
+    std::string b = std::string("ply\nformat ") + (big ? "binary_big_endian" : "binary_little_endian") +
+                    " 1.0\n" + head;
+    auto put = [&](const void* p, size_t n) {
+      std::string s(static_cast<const char*>(p), n);
+      if (big) std::reverse(s.begin(), s.end());
+      b += s;
+    };
+    float v[5][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0.5f, 0.5f, 1}};
+    for (int i = 0; i < 5; ++i) {
+      for (float f : v[i]) put(&f, 4);
+      b += char(i + 1);
+    }
+    std::vector<std::vector<int32_t>> faces = {{0, 1, 2, 3}, {3, 2, 4}};
+    for (auto& f : faces) {
+      b += char(f.size());
+      for (int32_t i : f) put(&i, 4);
+      int32_t flags = 7;
+      put(&flags, 4);
+    }
+    return b;
+  };
+  Scene a = load_scene(dir.write("a.ply", ascii));
+  Scene le = load_scene(dir.write("le.PLY", binary(false)));  // extensions are case-insensitive
+  Scene be = load_scene(dir.write("be.ply", binary(true)));
+  for (const Scene* s : {&a, &le, &be}) {
+    const Mesh& m = s->meshes[0];
+    EXPECT_EQ(m.positions, a.meshes[0].positions);
+    // The quad is fanned into 2 triangles (ids 0, 1), the triangle after it is id 2.
+    EXPECT_EQ(m.indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3, 3, 2, 4}));
+    EXPECT_EQ(m.face_ids, (std::vector<uint32_t>{0, 1, 2}));
+    EXPECT_EQ(m.source_triangles, 3u);
+  }
+}
+
+TEST(LoadPly, GzipDragonInDragonBunniesScene) {
+  // Loads data/dragon_vrip.ply.gz (871,414 triangles) once, through the composed scene.
+  Scene s = load_scene(test::data_dir() + "/scenes/dragon_bunnies.json");
+  ASSERT_EQ(s.meshes.size(), 4u);
+  EXPECT_EQ(s.meshes[0].name, "dragon");
+  EXPECT_EQ(s.meshes[0].vertex_count(), 437645u);
+  EXPECT_EQ(s.meshes[0].source_triangles, 871414u);
+  EXPECT_EQ(s.meshes[0].triangle_count() + s.dropped_degenerate, 871414u);
+  expect_ids_in_order(s.meshes[0]);
+  for (int i = 1; i < 4; ++i) EXPECT_EQ(s.meshes[i].source_triangles, 69451u);
+  ASSERT_TRUE(s.camera.has_value());
+  auto base = s.triangle_id_base();
+  EXPECT_EQ(base[1], 871414u);
+}
+
+TEST(LoadObj, TeapotAndArmadillo) {
+  REQUIRE_SHARED();
+  Scene t = load_scene(test::shared_dir() + "/teapot/teapot_c3d.obj");
+  ASSERT_EQ(t.meshes.size(), 1u);
+  EXPECT_EQ(t.meshes[0].vertex_count(), 3644u);
+  EXPECT_EQ(t.meshes[0].source_triangles, 6320u);
+  EXPECT_TRUE(t.meshes[0].soup);  // open seams: vertices duplicated between patches
+  Scene a = load_scene(test::data_dir() + "/armadillo.obj");
+  EXPECT_EQ(a.meshes[0].source_triangles, 29170u);
+  EXPECT_FALSE(a.meshes[0].soup);
+}
+
+TEST(LoadObj, CornellBoxSplitsByMaterialWithKdColors) {
+  Scene s = load_scene(test::data_dir() + "/cornell_box/CornellBox-Original.obj");
+  std::vector<std::string> names;
+  for (const Mesh& m : s.meshes) names.push_back(m.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"floor", "ceiling", "backWall", "rightWall", "leftWall",
+                                             "shortBox", "tallBox", "light"}));
+  EXPECT_EQ(s.triangle_count(), 36u);
+  EXPECT_FLOAT_EQ(s.meshes[4].color[0], 0.63f);  // leftWall Kd 0.63 0.065 0.05
+  EXPECT_FLOAT_EQ(s.meshes[3].color[1], 0.45f);  // rightWall Kd 0.14 0.45 0.091
+  EXPECT_EQ(s.meshes[5].source_triangles, 12u);
+}
+
+TEST(LoadObj, NegativeIndicesTexturesNormalsAndPolygons) {
+  TempDir dir;
+  std::string p = dir.write("p.obj",
+                            "# comment\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 1.5 0\nvt 0 0\nvn 0 0 1\n"
+                            "f 1/1/1 2/1/1 3/1/1 5//1 4\nf -3 -2 -1\n");
+  Scene s = load_scene(p);
+  EXPECT_EQ(s.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 4, 0, 4, 3, 2, 3, 4}));
+  EXPECT_EQ(s.meshes[0].face_ids, (std::vector<uint32_t>{0, 1, 2, 3}));
+}
+
+TEST(LoadOff, CgalModelsAndDegenerateDropping) {
+  REQUIRE_SHARED();
+  Scene a = load_scene(test::shared_dir() + "/cgal/armadillo.off");
+  EXPECT_EQ(a.meshes[0].vertex_count(), 26002u);
+  EXPECT_EQ(a.triangle_count(), 52000u);
+  Scene t = load_scene(test::shared_dir() + "/cgal/tetra_intersected_by_triangle.off");
+  EXPECT_EQ(t.meshes[0].source_triangles, 5u);
+  // degtri_sliding.off: 8 faces, 4 of them zero-area slivers on the x axis.
+  Scene d = load_scene(test::shared_dir() + "/cgal/degtri_sliding.off");
+  EXPECT_EQ(d.meshes[0].source_triangles, 8u);
+  EXPECT_EQ(d.triangle_count() + d.dropped_degenerate, 8u);
+  EXPECT_GT(d.dropped_degenerate, 0u);
+  expect_ids_in_order(d.meshes[0]);
+}
+
+TEST(LoadOff, ColorsCommentsAndRepeatedIndexDropped) {
+  TempDir dir;
+  std::string p = dir.write("c.off",
+                            "COFF # colored\n4 3 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n"
+                            "0 1 0 0 0 255 255\n1 1 0 9 9 9 9\n3 0 1 1\n3 0 1 2 1 0 0\n3 1 3 2\n");
+  Scene s = load_scene(p);
+  EXPECT_EQ(s.dropped_degenerate, 1u);
+  EXPECT_EQ(s.meshes[0].face_ids, (std::vector<uint32_t>{1, 2}));
+  EXPECT_EQ(s.meshes[0].source_triangles, 3u);
+}
+
+TEST(LoadStl, AsciiAndBinarySoup) {
+  TempDir dir;
+  std::string ascii =
+      "solid t\nfacet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 1 0 0\n  vertex 0 1 0\n"
+      " endloop\nendfacet\nfacet normal 0 0 1\n outer loop\n  vertex 1 0 0\n  vertex 1 1 0\n"
+      "  vertex 0 1 0\n endloop\nendfacet\nendsolid t\n";
+  std::string bin(80, 'x');
+  uint32_t n = 2;
+  bin.append(reinterpret_cast<const char*>(&n), 4);
+  float tris[2][12] = {{0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1, 0}};
+  for (auto& t : tris) {
+    bin.append(reinterpret_cast<const char*>(t), 48);
+    bin.append(2, '\0');
+  }
+  for (const std::string& p : {dir.write("a.stl", ascii), dir.write("b.stl", bin)}) {
+    Scene s = load_scene(p);
+    const Mesh& m = s.meshes[0];
+    EXPECT_TRUE(m.soup) << p;
+    EXPECT_EQ(m.vertex_count(), 6u) << p;
+    EXPECT_EQ(m.face_ids, (std::vector<uint32_t>{0, 1})) << p;
+    EXPECT_FLOAT_EQ(m.positions[12 + 1], 1.0f) << p;  // second facet, second vertex, y
+  }
+}
+
+TEST(LoadGltf, NodeHierarchyColorAndCamera) {
+  Scene s = load_scene(test::data_dir() + "/scenes/triangle_camera.gltf");
+  ASSERT_EQ(s.meshes.size(), 1u);
+  const Mesh& m = s.meshes[0];
+  // parent translate (10,0,0) * child rotate 90 deg about z * scale 2: (1,0,0) -> (10,2,0).
+  EXPECT_NEAR(m.positions[3], 10.0f, 1e-5);
+  EXPECT_NEAR(m.positions[4], 2.0f, 1e-5);
+  EXPECT_NEAR(m.positions[6], 8.0f, 1e-5);
+  EXPECT_NEAR(m.positions[7], 0.0f, 1e-5);
+  EXPECT_FLOAT_EQ(m.color[2], 0.6f);
+  ASSERT_TRUE(s.camera.has_value());
+  const Camera& c = *s.camera;
+  EXPECT_EQ(c.projection, Camera::Projection::Perspective);
+  EXPECT_NEAR(c.eye[2], 5.0, 1e-12);
+  EXPECT_NEAR(c.target[2], 4.0, 1e-12);  // looks down its -Z
+  EXPECT_NEAR(c.up[1], 1.0, 1e-12);
+  EXPECT_NEAR(c.fov_y_deg, 0.5 * 180 / M_PI, 1e-9);
+  EXPECT_DOUBLE_EQ(c.near_plane, 0.1);
+  EXPECT_DOUBLE_EQ(c.far_plane, 100.0);
+  EXPECT_EQ(c.width, 1536u);  // aspectRatio 1.5 at the default height 1024
+}
+
+TEST(LoadGltf, GlbStripFanOrthographicFromFileAndMemory) {
+  std::string path = test::data_dir() + "/scenes/strip_fan.glb";
+  for (const Scene& s : {load_scene(path), load_scene_from_memory("up.glb", test::read_bytes(path))}) {
+    ASSERT_EQ(s.meshes.size(), 2u);
+    EXPECT_EQ(s.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2, 2, 1, 3}));  // strip
+    EXPECT_EQ(s.meshes[1].indices, (std::vector<uint32_t>{1, 3, 0, 3, 2, 0}));  // fan around 0
+    EXPECT_FLOAT_EQ(s.meshes[1].positions[3], 2.0f);  // matrix translates by (1,0,0)
+    ASSERT_TRUE(s.camera.has_value());
+    EXPECT_EQ(s.camera->projection, Camera::Projection::Orthographic);
+    EXPECT_DOUBLE_EQ(s.camera->ortho_height, 4.0);
+    EXPECT_NEAR(s.camera->target[1], 4.0, 1e-12);  // rotated to look down -y
+    EXPECT_NEAR(s.camera->up[2], -1.0, 1e-12);
+  }
+}
+
+TEST(LoadSceneFile, TwoQuadsInstancedWithColorsAndCamera) {
+  Scene s = load_scene(test::data_dir() + "/scenes/two_quads.json");
+  ASSERT_EQ(s.meshes.size(), 2u);
+  EXPECT_EQ(s.meshes[1].name, "front");
+  EXPECT_FLOAT_EQ(s.meshes[1].positions[0], 0.0f);  // (-0.5,-0.5,0) + (0.5,0.5,0.5)
+  EXPECT_FLOAT_EQ(s.meshes[1].positions[2], 0.5f);
+  EXPECT_FLOAT_EQ(s.meshes[0].color[0], 0.8f);
+  ASSERT_TRUE(s.camera.has_value());
+  EXPECT_EQ(s.camera->projection, Camera::Projection::Orthographic);
+  EXPECT_EQ(s.camera->width, 512u);
+  EXPECT_DOUBLE_EQ(s.camera->far_plane, 10.0);
+}
+
+TEST(LoadSceneFile, TransformsComposeScaleThenRotateThenTranslate) {
+  TempDir dir;
+  dir.write("tri.obj", "v 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n");
+  std::string p = dir.write("s.json", R"({"meshes": [
+    {"file": "tri.obj", "scale": [2, 1, 1], "rotate_deg": [0, 0, 90], "translate": [0, 0, 5]},
+    {"file": "tri.obj", "rotate_axis_angle": [0, 0, 1, 90], "scale": 3},
+    {"file": "tri.obj", "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 7,8,9,1]},
+    {"file": "tri.obj", "scale": [-1, 1, 1]}]})");
+  Scene s = load_scene(p);
+  ASSERT_EQ(s.meshes.size(), 4u);
+  auto& a = s.meshes[0].positions;  // (1,0,0) -> scale (2,0,0) -> rot z 90 (0,2,0) -> (0,2,5)
+  EXPECT_NEAR(a[0], 0, 1e-6);
+  EXPECT_NEAR(a[1], 2, 1e-6);
+  EXPECT_NEAR(a[2], 5, 1e-6);
+  EXPECT_NEAR(s.meshes[1].positions[1], 3, 1e-6);
+  EXPECT_FLOAT_EQ(s.meshes[2].positions[0], 8.0f);
+  // A mirror reverses the winding so that normals keep pointing out.
+  EXPECT_EQ(s.meshes[3].indices, (std::vector<uint32_t>{0, 2, 1}));
+}
+
+TEST(LoadSceneFile, CornellArmadillo) {
+  Scene s = load_scene(test::data_dir() + "/scenes/cornell_armadillo.json");
+  ASSERT_EQ(s.meshes.size(), 9u);
+  EXPECT_EQ(s.meshes[8].name, "armadillo");
+  EXPECT_EQ(s.triangle_count(), 36u + 29170u);
+  ASSERT_TRUE(s.camera.has_value());
+  // The armadillo stands inside the box, on the floor.
+  float lo = 1e9f, hi = -1e9f;
+  for (size_t i = 1; i < s.meshes[8].positions.size(); i += 3) {
+    lo = std::min(lo, s.meshes[8].positions[i]);
+    hi = std::max(hi, s.meshes[8].positions[i]);
+  }
+  EXPECT_NEAR(lo, 0.0f, 1e-3);
+  EXPECT_LT(hi, 1.99f);
+}
+
+TEST(LoadOptions, MaxTrianglesIsEnforced) {
+  LoadOptions o;
+  o.max_triangles = 1000;
+  test::expect_error(test::data_dir() + "/bunny.ply", InputErrorKind::TooLarge, {"1000"}, o);
+  o.max_triangles = 69451;
+  EXPECT_EQ(load_scene(test::data_dir() + "/bunny.ply", o).triangle_count(), 69451u);
+}
+
+TEST(LoadGltf, ExternalBufferRelativeToTheFile) {
+  TempDir dir;
+  std::filesystem::create_directories(dir.path() + "/sub");
+  float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  dir.write("sub/tri.bin", std::string(reinterpret_cast<const char*>(pos), sizeof pos));
+  std::string gltf = R"({"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+    "buffers":[{"byteLength":36,"uri":"tri.bin"}],
+    "bufferViews":[{"buffer":0,"byteLength":36}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}]})";
+  Scene s = load_scene(dir.write("sub/tri.gltf", gltf));
+  EXPECT_EQ(s.triangle_count(), 1u);
+  EXPECT_EQ(s.meshes[0].face_ids, (std::vector<uint32_t>{0}));
+  EXPECT_FALSE(s.camera.has_value());
+  // The same bytes from memory may not read tri.bin; a missing buffer file is FileNotFound.
+  EXPECT_THROW(load_scene_from_memory("up.gltf", gltf), InputError);
+  std::string missing = dir.write("gone.gltf", gltf);
+  test::expect_error(missing, InputErrorKind::FileNotFound, {"tri.bin"});
+}
