@@ -388,7 +388,7 @@ TEST_F(ServerTest, HeavySessionCannotStarveALightOne) {
   start();
   WsClient heavy;
   hello(heavy);
-  std::string big = grid_obj(150);  // 45,000 triangles
+  std::string big = grid_obj(100);  // 20,000 triangles
   upload(heavy, "grid.obj", big);
   ASSERT_EQ(next(heavy, 120)["type"], "scene_ready");
   std::atomic<bool> stop{false};
