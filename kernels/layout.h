@@ -77,6 +77,7 @@ typedef struct {
 /* Status flags a kernel can raise (read back by the host). */
 #define VM_STATUS_LINES_OVERFLOW 1u
 #define VM_STATUS_HASH_FULL 2u
+#define VM_STATUS_PAIRS_OVERFLOW 4u
 
 #ifndef __OPENCL_VERSION__
 static_assert(sizeof(VmScreenTri) == 64, "VmScreenTri layout");

@@ -1,6 +1,6 @@
 // check_planar_map and pixel_compare (docs/CHECKS.md). Exact predicates from exact_geom.h; the
 // union of the screen triangles comes from reference.cpp (the CGAL translation unit).
-#include "tests/support/planar_check.h"
+#include "core/reference/planar_check.h"
 
 #include <algorithm>
 #include <chrono>
@@ -11,7 +11,7 @@
 #include <stdexcept>
 #include <unordered_map>
 
-#include "tests/support/exact_geom.h"
+#include "core/reference/exact_geom.h"
 
 namespace vismap::check {
 namespace detail {

@@ -13,8 +13,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "tests/support/exact_geom.h"
-#include "tests/support/planar_check.h"
+#include "core/reference/exact_geom.h"
+#include "core/reference/planar_check.h"
 
 namespace vismap::check {
 
