@@ -17,6 +17,7 @@ struct CheckArgs {
   ViewArgs view;
   check::SceneCheckOptions opts;
   bool reverse = false;
+  check::Tolerances tol;
 };
 
 CheckArgs parse_check(int argc, char** argv) {
@@ -34,6 +35,7 @@ CheckArgs parse_check(int argc, char** argv) {
       pixels_given = true;
     } else if (f == "--tile-pixels") a.opts.tile_pixels = parse_pixels(f, value());
     else if (f == "--reverse") a.reverse = true;
+    else if (f == "--strict") a.tol.strict = true;
     else if (f == "--no-reference") a.opts.reference = false;
     else if (f == "--reference") force_reference = true;
     else if (!f.empty() && f[0] == '-') throw UsageError("unknown option " + f);
@@ -65,7 +67,7 @@ int cmd_check(int argc, char** argv) {
   j["width"] = cam.width;
   j["height"] = cam.height;
   j["reversed"] = a.reverse;
-  std::vector<std::string> bad = check::over_tolerance(f);
+  std::vector<std::string> bad = check::over_tolerance(f, a.tol);
   j["over_tolerance"] = bad;
   std::printf("%s\n", j.dump().c_str());
   return bad.empty() ? 0 : 4;

@@ -32,7 +32,7 @@ const char* kUsage =
     "                [--eye X,Y,Z --target X,Y,Z --up X,Y,Z] [--fov-y DEG | --ortho HEIGHT]\n"
     "                [--near N --far F] [--device NAME] [--stats]\n"
     "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
-    "                [--reverse] [--no-reference]   one JSON object on stdout; exit 4 if over tolerance\n"
+    "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 if over tolerance\n"
     "  vismap devices\n"
     "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb or a .json scene file.\n"
     "--device (or $VISMAP_DEVICE): 'P:D' from `vismap devices`, or part of a device/platform name.\n";

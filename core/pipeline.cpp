@@ -214,7 +214,8 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   // Triangles on the fine grid (crossing pairs, occlusion), sorted so that every list a kernel
   // walks is in a fixed order.
   cl::Buffer tri_bb = rt.alloc(size_t(S) * sizeof(cl_int4), "triangle boxes");
-  rt.launch("bin", "tri_bbox", S, tris, S, tri_bb);
+  cl::Buffer tri_qr = rt.alloc(size_t(S) * sizeof(cl_double2), "triangle depth ranges");
+  rt.launch("bin", "tri_bbox", S, tris, S, tri_bb, tri_qr);
   Bins tbins = bin("bin", tri_bb, S, og, true);
   cl::Buffer pair_t, pair_o, pair_rel, pair_line;
 
@@ -228,7 +229,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     cl::Buffer scr_o = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
     cl::Buffer scr_rel = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
     cl::Buffer scr_line = rt.alloc(size_t(S) * kInline * sizeof(VmLine), "pair scratch");
-    rt.launch("crossings", "cross_pairs", S, tris, S, tri_bb, og, tbins.offset, tbins.count,
+    rt.launch("crossings", "cross_pairs", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.count,
               tbins.list, pcount, scr_o, scr_rel, scr_line, totals);
     st.entangled_pairs = rt.scan("crossings", pcount, poffset, S);
     uint32_t status = 0;
@@ -239,7 +240,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     pair_rel = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
     pair_line = rt.alloc(std::max<size_t>(P, 1) * sizeof(VmLine), "pairs");
     if (status & VM_STATUS_PAIRS_OVERFLOW)
-      rt.launch("crossings", "cross_pairs_fill", S, tris, S, tri_bb, og, tbins.offset, tbins.count,
+      rt.launch("crossings", "cross_pairs_fill", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.count,
                 tbins.list, poffset, pair_t, pair_o, pair_rel, pair_line);
     else
       rt.launch("crossings", "cross_compact", S, S, pcount, poffset, scr_o, scr_rel, scr_line,
@@ -352,7 +353,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   // ---- occlusion ----------------------------------------------------------------------------
   cl::Buffer visible = rt.alloc(std::max<size_t>(nd, 1) * 4, "visibility");
   cl::Buffer voff = rt.alloc(std::max<size_t>(nd, 1) * 4, "visible offsets");
-  rt.launch("occlusion", "occlude", nd, done_meta, done_lines, nd, tris, og, tbins.offset,
+  rt.launch("occlusion", "occlude", nd, done_meta, done_lines, nd, tris, tri_bb, og, tbins.offset,
             tbins.count, tbins.list, edges, E, cross_offset, cross_count, partner, visible, totals);
   const uint32_t V = rt.scan("occlusion", visible, voff, nd);
   st.visible_fragments = V;

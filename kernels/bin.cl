@@ -3,12 +3,15 @@
  * scan (host), fill per tile, and sort each tile's list by item id so that everything downstream
  * is deterministic whatever order the atomics ran in. */
 
-__kernel void tri_bbox(__global const VmScreenTri* tris, uint n, __global int4* bb) {
+/* Also each triangle's nearness range, so pair tests can reject by depth before loading it. */
+__kernel void tri_bbox(__global const VmScreenTri* tris, uint n, __global int4* bb,
+                       __global double2* qr) {
   uint i = get_global_id(0);
   if (i >= n) return;
   VmScreenTri t = tris[i];
   bb[i] = (int4)(min(min(t.x[0], t.x[1]), t.x[2]), min(min(t.y[0], t.y[1]), t.y[2]),
                  max(max(t.x[0], t.x[1]), t.x[2]), max(max(t.y[0], t.y[1]), t.y[2]));
+  qr[i] = (double2)(fmin(fmin(t.q[0], t.q[1]), t.q[2]), fmax(fmax(t.q[0], t.q[1]), t.q[2]));
 }
 
 __kernel void edge_bbox(__global const VmEdge* edges, uint n, __global int4* bb) {

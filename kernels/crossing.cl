@@ -121,7 +121,8 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
  * rest only raise a status bit, after which cross_pairs_fill traverses again into exact space. */
 #define VM_PAIRS_INLINE 4
 
-inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb, VmGrid g,
+inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
+                     __global const double2* tri_qr, VmGrid g,
                      __global const uint* tile_offset, __global const uint* tile_count,
                      __global const uint* tile_list, uint cap, __global uint* out_o,
                      __global uint* out_rel, __global VmLine* out_line) {
@@ -145,13 +146,12 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
         if (tile_coord(ix0, g.tile_shift, g.tiles_x) != tx ||
             tile_coord(iy0, g.tile_shift, g.tiles_y) != ty)
           continue;
+        /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
+        double2 oq = tri_qr[o];
+        double band = VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(oq.y)), fmax(fabs(qmin), fabs(oq.x)));
+        if (oq.x > qmax + band || qmin > oq.y + band) continue;
         VmScreenTri other = tris[o];
         if (other.mesh == me.mesh && other.tri == me.tri) continue;
-        double omin = fmin(fmin(other.q[0], other.q[1]), other.q[2]);
-        double omax = fmax(fmax(other.q[0], other.q[1]), other.q[2]);
-        /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
-        double band = VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(omax)), fmax(fabs(qmin), fabs(omin)));
-        if (omin > qmax + band || qmin > omax + band) continue;
         VmLine line;
         int rel = pair_relation(&me, &other, &line);
         if (rel != VM_REL_CROSS && !(rel & VM_REL_TIE)) continue;
@@ -167,14 +167,14 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
 }
 
 __kernel void cross_pairs(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
-                          VmGrid g, __global const uint* tile_offset, __global const uint* tile_count,
+                          __global const double2* tri_qr, VmGrid g, __global const uint* tile_offset, __global const uint* tile_count,
                           __global const uint* tile_list, __global uint* counts,
                           __global uint* scr_o, __global uint* scr_rel, __global VmLine* scr_line,
                           __global uint* status) {
   uint t = get_global_id(0);
   if (t >= ntris) return;
   size_t s = (size_t)t * VM_PAIRS_INLINE;
-  uint c = pairs_of(t, tris, tri_bb, g, tile_offset, tile_count, tile_list, VM_PAIRS_INLINE,
+  uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_offset, tile_count, tile_list, VM_PAIRS_INLINE,
                     scr_o + s, scr_rel + s, scr_line + s);
   counts[t] = c;
   if (c > VM_PAIRS_INLINE) atomic_or(status, VM_STATUS_PAIRS_OVERFLOW);
@@ -182,7 +182,7 @@ __kernel void cross_pairs(__global const VmScreenTri* tris, uint ntris, __global
 
 /* Only after an overflow: the same traversal, straight into the compact pair arrays. */
 __kernel void cross_pairs_fill(__global const VmScreenTri* tris, uint ntris,
-                               __global const int4* tri_bb, VmGrid g,
+                               __global const int4* tri_bb, __global const double2* tri_qr, VmGrid g,
                                __global const uint* tile_offset, __global const uint* tile_count,
                                __global const uint* tile_list, __global const uint* offsets,
                                __global uint* pair_t, __global uint* pair_o, __global uint* pair_rel,
@@ -190,7 +190,7 @@ __kernel void cross_pairs_fill(__global const VmScreenTri* tris, uint ntris,
   uint t = get_global_id(0);
   if (t >= ntris) return;
   uint o = offsets[t];
-  uint c = pairs_of(t, tris, tri_bb, g, tile_offset, tile_count, tile_list, 0xffffffffu,
+  uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_offset, tile_count, tile_list, 0xffffffffu,
                     pair_o + o, pair_rel + o, pair_line + o);
   for (uint k = 0; k < c; ++k) pair_t[o + k] = t;
 }

@@ -32,7 +32,7 @@ std::vector<std::string> corpus() {
 // Cases where the tie rule (lower mesh, then triangle, in front) decides part of the picture, so
 // reversing the order legitimately changes which source shows there.
 bool has_ties(const std::string& name) {
-  return name == "coplanar_overlap" || name == "soup_duplicated_vertices";
+  return name == "coplanar_overlap" || name == "soup_duplicated_vertices" || name == "coplanar_near_tie";
 }
 
 std::string describe(const check::SceneFigures& f) { return check::to_json(f).dump(); }

@@ -100,7 +100,7 @@ std::vector<std::string> over_tolerance(const SceneFigures& f, const Tolerances&
     if (value && *value > tol)
       bad.push_back(std::string(name) + " " + fmt(double(*value)) + " > " + fmt(double(tol)));
   };
-  const bool crossing = f.crossing_lines > 0;
+  const bool crossing = f.crossing_lines > 0 && !t.strict;
   const double area_tol = crossing ? std::max(t.exact, t.snap_factor * f.snap_area_bound) : t.exact;
   chk("area_error", f.area_error, area_tol);
   chk("overlap_area", f.overlap_area, t.overlap_area);

@@ -56,6 +56,7 @@ struct Tolerances {
   size_t wrong_source = 0;      // without crossing lines
   double pixel_error = 1e-3;    // interior samples
   size_t outside_source = 0;
+  bool strict = false;          // `--strict`: no snap-level allowance for crossing lines either
 };
 
 // The figures over tolerance, as "name value > tolerance" strings; empty when all pass.
