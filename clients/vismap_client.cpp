@@ -28,6 +28,7 @@ static int health(const std::string& url_text, double timeout) {
   try {
     Url u = parse_url(url_text);
     HttpResponse r = http_get(u.host, u.port, u.target.empty() ? "/health" : u.target, timeout);
+    while (!r.body.empty() && r.body.back() == '\n') r.body.pop_back();
     std::printf("%d %s\n", r.status, r.body.c_str());
     return r.status == 200 && json::parse(r.body, nullptr, false).value("status", "") == "ok" ? 0 : 1;
   } catch (const std::exception& e) {
