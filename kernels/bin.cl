@@ -24,6 +24,29 @@ __kernel void edge_bbox(__global const VmEdge* edges, uint n, __global int4* bb)
 /* Tiles are powers of two wide: a shift, not a division, in the hottest loops. */
 inline int tile_coord(int v, int shift, int count) { return clamp(v >> shift, 0, count - 1); }
 
+/* Should the pair of boxes a, b be looked at in tile (tx, ty)? Only in the tile holding the low
+ * corner of their overlap, so a pair that shares several tiles is visited once. `open`: boxes
+ * that only touch (zero-width overlap) are skipped too. */
+inline bool pair_here(int4 a, int4 b, VmGrid g, int tx, int ty, bool open) {
+  int ix0 = max(a.x, b.x), iy0 = max(a.y, b.y);
+  int ix1 = min(a.z, b.z), iy1 = min(a.w, b.w);
+  if (open ? (ix0 >= ix1 || iy0 >= iy1) : (ix0 > ix1 || iy0 > iy1)) return false;
+  return tile_coord(ix0, g.tile_shift, g.tiles_x) == tx && tile_coord(iy0, g.tile_shift, g.tiles_y) == ty;
+}
+
+/* Insertion sort of a short list of ids (per-tile and per-triangle lists). */
+inline void sort_ids(__global uint* a, int n) {
+  for (int i = 1; i < n; ++i) {
+    uint v = a[i];
+    int j = i - 1;
+    while (j >= 0 && a[j] > v) {
+      a[j + 1] = a[j];
+      --j;
+    }
+    a[j + 1] = v;
+  }
+}
+
 __kernel void bin_count(__global const int4* bb, uint n, VmGrid g, __global uint* tile_count) {
   uint i = get_global_id(0);
   if (i >= n) return;
@@ -56,15 +79,7 @@ __kernel void bin_sort(__global const uint* tile_offset, __global const uint* ti
   __global uint* a = list + tile_offset[t];
   int n = (int)tile_count[t];
   if (n <= 32) {
-    for (int i = 1; i < n; ++i) {
-      uint v = a[i];
-      int j = i - 1;
-      while (j >= 0 && a[j] > v) {
-        a[j + 1] = a[j];
-        --j;
-      }
-      a[j + 1] = v;
-    }
+    sort_ids(a, n);
     return;
   }
   /* heap sort */

@@ -57,14 +57,7 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
       uint off = tile_offset[tile], n = tile_count[tile];
       for (uint k = 0; k < n; ++k) {
         uint e = tile_list[off + k];
-        int4 eb = edge_bb[e];
-        int ix0 = max(tb.x, eb.x), iy0 = max(tb.y, eb.y);
-        int ix1 = min(tb.z, eb.z), iy1 = min(tb.w, eb.w);
-        if (ix0 > ix1 || iy0 > iy1) continue;
-        /* A pair is looked at only in the tile holding the low corner of its box overlap. */
-        if (tile_coord(ix0, g.tile_shift, g.tiles_x) != tx ||
-            tile_coord(iy0, g.tile_shift, g.tiles_y) != ty)
-          continue;
+        if (!pair_here(tb, edge_bb[e], g, tx, ty, false)) continue;
         if (!edge_is_candidate(&tris[t], edges[e])) continue;
         if (out) out[count] = e;
         ++count;

@@ -139,13 +139,7 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
       for (uint k = 0; k < n; ++k) {
         uint o = tile_list[off + k];
         if (o <= t) continue;
-        int4 ob = tri_bb[o];
-        int ix0 = max(tb.x, ob.x), iy0 = max(tb.y, ob.y);
-        int ix1 = min(tb.z, ob.z), iy1 = min(tb.w, ob.w);
-        if (ix0 >= ix1 || iy0 >= iy1) continue;
-        if (tile_coord(ix0, g.tile_shift, g.tiles_x) != tx ||
-            tile_coord(iy0, g.tile_shift, g.tiles_y) != ty)
-          continue;
+        if (!pair_here(tb, tri_bb[o], g, tx, ty, true)) continue;
         /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
         double2 oq = tri_qr[o];
         double band = VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(oq.y)), fmax(fabs(qmin), fabs(oq.x)));
@@ -239,15 +233,7 @@ __kernel void cross_entry_count(uint ntris, __global const uint* out_count,
   if (x >= ntris) return;
   __global uint* a = in_list + in_offset[x];
   int n = (int)in_count[x];
-  for (int i = 1; i < n; ++i) {
-    uint v = a[i];
-    int j = i - 1;
-    while (j >= 0 && a[j] > v) {
-      a[j + 1] = a[j];
-      --j;
-    }
-    a[j + 1] = v;
-  }
+  sort_ids(a, n);
   uint c = 0;
   for (uint k = 0; k < out_count[x]; ++k) c += pair_entries(pair_rel[out_offset[x] + k]);
   for (int k = 0; k < n; ++k) c += pair_entries(pair_rel[a[k]]);
