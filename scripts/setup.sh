@@ -10,7 +10,7 @@ PACKAGES=(
   libboost-dev nlohmann-json3-dev googletest libgtest-dev zlib1g-dev
   librsvg2-bin libxml2-utils python3
   python3-websockets python3-jsonschema
-  chromium nodejs
+  chromium nodejs nginx
 )
 
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
