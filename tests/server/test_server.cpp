@@ -231,6 +231,15 @@ TEST_F(ServerTest, ErrorCodesKeepTheSessionGoing) {
   j = next(c, 60);
   EXPECT_EQ(j["type"], "error");
   EXPECT_TRUE(j["code"] == "non_finite_vertex" || j["code"] == "parse_error") << j.dump();
+  // The loaders' remaining kinds, end to end: each an error with its code, the session goes on.
+  upload(c, "empty.obj", "# no faces\nv 0 0 0\n");
+  EXPECT_EQ(next(c, 60)["code"], "empty_mesh");
+  upload(c, "short.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+                         "property float y\nproperty float z\nelement face 1\n"
+                         "property list uchar int vertex_indices\nend_header\n\x01\x02");
+  EXPECT_EQ(next(c, 60)["code"], "truncated");
+  upload(c, "scene.json", R"({"meshes":[{"file":"x.obj","scal":2}]})");
+  EXPECT_EQ(next(c, 60)["code"], "bad_scene");
   c.send_text(json{{"type", "scene"}, {"name", "tet.obj"}, {"size", 10}}.dump());
   c.send_binary("12345");  // header announced 10 bytes
   expect_error(c, "bad_message");
