@@ -4,8 +4,11 @@
 // state. Used by bench/run.sh; not a test (benchmarks measure, tests do not time things).
 //
 //   vismap_bench SCENE [--width W] [--height H] [--runs N] [--tile-pixels 0,16,32,...]
-//                [--camera auto|bench|frame] [--device NAME] [--writes N]
+//                [--camera auto|bench|frame] [--device NAME] [--writes N] [--budget-s S]
 //
+// --budget-s: stop a setting's warm runs once they have taken S seconds (at least one run), and
+// skip the extra render for the binary writer's size when one render takes more than S/4: slow
+// scenes stay affordable on a shared machine.
 // --camera auto: the scene file's camera if it has one, else the benchmark camera.
 // The benchmark camera (issue 5): perspective, 35 degree vertical fov, up +Y, looking at the
 // bounding-box centre from centre + 25 * (diag / 14.6) * normalize(0.6, 0.35, 1), near/far fitted
@@ -100,6 +103,7 @@ std::vector<uint32_t> parse_list(const std::string& s) {
 struct Args {
   std::string scene, camera = "auto", device;
   uint32_t width = 1024, height = 1024, runs = 5, writes = 3;
+  double budget_s = 1e9;
   bool width_set = false;
   std::vector<uint32_t> tiles{0};
 };
@@ -107,7 +111,7 @@ struct Args {
 int usage() {
   std::fputs(
       "usage: vismap_bench SCENE [--width W] [--height H] [--runs N] [--tile-pixels 0,16,...]\n"
-      "                    [--camera auto|bench|frame] [--device NAME] [--writes N]\n",
+      "                    [--camera auto|bench|frame] [--device NAME] [--writes N] [--budget-s S]\n",
       stderr);
   return 2;
 }
@@ -130,6 +134,7 @@ int main(int argc, char** argv) {
       else if (f == "--height") a.height = std::stoul(value());
       else if (f == "--runs") a.runs = std::max<uint32_t>(1, std::stoul(value()));
       else if (f == "--writes") a.writes = std::stoul(value());
+      else if (f == "--budget-s") a.budget_s = std::stod(value());
       else if (f == "--tile-pixels") a.tiles = parse_list(value());
       else if (f == "--camera") a.camera = value();
       else if (f == "--device") a.device = value();
@@ -183,7 +188,9 @@ int main(int argc, char** argv) {
       std::vector<std::string> stage_order;
       RenderStats st;
       PlanarMap map;
+      const auto warm0 = Clock::now();
       for (uint32_t r = 0; r < a.runs; ++r) {
+        if (r > 0 && ms_between(warm0, Clock::now()) > a.budget_s * 1000) break;
         map = renderer.render(scene, cam, opts, &st);
         double sum = 0;
         for (const StageStat& s : st.stages) {
@@ -198,14 +205,15 @@ int main(int argc, char** argv) {
       // Writers: median of a few, on the last map (the output is the same every run).
       std::vector<double> svg_ms, bin_ms;
       size_t svg_bytes = 0, bin_bytes = 0;
-      for (uint32_t w = 0; w < a.writes; ++w) {
+      const bool slow = median(pipe) > a.budget_s * 250;
+      for (uint32_t w = 0; w < (slow ? 1 : a.writes); ++w) {
         auto s0 = Clock::now();
         std::string svg = write_svg(map, scene, cam, Fill::Shade);
         auto s1 = Clock::now();
         svg_ms.push_back(ms_between(s0, s1));
         svg_bytes = svg.size();
       }
-      {
+      if (!slow) {
         // The binary writer wants barycentrics (as `vismap render --format bin`): one more render.
         RenderOptions bopts = opts;
         bopts.attributes = true;
@@ -247,7 +255,7 @@ int main(int argc, char** argv) {
       num("tile_pixels", tile);
       num("tile_pixels_effective", eff_tile);
       num("bins", double(bins));
-      num("runs", a.runs);
+      num("runs", double(pipe.size()));
       num("load_ms", ms_between(t0, t1));
       num("init_ms", ms_between(t1, t2));
       num("first_render_ms", first_ms);
@@ -276,8 +284,10 @@ int main(int argc, char** argv) {
       num("peak_device_bytes", double(st.peak_device_bytes));
       num("svg_bytes", double(svg_bytes));
       num("svg_ms", median(svg_ms));
-      num("bin_bytes", double(bin_bytes));
-      num("bin_ms", median(bin_ms));
+      if (!bin_ms.empty()) {
+        num("bin_bytes", double(bin_bytes));
+        num("bin_ms", median(bin_ms));
+      }
       num("peak_rss_mb", peak_rss_mb());
       kv("cli_camera", json_string(cli_camera));
       o += "}";
