@@ -351,6 +351,26 @@ def plots(out, rows, sweep):
         rr = [r for r in ok if r["width"] == res]
         svgplot.stacked_bars(os.path.join(P, f"stages_{res}.svg"), f"Stage times at {res}^2 (warm median)", "ms",
                              [(r["scene"], dict(r["stages"], host=r["host_ms"])) for r in rr], STAGES + ["host"])
+        svgplot.stacked_bars(os.path.join(P, f"stage_shares_{res}.svg"), f"Stage shares at {res}^2 (warm median)",
+                             "% of pipeline", [(r["scene"], dict(r["stages"], host=r["host_ms"])) for r in rr],
+                             STAGES + ["host"], normalize=True)
+
+
+def replot(out):
+    rows, sweep = [], []
+    for line in open(os.path.join(out, "raw.jsonl")):
+        r = json.loads(line)
+        kind = r.get("kind") or ("row" if any(k in r for k in ("process_ms", "cli_note", "note")) else "sweep")
+        (rows if kind == "row" else sweep).append(r)
+    env = {}
+    for line in open(os.path.join(out, "env.txt")):
+        k, _, v = line.rstrip("\n").partition(": ")
+        env[k] = v
+    for k in ("loadavg_start", "loadavg_end"):
+        if k in env:
+            env[k] = [x.strip(" '[]") for x in env[k].split(",")]
+    write_outputs(out, rows, sweep, env, any("check_note" in r for r in rows))
+    log("rewrote", out)
 
 
 def main():
@@ -361,6 +381,7 @@ def main():
     ap.add_argument("--scenes", help="comma-separated subset of: " + ",".join(s[0] for s in SCENES))
     ap.add_argument("--res", default=None, help="comma-separated resolutions (default 1024,4096; quick 1024)")
     ap.add_argument("--runs", type=int, default=None, help="warm runs per row (default 5, quick 3)")
+    ap.add_argument("--replot", metavar="DIR", help="rewrite results.md, CSVs and plots of DIR from its raw.jsonl")
     ap.add_argument("--no-cli", action="store_true")
     ap.add_argument("--no-check", action="store_true")
     ap.add_argument("--no-sweep", action="store_true")
@@ -368,6 +389,8 @@ def main():
     ap.add_argument("--budget", type=float, default=20,
                     help="seconds of repeats per row and tool (at least one run each; default 20)")
     a = ap.parse_args()
+    if a.replot:
+        return replot(a.replot)
 
     names = a.scenes.split(",") if a.scenes else (QUICK if a.quick else [s[0] for s in SCENES])
     resolutions = [int(x) for x in a.res.split(",")] if a.res else ([1024] if a.quick else [1024, 4096])
@@ -390,6 +413,7 @@ def main():
             drv, note = run_driver(a.build, path, res, runs, [0], a.timeout, a.budget)
             r = drv[0] if drv else {"scene": path, "width": res, "height": res, "note": note}
             r["scene"] = name
+            r["kind"] = "row"
             if not a.no_cli and drv:
                 log(f"{name} {res}^2: process")
                 r.update(run_cli(a.build, path, res, r.get("cli_camera", ""), 3 if a.quick else 5, a.timeout,
@@ -403,6 +427,7 @@ def main():
                 sw, _ = run_driver(a.build, path, res, max(2, runs - 2), SWEEP[name], a.timeout * 2, a.budget / 2)
                 for s in sw:
                     s["scene"] = name
+                    s["kind"] = "sweep"
                 sweep += sw
             # keep partial results on disk as we go
             env["loadavg_end"] = open("/proc/loadavg").read().split()[:3]

@@ -39,7 +39,7 @@ def _fmt(v):
     return f"{v:g}"
 
 
-def line_plot(path, title, xlabel, ylabel, series, logx=False, logy=False, width=720, height=440):
+def line_plot(path, title, xlabel, ylabel, series, logx=False, logy=False, width=880, height=440):
     """series: list of (label, [(x, y), ...], style) with style 'line' or 'points'."""
     pts = [(x, y) for _, s, _ in series for x, y in s if x is not None and y is not None
            and (not logx or x > 0) and (not logy or y > 0)]
@@ -56,7 +56,7 @@ def line_plot(path, title, xlabel, ylabel, series, logx=False, logy=False, width
         y0, y1 = y0 / 1.5, y1 * 1.5
     else:
         y0, y1 = 0 if y0 >= 0 else y0 * 1.1, y1 * 1.1 or 1
-    L, R, T, B = 80, 190, 40, 60
+    L, R, T, B = 80, 300, 40, 60
     pw, ph = width - L - R, height - T - B
 
     def fx(x):
@@ -105,11 +105,15 @@ def line_plot(path, title, xlabel, ylabel, series, logx=False, logy=False, width
     return True
 
 
-def stacked_bars(path, title, xlabel, rows, parts, width=860, row_h=24):
-    """rows: list of (label, {part: value}); parts: the order of the stacked parts."""
+def stacked_bars(path, title, xlabel, rows, parts, width=860, row_h=24, normalize=False):
+    """rows: list of (label, {part: value}); parts: the order of the stacked parts. normalize:
+    every bar is 100% (shares)."""
     if not rows:
         return False
-    L, R, T = 190, 30, 60
+    if normalize:
+        rows = [(lab, {p: 100.0 * v.get(p, 0) / (sum(v.get(q, 0) for q in parts) or 1) for p in parts})
+                for lab, v in rows]
+    L, R, T = 190, 30, 80
     height = T + row_h * len(rows) + 50
     pw = width - L - R
     vmax = max(sum(v.get(p, 0) for p in parts) for _, v in rows) or 1
@@ -120,8 +124,13 @@ def stacked_bars(path, title, xlabel, rows, parts, width=860, row_h=24):
     x = L
     for i, p in enumerate(parts):  # legend
         c = COLORS[i % len(COLORS)]
-        o.append(f'<rect x="{x}" y="32" width="12" height="10" fill="{c}"/>'
-                 f'<text x="{x + 16}" y="41">{escape(p)}</text>')
+        if x + 16 + 8 * len(p) > width:
+            x = L
+        ly = 32 if i < (len(parts) + 1) // 2 else 52
+        if i == (len(parts) + 1) // 2:
+            x = L
+        o.append(f'<rect x="{x}" y="{ly}" width="12" height="10" fill="{c}"/>'
+                 f'<text x="{x + 16}" y="{ly + 9}">{escape(p)}</text>')
         x += 16 + 8 * len(p) + 14
     for r, (label, v) in enumerate(rows):
         y = T + r * row_h
