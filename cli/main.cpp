@@ -1,4 +1,5 @@
-// vismap: the command-line front end. `vismap render`, `vismap devices`.
+// vismap: the command-line front end. `vismap render`, `vismap check` (cli/check.cpp),
+// `vismap devices`.
 #include <unistd.h>
 
 #include <chrono>
@@ -17,60 +18,28 @@
 #include "core/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
+#include "cli/args.h"
+#include "cli/check.h"
 
 namespace {
 
 using namespace vismap;
+using namespace vismap::cli;
 
 const char* kUsage =
     "usage:\n"
     "  vismap render SCENE -o OUT [--format svg|bin] [--fill shade|id] [--width W --height H]\n"
     "                [--eye X,Y,Z --target X,Y,Z --up X,Y,Z] [--fov-y DEG | --ortho HEIGHT]\n"
     "                [--near N --far F] [--device NAME] [--stats]\n"
+    "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
+    "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 if over tolerance\n"
     "  vismap devices\n"
     "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb or a .json scene file.\n"
     "--device (or $VISMAP_DEVICE): 'P:D' from `vismap devices`, or part of a device/platform name.\n";
 
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
-Vec3 parse_vec3(const std::string& flag, const std::string& s) {
-  Vec3 v;
-  char* end = nullptr;
-  const char* p = s.c_str();
-  for (int k = 0; k < 3; ++k) {
-    v[k] = std::strtod(p, &end);
-    if (end == p || !std::isfinite(v[k])) throw UsageError(flag + ": expected X,Y,Z, got '" + s + "'");
-    p = end;
-    if (k < 2) {
-      if (*p != ',') throw UsageError(flag + ": expected X,Y,Z, got '" + s + "'");
-      ++p;
-    }
-  }
-  if (*p) throw UsageError(flag + ": expected X,Y,Z, got '" + s + "'");
-  return v;
-}
-
-double parse_number(const std::string& flag, const std::string& s) {
-  char* end = nullptr;
-  double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || *end || !std::isfinite(v)) throw UsageError(flag + ": expected a number, got '" + s + "'");
-  return v;
-}
-
-uint32_t parse_pixels(const std::string& flag, const std::string& s) {
-  double v = parse_number(flag, s);
-  if (v < 1 || v > 16384 || v != std::floor(v))
-    throw UsageError(flag + ": expected an integer in 1..16384, got '" + s + "'");
-  return static_cast<uint32_t>(v);
-}
-
 struct RenderArgs {
-  std::string scene, out, format = "svg", fill = "shade", device;
-  std::optional<uint32_t> width, height;
-  std::optional<Vec3> eye, target, up;
-  std::optional<double> fov_y, ortho, near_plane, far_plane;
+  std::string scene, out, format = "svg", fill = "shade";
+  ViewArgs view;
   bool stats = false;
 };
 
@@ -85,16 +54,7 @@ RenderArgs parse_render(int argc, char** argv) {
     if (f == "-o" || f == "--output") a.out = value();
     else if (f == "--format") a.format = value();
     else if (f == "--fill") a.fill = value();
-    else if (f == "--width") a.width = parse_pixels(f, value());
-    else if (f == "--height") a.height = parse_pixels(f, value());
-    else if (f == "--eye") a.eye = parse_vec3(f, value());
-    else if (f == "--target") a.target = parse_vec3(f, value());
-    else if (f == "--up") a.up = parse_vec3(f, value());
-    else if (f == "--fov-y") a.fov_y = parse_number(f, value());
-    else if (f == "--ortho") a.ortho = parse_number(f, value());
-    else if (f == "--near") a.near_plane = parse_number(f, value());
-    else if (f == "--far") a.far_plane = parse_number(f, value());
-    else if (f == "--device") a.device = value();
+    else if (parse_view_flag(f, value, a.view)) continue;
     else if (f == "--stats") a.stats = true;
     else if (!f.empty() && f[0] == '-') throw UsageError("unknown option " + f);
     else if (a.scene.empty()) a.scene = f;
@@ -104,39 +64,8 @@ RenderArgs parse_render(int argc, char** argv) {
   if (a.out.empty()) throw UsageError("render: missing -o OUT");
   if (a.format != "svg" && a.format != "bin") throw UsageError("--format: expected svg or bin");
   if (a.fill != "shade" && a.fill != "id") throw UsageError("--fill: expected shade or id");
-  if (a.fov_y && a.ortho) throw UsageError("--fov-y and --ortho exclude each other");
+  validate_view(a.view);
   return a;
-}
-
-Camera make_camera(const Scene& scene, const RenderArgs& a) {
-  uint32_t w = a.width.value_or(scene.camera ? scene.camera->width : 1024);
-  uint32_t h = a.height.value_or(scene.camera ? scene.camera->height : 1024);
-  if (a.width && !a.height && !scene.camera) h = w;
-  if (a.height && !a.width && !scene.camera) w = h;
-  Camera c = scene.camera ? *scene.camera : frame_scene(scene, w, h);
-  c.width = w;
-  c.height = h;
-  bool moved = a.eye || a.target || a.up || a.ortho || a.fov_y;
-  if (a.eye) c.eye = *a.eye;
-  if (a.target) c.target = *a.target;
-  if (a.up) c.up = *a.up;
-  if (a.fov_y) {
-    c.projection = Camera::Projection::Perspective;
-    c.fov_y_deg = *a.fov_y;
-  }
-  if (a.ortho) {
-    c.projection = Camera::Projection::Orthographic;
-    c.ortho_height = *a.ortho;
-  }
-  if (moved && !scene.camera) {  // the framed near/far belonged to the framed view
-    c.near_plane = 0;
-    c.far_plane = 0;
-  }
-  if (a.near_plane) c.near_plane = *a.near_plane;
-  if (a.far_plane) c.far_plane = *a.far_plane;
-  fit_near_far(c, scene);
-  c.validate();
-  return c;
 }
 
 // Writes through a temporary file in the same folder and renames it: no half-written output.
@@ -169,8 +98,8 @@ int cmd_render(int argc, char** argv) {
   RenderArgs a = parse_render(argc, argv);
   Scene scene = load_scene(a.scene);
   auto t_load = Clock::now();
-  Camera cam = make_camera(scene, a);
-  Renderer renderer(a.device);
+  Camera cam = make_camera(scene, a.view);
+  Renderer renderer(a.view.device);
   RenderOptions opts;
   opts.attributes = a.format == "bin";
   bool tty = ::isatty(2);
@@ -242,6 +171,7 @@ int main(int argc, char** argv) {
   std::string cmd = argv[1];
   try {
     if (cmd == "render") return cmd_render(argc, argv);
+    if (cmd == "check") return cmd_check(argc, argv);
     if (cmd == "devices") return cmd_devices();
     throw UsageError("unknown command '" + cmd + "'");
   } catch (const UsageError& e) {

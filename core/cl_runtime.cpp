@@ -119,6 +119,7 @@ void ClRuntime::build(uint32_t maxl) {
     source += "/* ---- " + std::string(f) + " ---- */\n" + it->second + "\n";
   }
   std::string options = "-cl-std=CL1.2 -DVM_MAXL=" + std::to_string(maxl);
+  if (const char* extra = std::getenv("VISMAP_CL_OPTIONS"); extra && *extra) options += std::string(" ") + extra;
   uint64_t key = fnv1a(source, fnv1a(options, fnv1a(info_.platform + "|" + info_.name + "|" +
                                                     info_.version + "|" +
                                                     device_.getInfo<CL_DRIVER_VERSION>())));

@@ -1,55 +1,61 @@
 #include "core/mesh_topology.h"
 
+#include <algorithm>
 #include <cstring>
-#include <unordered_map>
 #include <vector>
 
 namespace vismap {
 
 namespace {
 
-struct PosKey {
-  uint32_t x, y, z;
-  bool operator==(const PosKey& o) const { return x == o.x && y == o.y && z == o.z; }
-};
-struct PosHash {
-  size_t operator()(const PosKey& k) const {
-    uint64_t h = k.x * 0x9E3779B97F4A7C15ull;
-    h ^= (h >> 29) + k.y * 0xBF58476D1CE4E5B9ull;
-    h ^= (h >> 31) + k.z * 0x94D049BB133111EBull;
-    return static_cast<size_t>(h ^ (h >> 32));
+// Vertex ids welded by exact position: sort the vertices by their coordinates' bits.
+std::vector<uint32_t> weld_by_position(const Mesh& m) {
+  const size_t nv = m.vertex_count();
+  struct Key {
+    uint32_t x, y, z, v;
+  };
+  std::vector<Key> keys(nv);
+  for (size_t v = 0; v < nv; ++v) {
+    std::memcpy(&keys[v].x, &m.positions[3 * v], 4);
+    std::memcpy(&keys[v].y, &m.positions[3 * v + 1], 4);
+    std::memcpy(&keys[v].z, &m.positions[3 * v + 2], 4);
+    keys[v].v = static_cast<uint32_t>(v);
   }
-};
+  std::sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) {
+    return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
+  });
+  std::vector<uint32_t> weld(nv);
+  uint32_t id = 0;
+  for (size_t i = 0; i < nv; ++i) {
+    if (i > 0 && (keys[i].x != keys[i - 1].x || keys[i].y != keys[i - 1].y || keys[i].z != keys[i - 1].z)) ++id;
+    weld[keys[i].v] = id;
+  }
+  return weld;
+}
 
 }  // namespace
 
 int8_t closed_orientation(const Mesh& m) {
-  const size_t nv = m.vertex_count(), nt = m.triangle_count();
+  const size_t nt = m.triangle_count();
   if (nt < 4) return 0;
-  // Weld vertices by exact position.
-  std::vector<uint32_t> weld(nv);
-  std::unordered_map<PosKey, uint32_t, PosHash> ids;
-  ids.reserve(nv * 2);
-  for (size_t v = 0; v < nv; ++v) {
-    PosKey k;
-    std::memcpy(&k.x, &m.positions[3 * v], 4);
-    std::memcpy(&k.y, &m.positions[3 * v + 1], 4);
-    std::memcpy(&k.z, &m.positions[3 * v + 2], 4);
-    weld[v] = ids.emplace(k, static_cast<uint32_t>(ids.size())).first->second;
-  }
-  // Every directed edge must occur exactly once, and so must its reverse.
-  std::unordered_map<uint64_t, uint32_t> directed;
-  directed.reserve(nt * 6);
-  for (size_t t = 0; t < nt; ++t) {
+  std::vector<uint32_t> weld = weld_by_position(m);
+  // Closed and consistently oriented: every undirected edge is used exactly twice, once in each
+  // direction. Sort the edges by (min, max) with the direction in the low bit.
+  std::vector<uint64_t> edges;
+  edges.reserve(nt * 3);
+  for (size_t t = 0; t < nt; ++t)
     for (int k = 0; k < 3; ++k) {
       uint64_t a = weld[m.indices[3 * t + k]], b = weld[m.indices[3 * t + (k + 1) % 3]];
       if (a == b) return 0;
-      if (++directed[(a << 32) | b] > 1) return 0;
+      edges.push_back(a < b ? (a << 33) | (b << 1) : (b << 33) | (a << 1) | 1);
     }
-  }
-  for (const auto& [key, count] : directed) {
-    uint64_t rev = (key << 32) | (key >> 32);
-    if (directed.find(rev) == directed.end()) return 0;
+  std::sort(edges.begin(), edges.end());
+  for (size_t i = 0; i < edges.size(); i += 2) {
+    if (i + 1 >= edges.size()) return 0;
+    // A pair must be the same edge in both directions (low bits 0 then 1) ...
+    if ((edges[i] | 1) != edges[i + 1] || (edges[i] & 1)) return 0;
+    // ... and no third use of it.
+    if (i + 2 < edges.size() && (edges[i + 2] >> 1) == (edges[i] >> 1)) return 0;
   }
   double volume = 0;
   for (size_t t = 0; t < nt; ++t) {

@@ -36,7 +36,7 @@ struct LinesOverflow {};
 }  // namespace
 
 struct Renderer::Impl {
-  explicit Impl(const std::string& device) : rt(device) { rt.build(16); }
+  explicit Impl(const std::string& device) : rt(device) { rt.build(8); }
 
   ClRuntime rt;
 
@@ -179,7 +179,8 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     g.tile_size = static_cast<int32_t>(tile_px * VM_GRID_SCALE);
     g.tiles_x = static_cast<int32_t>((W + tile_px - 1) / tile_px);
     g.tiles_y = static_cast<int32_t>((H + tile_px - 1) / tile_px);
-    g.pad = 0;
+    g.tile_shift = 0;
+    while ((1 << g.tile_shift) < g.tile_size) ++g.tile_shift;
     return g;
   };
   uint32_t tile_px = opts.tile_pixels;
@@ -213,21 +214,59 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   // Triangles on the fine grid (crossing pairs, occlusion), sorted so that every list a kernel
   // walks is in a fixed order.
   cl::Buffer tri_bb = rt.alloc(size_t(S) * sizeof(cl_int4), "triangle boxes");
-  rt.launch("bin", "tri_bbox", S, tris, S, tri_bb);
+  cl::Buffer tri_qr = rt.alloc(size_t(S) * sizeof(cl_double2), "triangle depth ranges");
+  rt.launch("bin", "tri_bbox", S, tris, S, tri_bb, tri_qr);
   Bins tbins = bin("bin", tri_bb, S, og, true);
+  cl::Buffer pair_t, pair_o, pair_rel, pair_line;
 
-  // ---- penetrating pairs --------------------------------------------------------------------
-  cl::Buffer cross_count = rt.alloc(size_t(S) * 4, "crossing counts");
-  cl::Buffer cross_offset = rt.alloc(size_t(S) * 4, "crossing offsets");
-  rt.launch("crossings", "cross_count", S, tris, S, tri_bb, og, tbins.offset, tbins.count,
-            tbins.list, cross_count);
+  // ---- penetrating and tying pairs ----------------------------------------------------------
+  // One traversal finds each pair once (by its lower triangle) into small inline slots; only if
+  // a triangle has more pairs than the slots hold is the traversal repeated into exact space.
+  constexpr uint32_t kInline = 4;  // VM_PAIRS_INLINE in kernels/crossing.cl
+  cl::Buffer pcount = rt.alloc(size_t(S) * 4, "pair counts");
+  cl::Buffer poffset = rt.alloc(size_t(S) * 4, "pair offsets");
+  {
+    cl::Buffer scr_o = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
+    cl::Buffer scr_rel = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
+    cl::Buffer scr_line = rt.alloc(size_t(S) * kInline * sizeof(VmLine), "pair scratch");
+    rt.launch("crossings", "cross_pairs", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.count,
+              tbins.list, pcount, scr_o, scr_rel, scr_line, totals);
+    st.entangled_pairs = rt.scan("crossings", pcount, poffset, S);
+    uint32_t status = 0;
+    q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof status, &status);
+    const uint32_t P = static_cast<uint32_t>(st.entangled_pairs);
+    pair_t = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
+    pair_o = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
+    pair_rel = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
+    pair_line = rt.alloc(std::max<size_t>(P, 1) * sizeof(VmLine), "pairs");
+    if (status & VM_STATUS_PAIRS_OVERFLOW)
+      rt.launch("crossings", "cross_pairs_fill", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.count,
+                tbins.list, poffset, pair_t, pair_o, pair_rel, pair_line);
+    else
+      rt.launch("crossings", "cross_compact", S, S, pcount, poffset, scr_o, scr_rel, scr_line,
+                pair_t, pair_o, pair_rel, pair_line);
+  }
+  const uint32_t P = static_cast<uint32_t>(st.entangled_pairs);
+  cl::Buffer in_count = rt.alloc(size_t(S) * 4, "incoming pair counts");
+  cl::Buffer in_offset = rt.alloc(size_t(S) * 4, "incoming pair offsets");
+  cl::Buffer in_cursor = rt.alloc(size_t(S) * 4, "incoming pair cursors");
+  rt.fill_u32(in_count, 0, S, "crossings");
+  rt.fill_u32(in_cursor, 0, S, "crossings");
+  rt.launch("crossings", "cross_in_count", P, P, pair_o, in_count);
+  rt.scan("crossings", in_count, in_offset, S);
+  cl::Buffer in_list = rt.alloc(std::max<size_t>(P, 1) * 4, "incoming pairs");
+  rt.launch("crossings", "cross_in_fill", P, P, pair_o, in_offset, in_cursor, in_list);
+  cl::Buffer cross_count = rt.alloc(size_t(S) * 4, "crossing entry counts");
+  cl::Buffer cross_offset = rt.alloc(size_t(S) * 4, "crossing entry offsets");
+  rt.launch("crossings", "cross_entry_count", S, S, pcount, poffset, in_count, in_offset, in_list,
+            pair_rel, cross_count);
   const uint32_t X = rt.scan("crossings", cross_count, cross_offset, S);
   st.crossing_lines = X;
   cl::Buffer edges = rt.alloc((size_t(E) + X) * sizeof(VmEdge), "clipping edges");
   cl::Buffer partner = rt.alloc(std::max<size_t>(X, 1) * 4, "crossing partners");
   rt.launch("silhouettes", "edge_emit", nedges, tris, nedges, eflags, eoffs, edges);
-  rt.launch("crossings", "cross_fill", S, tris, S, tri_bb, og, tbins.offset, tbins.count,
-            tbins.list, cross_offset, E, edges, partner);
+  rt.launch("crossings", "cross_entry_fill", S, S, tris, pcount, poffset, in_count, in_offset,
+            in_list, pair_t, pair_o, pair_rel, pair_line, cross_offset, E, edges, partner);
 
   cl::Buffer edge_bb = rt.alloc(std::max<size_t>(E, 1) * sizeof(cl_int4), "edge boxes");
   rt.launch("bin", "edge_bbox", E, edges, E, edge_bb);
@@ -314,7 +353,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   // ---- occlusion ----------------------------------------------------------------------------
   cl::Buffer visible = rt.alloc(std::max<size_t>(nd, 1) * 4, "visibility");
   cl::Buffer voff = rt.alloc(std::max<size_t>(nd, 1) * 4, "visible offsets");
-  rt.launch("occlusion", "occlude", nd, done_meta, done_lines, nd, tris, og, tbins.offset,
+  rt.launch("occlusion", "occlude", nd, done_meta, done_lines, nd, tris, tri_bb, og, tbins.offset,
             tbins.count, tbins.list, edges, E, cross_offset, cross_count, partner, visible, totals);
   const uint32_t V = rt.scan("occlusion", visible, voff, nd);
   st.visible_fragments = V;
@@ -380,7 +419,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   const std::pair<const char*, std::pair<uint64_t, uint64_t>> order[] = {
       {"transform", {ntri, S}},   {"silhouettes", {uint64_t(3) * S, E}},
       {"bin", {uint64_t(S) + E, uint64_t(tbins.pairs) + ebins.pairs}},
-      {"crossings", {S, X}},      {"candidates", {S, C}},
+      {"crossings", {S, st.entangled_pairs}},  {"candidates", {S, C}},
       {"clip", {S, nd}},          {"occlusion", {nd, V}},
       {"emit", {V, map.vertex_count()}},
   };

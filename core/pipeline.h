@@ -34,7 +34,8 @@ struct RenderStats {
   double pipeline_ms = 0;           // host wall time of render(), upload included
   double upload_ms = 0;
   uint64_t input_triangles = 0, screen_triangles = 0, silhouette_edges = 0;
-  uint64_t crossing_lines = 0;      // clipping lines from penetrating pairs (two per pair)
+  uint64_t entangled_pairs = 0;     // screen-triangle pairs that cross or tie (coplanar)
+  uint64_t crossing_lines = 0;      // clipping entries those pairs add (lines and partner edges)
   uint64_t fragments = 0, visible_fragments = 0;
   uint64_t sliver_fragments = 0;    // fragments thinner than the sample grid (dropped)
   uint64_t peak_device_bytes = 0;   // device memory allocated during the render (upper bound)

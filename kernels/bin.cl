@@ -3,12 +3,15 @@
  * scan (host), fill per tile, and sort each tile's list by item id so that everything downstream
  * is deterministic whatever order the atomics ran in. */
 
-__kernel void tri_bbox(__global const VmScreenTri* tris, uint n, __global int4* bb) {
+/* Also each triangle's nearness range, so pair tests can reject by depth before loading it. */
+__kernel void tri_bbox(__global const VmScreenTri* tris, uint n, __global int4* bb,
+                       __global double2* qr) {
   uint i = get_global_id(0);
   if (i >= n) return;
   VmScreenTri t = tris[i];
   bb[i] = (int4)(min(min(t.x[0], t.x[1]), t.x[2]), min(min(t.y[0], t.y[1]), t.y[2]),
                  max(max(t.x[0], t.x[1]), t.x[2]), max(max(t.y[0], t.y[1]), t.y[2]));
+  qr[i] = (double2)(fmin(fmin(t.q[0], t.q[1]), t.q[2]), fmax(fmax(t.q[0], t.q[1]), t.q[2]));
 }
 
 __kernel void edge_bbox(__global const VmEdge* edges, uint n, __global int4* bb) {
@@ -18,14 +21,38 @@ __kernel void edge_bbox(__global const VmEdge* edges, uint n, __global int4* bb)
   bb[i] = (int4)(min(e.x0, e.x1), min(e.y0, e.y1), max(e.x0, e.x1), max(e.y0, e.y1));
 }
 
-inline int tile_coord(int v, int size, int count) { return clamp(v / size, 0, count - 1); }
+/* Tiles are powers of two wide: a shift, not a division, in the hottest loops. */
+inline int tile_coord(int v, int shift, int count) { return clamp(v >> shift, 0, count - 1); }
+
+/* Should the pair of boxes a, b be looked at in tile (tx, ty)? Only in the tile holding the low
+ * corner of their overlap, so a pair that shares several tiles is visited once. `open`: boxes
+ * that only touch (zero-width overlap) are skipped too. */
+inline bool pair_here(int4 a, int4 b, VmGrid g, int tx, int ty, bool open) {
+  int ix0 = max(a.x, b.x), iy0 = max(a.y, b.y);
+  int ix1 = min(a.z, b.z), iy1 = min(a.w, b.w);
+  if (open ? (ix0 >= ix1 || iy0 >= iy1) : (ix0 > ix1 || iy0 > iy1)) return false;
+  return tile_coord(ix0, g.tile_shift, g.tiles_x) == tx && tile_coord(iy0, g.tile_shift, g.tiles_y) == ty;
+}
+
+/* Insertion sort of a short list of ids (per-tile and per-triangle lists). */
+inline void sort_ids(__global uint* a, int n) {
+  for (int i = 1; i < n; ++i) {
+    uint v = a[i];
+    int j = i - 1;
+    while (j >= 0 && a[j] > v) {
+      a[j + 1] = a[j];
+      --j;
+    }
+    a[j + 1] = v;
+  }
+}
 
 __kernel void bin_count(__global const int4* bb, uint n, VmGrid g, __global uint* tile_count) {
   uint i = get_global_id(0);
   if (i >= n) return;
   int4 b = bb[i];
-  int tx0 = tile_coord(b.x, g.tile_size, g.tiles_x), tx1 = tile_coord(b.z, g.tile_size, g.tiles_x);
-  int ty0 = tile_coord(b.y, g.tile_size, g.tiles_y), ty1 = tile_coord(b.w, g.tile_size, g.tiles_y);
+  int tx0 = tile_coord(b.x, g.tile_shift, g.tiles_x), tx1 = tile_coord(b.z, g.tile_shift, g.tiles_x);
+  int ty0 = tile_coord(b.y, g.tile_shift, g.tiles_y), ty1 = tile_coord(b.w, g.tile_shift, g.tiles_y);
   for (int ty = ty0; ty <= ty1; ++ty)
     for (int tx = tx0; tx <= tx1; ++tx) atomic_inc(&tile_count[ty * g.tiles_x + tx]);
 }
@@ -35,8 +62,8 @@ __kernel void bin_fill(__global const int4* bb, uint n, VmGrid g, __global const
   uint i = get_global_id(0);
   if (i >= n) return;
   int4 b = bb[i];
-  int tx0 = tile_coord(b.x, g.tile_size, g.tiles_x), tx1 = tile_coord(b.z, g.tile_size, g.tiles_x);
-  int ty0 = tile_coord(b.y, g.tile_size, g.tiles_y), ty1 = tile_coord(b.w, g.tile_size, g.tiles_y);
+  int tx0 = tile_coord(b.x, g.tile_shift, g.tiles_x), tx1 = tile_coord(b.z, g.tile_shift, g.tiles_x);
+  int ty0 = tile_coord(b.y, g.tile_shift, g.tiles_y), ty1 = tile_coord(b.w, g.tile_shift, g.tiles_y);
   for (int ty = ty0; ty <= ty1; ++ty)
     for (int tx = tx0; tx <= tx1; ++tx) {
       uint t = ty * g.tiles_x + tx;
@@ -52,15 +79,7 @@ __kernel void bin_sort(__global const uint* tile_offset, __global const uint* ti
   __global uint* a = list + tile_offset[t];
   int n = (int)tile_count[t];
   if (n <= 32) {
-    for (int i = 1; i < n; ++i) {
-      uint v = a[i];
-      int j = i - 1;
-      while (j >= 0 && a[j] > v) {
-        a[j + 1] = a[j];
-        --j;
-      }
-      a[j + 1] = v;
-    }
+    sort_ids(a, n);
     return;
   }
   /* heap sort */

@@ -48,8 +48,8 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
                           __global const uint* tile_offset, __global const uint* tile_count,
                           __global const uint* tile_list, __global uint* out) {
   int4 tb = tri_bb[t];
-  int tx0 = tile_coord(tb.x, g.tile_size, g.tiles_x), tx1 = tile_coord(tb.z, g.tile_size, g.tiles_x);
-  int ty0 = tile_coord(tb.y, g.tile_size, g.tiles_y), ty1 = tile_coord(tb.w, g.tile_size, g.tiles_y);
+  int tx0 = tile_coord(tb.x, g.tile_shift, g.tiles_x), tx1 = tile_coord(tb.z, g.tile_shift, g.tiles_x);
+  int ty0 = tile_coord(tb.y, g.tile_shift, g.tiles_y), ty1 = tile_coord(tb.w, g.tile_shift, g.tiles_y);
   uint count = 0;
   for (int ty = ty0; ty <= ty1; ++ty)
     for (int tx = tx0; tx <= tx1; ++tx) {
@@ -57,14 +57,7 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
       uint off = tile_offset[tile], n = tile_count[tile];
       for (uint k = 0; k < n; ++k) {
         uint e = tile_list[off + k];
-        int4 eb = edge_bb[e];
-        int ix0 = max(tb.x, eb.x), iy0 = max(tb.y, eb.y);
-        int ix1 = min(tb.z, eb.z), iy1 = min(tb.w, eb.w);
-        if (ix0 > ix1 || iy0 > iy1) continue;
-        /* A pair is looked at only in the tile holding the low corner of its box overlap. */
-        if (tile_coord(ix0, g.tile_size, g.tiles_x) != tx ||
-            tile_coord(iy0, g.tile_size, g.tiles_y) != ty)
-          continue;
+        if (!pair_here(tb, edge_bb[e], g, tx, ty, false)) continue;
         if (!edge_is_candidate(&tris[t], edges[e])) continue;
         if (out) out[count] = e;
         ++count;
@@ -175,8 +168,26 @@ __kernel void clip_find(__global const VmFragMeta* meta, __global const VmLine* 
   __global const VmLine* L = lines + (size_t)i * VM_MAXL;
   uint off = cand_offset[m.tri], n = cand_count[m.tri];
   int sgn[VM_MAXL];
+  /* The fragment's box (from approximate vertices, widened by a grid unit: only a filter) lets
+   * most far-away segments go without the exact tests. */
+  double2 lo = (double2)(INFINITY, INFINITY), hi = (double2)(-INFINITY, -INFINITY);
+  {
+    Line3 first = line_of_vm(L[0]), cur = first;
+    for (uint j = 0; j < m.nlines; ++j) {
+      Line3 nxt = j + 1 == m.nlines ? first : line_of_vm(L[j + 1]);
+      double2 v = vertex_approx(cur, nxt);
+      lo = fmin(lo, v);
+      hi = fmax(hi, v);
+      cur = nxt;
+    }
+    lo -= (double2)(1.0, 1.0);
+    hi += (double2)(1.0, 1.0);
+  }
   for (uint k = m.next; k < n; ++k) {
     VmEdge E = edges[cand[off + k]];
+    if (!isinf(E.q0) && (fmax((double)E.x0, (double)E.x1) < lo.x || fmin((double)E.x0, (double)E.x1) > hi.x ||
+                         fmax((double)E.y0, (double)E.y1) < lo.y || fmin((double)E.y0, (double)E.y1) > hi.y))
+      continue;
     if (cuts(L, m.nlines, E, sgn)) {
       VmLine cut = {E.x0, E.y0, E.x1, E.y1};
       uint np = split_side(L, m.nlines, sgn, 1, cut, 0, 0);

@@ -42,22 +42,18 @@ inline int tri_overlap(const VmScreenTri* a, const VmScreenTri* b, double2* out)
  * line, directed so that a is in front on its positive side. Pure function of the two
  * triangles: both members of a pair compute the same answer. */
 inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* line) {
-  /* Mesh neighbours across an edge that lie on opposite sides of it do not overlap: the common
-   * case, decided exactly before any floating point. */
-  int shared = 0, ia = 0, ib = 0;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      if (a->x[i] == b->x[j] && a->y[i] == b->y[j]) {
-        ++shared;
-        ia += i;
-        ib += j;
-      }
-  if (shared == 2) {
-    int oa = 3 - ia, ob = 3 - ib; /* indices of the unshared vertices */
-    int e0 = oa == 0 ? 1 : 0, e1 = oa == 2 ? 1 : 2;
-    long sa = orient_points(a->x[e0], a->y[e0], a->x[e1], a->y[e1], a->x[oa], a->y[oa]);
-    long sb = orient_points(a->x[e0], a->y[e0], a->x[e1], a->y[e1], b->x[ob], b->y[ob]);
-    if ((sa > 0 && sb < 0) || (sa < 0 && sb > 0)) return VM_REL_NONE;
+  /* Exact separating axes on the grid first: most pairs that get here are mesh neighbours whose
+   * footprints only touch (an edge or a corner in common). */
+  for (int side = 0; side < 2; ++side) {
+    const VmScreenTri* p = side ? b : a;
+    const VmScreenTri* o = side ? a : b;
+    for (int i = 0; i < 3; ++i) {
+      int j = i == 2 ? 0 : i + 1;
+      bool separates = true;
+      for (int k = 0; k < 3 && separates; ++k)
+        separates = orient_points(p->x[i], p->y[i], p->x[j], p->y[j], o->x[k], o->y[k]) <= 0;
+      if (separates) return VM_REL_NONE;
+    }
   }
   double2 r[9];
   int n = tri_overlap(a, b, r);
@@ -119,22 +115,22 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
   return VM_REL_CROSS;
 }
 
-/* The entangled pairs of screen triangle t: crossing pairs and pairs that tie (coplanar within
- * the band), found through the triangle bins (each pair looked at in one tile only). For each,
- * t gets extra clipping edges: for a crossing pair the snapped intersection line (directed so
- * that t is in front on its positive side; an infinite line, q0 = q1 = +inf), and for both kinds
- * the partner's three edges as segments (q0 = q1 = DBL_MAX: always in front). The partner's
- * edges matter because next to it the surface may continue through an edge that is no
- * silhouette but on whose other side the order with t is decided differently. */
-inline uint crossings_of(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
-                         VmGrid g, __global const uint* tile_offset, __global const uint* tile_count,
-                         __global const uint* tile_list, __global VmEdge* out,
-                         __global uint* partner) {
+/* Entangled pairs: crossing pairs and pairs that tie (coplanar within the band). Each pair is
+ * found once, by its lower triangle t, through the triangle bins (each pair looked at in one tile
+ * only), in one traversal: up to VM_PAIRS_INLINE pairs per triangle go to a scratch slot and the
+ * rest only raise a status bit, after which cross_pairs_fill traverses again into exact space. */
+#define VM_PAIRS_INLINE 4
+
+inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
+                     __global const double2* tri_qr, VmGrid g,
+                     __global const uint* tile_offset, __global const uint* tile_count,
+                     __global const uint* tile_list, uint cap, __global uint* out_o,
+                     __global uint* out_rel, __global VmLine* out_line) {
   int4 tb = tri_bb[t];
   VmScreenTri me = tris[t];
   double qmin = fmin(fmin(me.q[0], me.q[1]), me.q[2]), qmax = fmax(fmax(me.q[0], me.q[1]), me.q[2]);
-  int tx0 = tile_coord(tb.x, g.tile_size, g.tiles_x), tx1 = tile_coord(tb.z, g.tile_size, g.tiles_x);
-  int ty0 = tile_coord(tb.y, g.tile_size, g.tiles_y), ty1 = tile_coord(tb.w, g.tile_size, g.tiles_y);
+  int tx0 = tile_coord(tb.x, g.tile_shift, g.tiles_x), tx1 = tile_coord(tb.z, g.tile_shift, g.tiles_x);
+  int ty0 = tile_coord(tb.y, g.tile_shift, g.tiles_y), ty1 = tile_coord(tb.w, g.tile_shift, g.tiles_y);
   uint count = 0;
   for (int ty = ty0; ty <= ty1; ++ty)
     for (int tx = tx0; tx <= tx1; ++tx) {
@@ -142,68 +138,161 @@ inline uint crossings_of(uint t, __global const VmScreenTri* tris, __global cons
       uint off = tile_offset[tile], n = tile_count[tile];
       for (uint k = 0; k < n; ++k) {
         uint o = tile_list[off + k];
-        if (o == t) continue;
-        int4 ob = tri_bb[o];
-        int ix0 = max(tb.x, ob.x), iy0 = max(tb.y, ob.y);
-        int ix1 = min(tb.z, ob.z), iy1 = min(tb.w, ob.w);
-        if (ix0 >= ix1 || iy0 >= iy1) continue;
-        if (tile_coord(ix0, g.tile_size, g.tiles_x) != tx ||
-            tile_coord(iy0, g.tile_size, g.tiles_y) != ty)
-          continue;
+        if (o <= t) continue;
+        if (!pair_here(tb, tri_bb[o], g, tx, ty, true)) continue;
+        /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
+        double2 oq = tri_qr[o];
+        double band = VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(oq.y)), fmax(fabs(qmin), fabs(oq.x)));
+        if (oq.x > qmax + band || qmin > oq.y + band) continue;
         VmScreenTri other = tris[o];
         if (other.mesh == me.mesh && other.tri == me.tri) continue;
-        double omin = fmin(fmin(other.q[0], other.q[1]), other.q[2]);
-        double omax = fmax(fmax(other.q[0], other.q[1]), other.q[2]);
-        /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
-        double band = VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(omax)), fmax(fabs(qmin), fabs(omin)));
-        if (omin > qmax + band || qmin > omax + band) continue;
         VmLine line;
-        int rel = t < o ? pair_relation(&me, &other, &line) : pair_relation(&other, &me, &line);
+        int rel = pair_relation(&me, &other, &line);
         if (rel != VM_REL_CROSS && !(rel & VM_REL_TIE)) continue;
-        if (out) {
-          VmEdge e;
-          if (rel == VM_REL_CROSS) {
-            if (t < o) {
-              e.x0 = line.x0; e.y0 = line.y0; e.x1 = line.x1; e.y1 = line.y1;
-            } else {
-              e.x0 = line.x1; e.y0 = line.y1; e.x1 = line.x0; e.y1 = line.y0;
-            }
-            e.q0 = INFINITY;
-            e.q1 = INFINITY;
-            out[count] = e;
-            partner[count] = o;
-          }
-          uint base = rel == VM_REL_CROSS ? count + 1 : count;
-          for (int i = 0; i < 3; ++i) {
-            int j = i == 2 ? 0 : i + 1;
-            e.x0 = other.x[i]; e.y0 = other.y[i]; e.x1 = other.x[j]; e.y1 = other.y[j];
-            e.q0 = DBL_MAX;
-            e.q1 = DBL_MAX;
-            out[base + i] = e;
-            partner[base + i] = o;
-          }
+        if (count < cap) {
+          out_o[count] = o;
+          out_rel[count] = (uint)rel;
+          out_line[count] = line;
         }
-        count += rel == VM_REL_CROSS ? 4 : 3;
+        ++count;
       }
     }
   return count;
 }
 
-__kernel void cross_count(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
-                          VmGrid g, __global const uint* tile_offset,
-                          __global const uint* tile_count, __global const uint* tile_list,
-                          __global uint* counts) {
+__kernel void cross_pairs(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
+                          __global const double2* tri_qr, VmGrid g, __global const uint* tile_offset, __global const uint* tile_count,
+                          __global const uint* tile_list, __global uint* counts,
+                          __global uint* scr_o, __global uint* scr_rel, __global VmLine* scr_line,
+                          __global uint* status) {
   uint t = get_global_id(0);
   if (t >= ntris) return;
-  counts[t] = crossings_of(t, tris, tri_bb, g, tile_offset, tile_count, tile_list, 0, 0);
+  size_t s = (size_t)t * VM_PAIRS_INLINE;
+  uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_offset, tile_count, tile_list, VM_PAIRS_INLINE,
+                    scr_o + s, scr_rel + s, scr_line + s);
+  counts[t] = c;
+  if (c > VM_PAIRS_INLINE) atomic_or(status, VM_STATUS_PAIRS_OVERFLOW);
 }
 
-__kernel void cross_fill(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
-                         VmGrid g, __global const uint* tile_offset, __global const uint* tile_count,
-                         __global const uint* tile_list, __global const uint* offsets,
-                         uint base, __global VmEdge* out, __global uint* partner) {
+/* Only after an overflow: the same traversal, straight into the compact pair arrays. */
+__kernel void cross_pairs_fill(__global const VmScreenTri* tris, uint ntris,
+                               __global const int4* tri_bb, __global const double2* tri_qr, VmGrid g,
+                               __global const uint* tile_offset, __global const uint* tile_count,
+                               __global const uint* tile_list, __global const uint* offsets,
+                               __global uint* pair_t, __global uint* pair_o, __global uint* pair_rel,
+                               __global VmLine* pair_line) {
   uint t = get_global_id(0);
   if (t >= ntris) return;
-  crossings_of(t, tris, tri_bb, g, tile_offset, tile_count, tile_list, out + base + offsets[t],
-               partner + offsets[t]);
+  uint o = offsets[t];
+  uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_offset, tile_count, tile_list, 0xffffffffu,
+                    pair_o + o, pair_rel + o, pair_line + o);
+  for (uint k = 0; k < c; ++k) pair_t[o + k] = t;
+}
+
+__kernel void cross_compact(uint ntris, __global const uint* counts, __global const uint* offsets,
+                            __global const uint* scr_o, __global const uint* scr_rel,
+                            __global const VmLine* scr_line, __global uint* pair_t,
+                            __global uint* pair_o, __global uint* pair_rel,
+                            __global VmLine* pair_line) {
+  uint t = get_global_id(0);
+  if (t >= ntris) return;
+  uint c = counts[t], o = offsets[t];
+  size_t s = (size_t)t * VM_PAIRS_INLINE;
+  for (uint k = 0; k < c; ++k) {
+    pair_t[o + k] = t;
+    pair_o[o + k] = scr_o[s + k];
+    pair_rel[o + k] = scr_rel[s + k];
+    pair_line[o + k] = scr_line[s + k];
+  }
+}
+
+/* The pairs where a triangle is the higher member ("incoming"), as per-triangle lists. */
+__kernel void cross_in_count(uint npairs, __global const uint* pair_o, __global uint* in_count) {
+  uint p = get_global_id(0);
+  if (p >= npairs) return;
+  atomic_inc(&in_count[pair_o[p]]);
+}
+
+__kernel void cross_in_fill(uint npairs, __global const uint* pair_o, __global const uint* in_offset,
+                            __global uint* in_cursor, __global uint* in_list) {
+  uint p = get_global_id(0);
+  if (p >= npairs) return;
+  uint x = pair_o[p];
+  in_list[in_offset[x] + atomic_inc(&in_cursor[x])] = p;
+}
+
+inline uint pair_entries(uint rel) { return rel == VM_REL_CROSS ? 4 : 3; }
+
+/* Per triangle: sorts its incoming list (pair order, so the result is deterministic) and
+ * counts its clipping entries. */
+__kernel void cross_entry_count(uint ntris, __global const uint* out_count,
+                                __global const uint* out_offset, __global const uint* in_count,
+                                __global const uint* in_offset, __global uint* in_list,
+                                __global const uint* pair_rel, __global uint* ent_count) {
+  uint x = get_global_id(0);
+  if (x >= ntris) return;
+  __global uint* a = in_list + in_offset[x];
+  int n = (int)in_count[x];
+  sort_ids(a, n);
+  uint c = 0;
+  for (uint k = 0; k < out_count[x]; ++k) c += pair_entries(pair_rel[out_offset[x] + k]);
+  for (int k = 0; k < n; ++k) c += pair_entries(pair_rel[a[k]]);
+  ent_count[x] = c;
+}
+
+/* Writes triangle x's entries: for a crossing pair, the snapped intersection line directed so
+ * that x is in front on its positive side (an infinite line: q0 = q1 = +inf); for both kinds,
+ * the partner's three edges as segments (q0 = q1 = DBL_MAX: always in front). The partner's
+ * edges matter because next to it the surface may continue through an edge that is no
+ * silhouette but on whose other side the order with x is decided differently. */
+inline uint write_entries(uint x, uint p, bool lower, __global const VmScreenTri* tris,
+                          __global const uint* pair_t, __global const uint* pair_o,
+                          __global const uint* pair_rel, __global const VmLine* pair_line,
+                          __global VmEdge* out, __global uint* partner) {
+  uint o = lower ? pair_o[p] : pair_t[p];
+  uint rel = pair_rel[p];
+  uint m = 0;
+  VmEdge e;
+  if (rel == VM_REL_CROSS) {
+    VmLine l = pair_line[p];
+    if (lower) {
+      e.x0 = l.x0; e.y0 = l.y0; e.x1 = l.x1; e.y1 = l.y1;
+    } else {
+      e.x0 = l.x1; e.y0 = l.y1; e.x1 = l.x0; e.y1 = l.y0;
+    }
+    e.q0 = INFINITY;
+    e.q1 = INFINITY;
+    out[m] = e;
+    partner[m] = o;
+    ++m;
+  }
+  VmScreenTri other = tris[o];
+  for (int i = 0; i < 3; ++i) {
+    int j = i == 2 ? 0 : i + 1;
+    e.x0 = other.x[i]; e.y0 = other.y[i]; e.x1 = other.x[j]; e.y1 = other.y[j];
+    e.q0 = DBL_MAX;
+    e.q1 = DBL_MAX;
+    out[m] = e;
+    partner[m] = o;
+    ++m;
+  }
+  return m;
+}
+
+__kernel void cross_entry_fill(uint ntris, __global const VmScreenTri* tris,
+                               __global const uint* out_count, __global const uint* out_offset,
+                               __global const uint* in_count, __global const uint* in_offset,
+                               __global const uint* in_list, __global const uint* pair_t,
+                               __global const uint* pair_o, __global const uint* pair_rel,
+                               __global const VmLine* pair_line, __global const uint* ent_offset,
+                               uint nsil, __global VmEdge* edges, __global uint* partner) {
+  uint x = get_global_id(0);
+  if (x >= ntris) return;
+  uint w = ent_offset[x];
+  for (uint k = 0; k < out_count[x]; ++k)
+    w += write_entries(x, out_offset[x] + k, true, tris, pair_t, pair_o, pair_rel, pair_line,
+                       edges + nsil + w, partner + w);
+  for (uint k = 0; k < in_count[x]; ++k)
+    w += write_entries(x, in_list[in_offset[x] + k], false, tris, pair_t, pair_o, pair_rel,
+                       pair_line, edges + nsil + w, partner + w);
 }

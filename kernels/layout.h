@@ -66,17 +66,18 @@ typedef struct {
   vm_u32 pad;
 } VmFragMeta;
 
-/* The bin grid: uniform tiles of tile_size grid units. */
+/* The bin grid: uniform tiles of tile_size = 2^tile_shift grid units. */
 typedef struct {
   vm_i32 tile_size;
   vm_i32 tiles_x;
   vm_i32 tiles_y;
-  vm_i32 pad;
+  vm_i32 tile_shift;
 } VmGrid;
 
 /* Status flags a kernel can raise (read back by the host). */
 #define VM_STATUS_LINES_OVERFLOW 1u
 #define VM_STATUS_HASH_FULL 2u
+#define VM_STATUS_PAIRS_OVERFLOW 4u
 
 #ifndef __OPENCL_VERSION__
 static_assert(sizeof(VmScreenTri) == 64, "VmScreenTri layout");

@@ -81,7 +81,8 @@ inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, lo
 /* visible[i] = 1 when no screen triangle covers fragment i's interior point in front of it;
  * 0 when one does; 0 (and counted in status[1]) when the fragment has no interior point. */
 __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* lines, uint n,
-                      __global const VmScreenTri* tris, VmGrid g, __global const uint* tile_offset,
+                      __global const VmScreenTri* tris, __global const int4* tri_bb, VmGrid g,
+                      __global const uint* tile_offset,
                       __global const uint* tile_count, __global const uint* tile_list,
                       __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
                       __global const uint* cross_count, __global const uint* partner,
@@ -97,14 +98,16 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
   }
   VmScreenTri t = tris[m.tri];
   int gx = (int)(px >> VM_POINT_BITS), gy = (int)(py >> VM_POINT_BITS);
-  uint tile = tile_coord(gy, g.tile_size, g.tiles_y) * g.tiles_x + tile_coord(gx, g.tile_size, g.tiles_x);
+  uint tile = tile_coord(gy, g.tile_shift, g.tiles_y) * g.tiles_x + tile_coord(gx, g.tile_shift, g.tiles_x);
   uint off = tile_offset[tile], cnt = tile_count[tile];
   for (uint k = 0; k < cnt; ++k) {
     uint o = tile_list[off + k];
     if (o == m.tri) continue;
+    int4 ob = tri_bb[o];
+    if (gx < ob.x || gx > ob.z || gy < ob.y || gy > ob.w) continue;
+    if (!covers(&tris[o], px, py)) continue;
     VmScreenTri ot = tris[o];
     if (ot.mesh == t.mesh && ot.tri == t.tri) continue; /* pieces of one source never overlap */
-    if (!covers(&tris[o], px, py)) continue;
     if (hides(m.tri, o, &t, &ot, px, py, edges, nsil, cross_offset, cross_count, partner)) {
       visible[i] = 0;
       return;

@@ -10,6 +10,7 @@ PACKAGES=(
   libboost-dev nlohmann-json3-dev googletest libgtest-dev zlib1g-dev
   librsvg2-bin libxml2-utils python3
   time
+  python3-websockets python3-jsonschema
 )
 
 missing=()

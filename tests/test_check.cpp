@@ -5,7 +5,7 @@
 #include <utility>
 #include <vector>
 
-#include "tests/support/planar_check.h"
+#include "core/reference/planar_check.h"
 
 using namespace vismap;
 using namespace vismap::check;

@@ -13,8 +13,9 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "tests/support/exact_geom.h"
-#include "tests/support/planar_check.h"
+#include "core/reference/exact_geom.h"
+#include "core/reference/planar_check.h"
+#include "kernels/layout.h"
 
 namespace vismap::check {
 
@@ -186,10 +187,34 @@ ReferenceResult exact_visibility(const ScreenTriangles& screen) {
       if (box[o][0] >= box[t][2]) break;
       if (o == t || box[o][2] <= box[t][0] || box[o][1] >= box[t][3] || box[o][3] <= box[t][1]) continue;
       FT a = plane[o].a - plane[t].a, b = plane[o].b - plane[t].b, c = plane[o].c - plane[t].c;
-      if (CGAL::is_zero(a) && CGAL::is_zero(b)) {
-        CGAL::Sign s = CGAL::sign(c);
-        uint64_t ko = source_key(screen.mesh[o], screen.triangle[o]);
-        if (s == CGAL::POSITIVE || (s == CGAL::ZERO && ko < kt)) occluders.push_back(tri[o]);
+      uint64_t ko = source_key(screen.mesh[o], screen.triangle[o]);
+      // The tie rule (DESIGN §3), pair by pair as the pipeline applies it: over the overlap R of
+      // the two footprints, d = depth_o - depth_t. If d leaves the relative band
+      // VM_TIE_EPS * |depth| on both sides, the planes cross and the order switches along d = 0;
+      // if only on one side, that side's order holds over all of R; if nowhere, the lower
+      // (mesh, triangle) is in front over all of R.
+      Poly overlap = tri[o];
+      for (size_t e = 0; e < 3 && overlap.size() >= 3; ++e) {
+        const Point& p0 = tri[t][e];
+        const Point& p1 = tri[t][(e + 1) % 3];
+        FT ea = -(p1.y() - p0.y()), eb = p1.x() - p0.x();
+        overlap = clip_halfplane(overlap, ea, eb, -(ea * p0.x() + eb * p0.y()));
+      }
+      if (overlap.size() < 3 || CGAL::is_zero(overlap.area())) continue;
+      FT dmin = 0, dmax = 0, band = 0;
+      for (size_t i = 0; i < overlap.size(); ++i) {
+        const Point& v = overlap[i];
+        FT qo = plane[o].a * v.x() + plane[o].b * v.y() + plane[o].c;
+        FT qt = plane[t].a * v.x() + plane[t].b * v.y() + plane[t].c;
+        FT d = qo - qt;
+        if (i == 0 || d < dmin) dmin = d;
+        if (i == 0 || d > dmax) dmax = d;
+        band = std::max(band, FT(VM_TIE_EPS) * std::max(CGAL::abs(qo), CGAL::abs(qt)));
+      }
+      bool crossing = dmax > band && dmin < -band;
+      if (!crossing) {
+        bool o_front = dmax > band ? true : dmin < -band ? false : ko < kt;
+        if (o_front) occluders.push_back(tri[o]);
         continue;
       }
       Poly part = clip_halfplane(tri[o], a, b, c);

@@ -1,6 +1,6 @@
 // check_planar_map and pixel_compare (docs/CHECKS.md). Exact predicates from exact_geom.h; the
 // union of the screen triangles comes from reference.cpp (the CGAL translation unit).
-#include "tests/support/planar_check.h"
+#include "core/reference/planar_check.h"
 
 #include <algorithm>
 #include <chrono>
@@ -11,7 +11,8 @@
 #include <stdexcept>
 #include <unordered_map>
 
-#include "tests/support/exact_geom.h"
+#include "core/reference/exact_geom.h"
+#include "kernels/layout.h"
 
 namespace vismap::check {
 namespace detail {
@@ -428,6 +429,65 @@ CheckReport check_planar_map(const PlanarMap& map, const ScreenTriangles& screen
 
 namespace {
 
+// The tie rule pair by pair, as the pipeline applies it (kernels/crossing.cl pair_relation) and
+// the reference does (reference.cpp): over the overlap of the two footprints the depth
+// difference d = depth_a - depth_b; +1: a in front over all of it, -1: b in front, 0: the
+// planes cross beyond the band (decide point by point).
+int pair_order(const ScreenTriangles& s, size_t a, size_t b) {
+  auto plane = [&](size_t t, double& gx, double& gy, double& q0, double& x0, double& y0) {
+    const int32_t* v = &s.xy[6 * t];
+    const double* d = &s.depth[3 * t];
+    double ux = v[2] - v[0], uy = v[3] - v[1], wx = v[4] - v[0], wy = v[5] - v[1];
+    double det = ux * wy - uy * wx;
+    gx = ((d[1] - d[0]) * wy - (d[2] - d[0]) * uy) / det;
+    gy = ((d[2] - d[0]) * ux - (d[1] - d[0]) * wx) / det;
+    q0 = d[0];
+    x0 = v[0];
+    y0 = v[1];
+  };
+  std::vector<std::pair<double, double>> poly;
+  for (int k = 0; k < 3; ++k) poly.push_back({double(s.xy[6 * a + 2 * k]), double(s.xy[6 * a + 2 * k + 1])});
+  const int32_t* w = &s.xy[6 * b];
+  double orient = double(w[2] - w[0]) * (w[5] - w[1]) - double(w[3] - w[1]) * (w[4] - w[0]);
+  for (int e = 0; e < 3 && !poly.empty(); ++e) {
+    int f = (e + 1) % 3;
+    double ex = w[2 * f] - w[2 * e], ey = w[2 * f + 1] - w[2 * e + 1];
+    if (orient < 0) ex = -ex, ey = -ey;
+    std::vector<std::pair<double, double>> out;
+    for (size_t i = 0; i < poly.size(); ++i) {
+      auto u = poly[i], v = poly[(i + 1) % poly.size()];
+      double su = ex * (u.second - w[2 * e + 1]) - ey * (u.first - w[2 * e]);
+      double sv = ex * (v.second - w[2 * e + 1]) - ey * (v.first - w[2 * e]);
+      if (su >= 0) out.push_back(u);
+      if ((su >= 0) != (sv >= 0)) {
+        double t = su / (su - sv);
+        out.push_back({u.first + t * (v.first - u.first), u.second + t * (v.second - u.second)});
+      }
+    }
+    poly = out;
+  }
+  double ga, ha, qa, xa, ya, gb, hb, qb, xb, yb;
+  plane(a, ga, ha, qa, xa, ya);
+  plane(b, gb, hb, qb, xb, yb);
+  double dmin = INFINITY, dmax = -INFINITY, band = 0;
+  for (auto& p : poly) {
+    double da = qa + ga * (p.first - xa) + ha * (p.second - ya);
+    double db = qb + gb * (p.first - xb) + hb * (p.second - yb);
+    dmin = std::min(dmin, da - db);
+    dmax = std::max(dmax, da - db);
+    band = std::max(band, VM_TIE_EPS * std::max(std::fabs(da), std::fabs(db)));
+  }
+  if (dmax > band && dmin < -band) return 0;
+  if (dmax > band) return 1;
+  if (dmin < -band) return -1;
+  uint64_t ka = source_key(s.mesh[a], s.triangle[a]), kb = source_key(s.mesh[b], s.triangle[b]);
+  return ka < kb ? 1 : -1;
+}
+
+}  // namespace
+
+namespace {
+
 // Marks samples within 1.5 sample spacings of the segment a-b (grid units).
 void mark_edge(std::vector<uint8_t>& near, uint32_t n, double sx, double sy, double ax, double ay,
                double bx, double by) {
@@ -474,9 +534,11 @@ PixelReport pixel_compare(const PlanarMap& map, const ScreenTriangles& screen, u
   std::vector<uint64_t> zid(size_t(n) * n, kEmpty), mid(size_t(n) * n, kEmpty);
   std::vector<double> zdepth(size_t(n) * n, -std::numeric_limits<double>::infinity());
   std::vector<uint8_t> near(size_t(n) * n, 0);
+  std::vector<uint32_t> ztri(size_t(n) * n, 0);
+  std::unordered_map<uint64_t, int> order_cache;
 
   // Z-buffer of the screen triangles: closed point-in-triangle exactly; depth interpolated in
-  // double; depths within 1e-12 relative count as equal and the tie rule decides.
+  // double; within the tie band the pair's order over its overlap decides (pair_order).
   SourceTriangles st = load_triangles(screen);
   for (size_t t = 0; t < screen.size(); ++t) {
     const HPoint* p = &st.tri[3 * t];
@@ -499,11 +561,21 @@ PixelReport pixel_compare(const PlanarMap& map, const ScreenTriangles& screen, u
         double b1 = (px * wy - py * wx) / det, b2 = (ux * py - uy * px) / det;
         double depth = d[0] + b1 * (d[1] - d[0]) + b2 * (d[2] - d[0]);
         size_t k = size_t(j) * n + i;
-        double tol = 1e-12 * std::max(std::fabs(depth), std::fabs(zdepth[k]));
-        bool closer = depth > zdepth[k] + tol || (depth >= zdepth[k] - tol && key < zid[k]);
+        bool closer;
+        double band = VM_TIE_EPS * std::max(std::fabs(depth), std::fabs(zdepth[k]));
+        if (zid[k] == kEmpty || std::fabs(depth - zdepth[k]) > band) {
+          closer = depth > zdepth[k];
+        } else {  // within the tie band: the pair's order over its whole overlap
+          uint64_t pk = (uint64_t(t) << 32) | ztri[k];
+          auto it = order_cache.find(pk);
+          int order = it != order_cache.end() ? it->second
+                                              : (order_cache[pk] = pair_order(screen, t, ztri[k]));
+          closer = order == 0 ? depth > zdepth[k] : order > 0;
+        }
         if (closer) {
           zdepth[k] = depth;
           zid[k] = key;
+          ztri[k] = uint32_t(t);
         }
       }
   }

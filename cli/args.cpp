@@ -1,0 +1,89 @@
+#include "cli/args.h"
+
+#include <cmath>
+#include <cstdlib>
+
+namespace vismap::cli {
+
+Vec3 parse_vec3(const std::string& flag, const std::string& s) {
+  Vec3 v;
+  char* end = nullptr;
+  const char* p = s.c_str();
+  for (int k = 0; k < 3; ++k) {
+    v[k] = std::strtod(p, &end);
+    if (end == p || !std::isfinite(v[k])) throw UsageError(flag + ": expected X,Y,Z, got '" + s + "'");
+    p = end;
+    if (k < 2) {
+      if (*p != ',') throw UsageError(flag + ": expected X,Y,Z, got '" + s + "'");
+      ++p;
+    }
+  }
+  if (*p) throw UsageError(flag + ": expected X,Y,Z, got '" + s + "'");
+  return v;
+}
+
+double parse_number(const std::string& flag, const std::string& s) {
+  char* end = nullptr;
+  double v = std::strtod(s.c_str(), &end);
+  if (s.empty() || *end || !std::isfinite(v)) throw UsageError(flag + ": expected a number, got '" + s + "'");
+  return v;
+}
+
+uint32_t parse_pixels(const std::string& flag, const std::string& s) {
+  double v = parse_number(flag, s);
+  if (v < 1 || v > 16384 || v != std::floor(v))
+    throw UsageError(flag + ": expected an integer in 1..16384, got '" + s + "'");
+  return static_cast<uint32_t>(v);
+}
+
+bool parse_view_flag(const std::string& f, const std::function<std::string()>& value, ViewArgs& a) {
+  if (f == "--width") a.width = parse_pixels(f, value());
+  else if (f == "--height") a.height = parse_pixels(f, value());
+  else if (f == "--eye") a.eye = parse_vec3(f, value());
+  else if (f == "--target") a.target = parse_vec3(f, value());
+  else if (f == "--up") a.up = parse_vec3(f, value());
+  else if (f == "--fov-y") a.fov_y = parse_number(f, value());
+  else if (f == "--ortho") a.ortho = parse_number(f, value());
+  else if (f == "--near") a.near_plane = parse_number(f, value());
+  else if (f == "--far") a.far_plane = parse_number(f, value());
+  else if (f == "--device") a.device = value();
+  else return false;
+  return true;
+}
+
+void validate_view(const ViewArgs& a) {
+  if (a.fov_y && a.ortho) throw UsageError("--fov-y and --ortho exclude each other");
+}
+
+Camera make_camera(const Scene& scene, const ViewArgs& a) {
+  uint32_t w = a.width.value_or(scene.camera ? scene.camera->width : 1024);
+  uint32_t h = a.height.value_or(scene.camera ? scene.camera->height : 1024);
+  if (a.width && !a.height && !scene.camera) h = w;
+  if (a.height && !a.width && !scene.camera) w = h;
+  Camera c = scene.camera ? *scene.camera : frame_scene(scene, w, h);
+  c.width = w;
+  c.height = h;
+  bool moved = a.eye || a.target || a.up || a.ortho || a.fov_y;
+  if (a.eye) c.eye = *a.eye;
+  if (a.target) c.target = *a.target;
+  if (a.up) c.up = *a.up;
+  if (a.fov_y) {
+    c.projection = Camera::Projection::Perspective;
+    c.fov_y_deg = *a.fov_y;
+  }
+  if (a.ortho) {
+    c.projection = Camera::Projection::Orthographic;
+    c.ortho_height = *a.ortho;
+  }
+  if (moved && !scene.camera) {  // the framed near/far belonged to the framed view
+    c.near_plane = 0;
+    c.far_plane = 0;
+  }
+  if (a.near_plane) c.near_plane = *a.near_plane;
+  if (a.far_plane) c.far_plane = *a.far_plane;
+  fit_near_far(c, scene);
+  c.validate();
+  return c;
+}
+
+}  // namespace vismap::cli

@@ -1,0 +1,39 @@
+// Command-line parsing shared by the CLI's commands: numbers, vectors, and the camera flags that
+// `render` and `check` both take.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "core/camera.h"
+#include "core/scene.h"
+
+namespace vismap::cli {
+
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+Vec3 parse_vec3(const std::string& flag, const std::string& s);
+double parse_number(const std::string& flag, const std::string& s);
+uint32_t parse_pixels(const std::string& flag, const std::string& s);
+
+// --width --height --eye --target --up --fov-y --ortho --near --far --device
+struct ViewArgs {
+  std::optional<uint32_t> width, height;
+  std::optional<Vec3> eye, target, up;
+  std::optional<double> fov_y, ortho, near_plane, far_plane;
+  std::string device;
+};
+
+// If `flag` is one of the view flags, consumes its value through `value` and returns true.
+bool parse_view_flag(const std::string& flag, const std::function<std::string()>& value, ViewArgs& v);
+void validate_view(const ViewArgs& v);  // throws UsageError
+
+// The camera: the scene's own (or a framing one), then the flags on top.
+Camera make_camera(const Scene& scene, const ViewArgs& a);
+
+}  // namespace vismap::cli

@@ -1,0 +1,160 @@
+// vismap-client: connects to vismapd, uploads a scene, orbits the camera for N frames, saves the
+// frames and reports fps, latency and bytes. Its last stdout line is one JSON object.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <vector>
+
+#include "clients/wsclient.h"
+
+using nlohmann::json;
+using namespace vismap::client;
+
+static const char* kUsage =
+    "usage: vismap-client --url ws://HOST:PORT/ (--scene FILE | --library NAME) --frames N\n"
+    "                     [--format svg|bin] [--out DIR] [--width W] [--height H] [--attributes]\n"
+    "                     [--token-file FILE] [--timeout S]\n";
+
+static std::string slurp(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw std::runtime_error(path + ": cannot open");
+  std::ostringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// Reads the next JSON control message; an error message becomes an exception.
+static json next_json(WsClient& c, double timeout) {
+  for (;;) {
+    Message m = c.read(timeout);
+    if (m.binary) throw std::runtime_error("unexpected binary message");
+    json j = json::parse(m.data);
+    if (j.value("type", "") == "error")
+      throw std::runtime_error("server error " + j.value("code", "") + ": " + j.value("message", ""));
+    return j;
+  }
+}
+
+static double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  size_t i = static_cast<size_t>(std::ceil(p / 100.0 * v.size())) - 1;
+  return v[std::min(i, v.size() - 1)];
+}
+
+int main(int argc, char** argv) {
+  std::string url, scene, library, format = "svg", out, token_file;
+  int frames = 36;
+  uint32_t width = 1024, height = 1024;
+  bool attributes = false;
+  double timeout = 60;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      std::string a = argv[i];
+      auto val = [&]() -> std::string {
+        if (i + 1 >= argc) throw std::runtime_error(a + " needs a value");
+        return argv[++i];
+      };
+      if (a == "--url") url = val();
+      else if (a == "--scene") scene = val();
+      else if (a == "--library") library = val();
+      else if (a == "--frames") frames = std::stoi(val());
+      else if (a == "--format") format = val();
+      else if (a == "--out") out = val();
+      else if (a == "--width") width = static_cast<uint32_t>(std::stoul(val()));
+      else if (a == "--height") height = static_cast<uint32_t>(std::stoul(val()));
+      else if (a == "--token-file") token_file = val();
+      else if (a == "--timeout") timeout = std::stod(val());
+      else if (a == "--attributes") attributes = true;
+      else if (a == "--help" || a == "-h") {
+        std::fputs(kUsage, stdout);
+        return 0;
+      } else throw std::runtime_error("unknown flag " + a);
+    }
+    if (url.empty() || (scene.empty() == library.empty()) || frames < 1 || (format != "svg" && format != "bin"))
+      throw std::runtime_error("bad arguments");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "vismap-client: %s\n%s", e.what(), kUsage);
+    return 2;
+  }
+
+  try {
+    WsClient c;
+    c.connect(url, 10);
+    json hello = {{"type", "hello"}, {"version", 1}, {"format", format}, {"attributes", attributes},
+                  {"viewport", {{"width", width}, {"height", height}}}};
+    if (!token_file.empty()) {
+      std::string t = slurp(token_file);
+      while (!t.empty() && (t.back() == '\n' || t.back() == '\r')) t.pop_back();
+      hello["token"] = t;
+    }
+    c.send_text(hello.dump());
+    json welcome = next_json(c, timeout);
+    if (welcome.value("type", "") != "welcome") throw std::runtime_error("expected welcome");
+
+    auto t_up = std::chrono::steady_clock::now();
+    if (!library.empty()) {
+      c.send_text(json{{"type", "scene"}, {"library", library}}.dump());
+    } else {
+      std::string bytes = slurp(scene);
+      std::string name = std::filesystem::path(scene).filename().string();
+      c.send_text(json{{"type", "scene"}, {"name", name}, {"size", bytes.size()}}.dump());
+      c.send_binary(bytes, timeout);
+    }
+    json ready = next_json(c, timeout);
+    if (ready.value("type", "") != "scene_ready") throw std::runtime_error("expected scene_ready");
+    double upload_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_up).count();
+    std::printf("scene: %s, %llu triangles, uploaded and loaded in %.1f ms\n", ready.value("name", "").c_str(),
+                static_cast<unsigned long long>(ready.value("triangles", 0ull)), upload_ms);
+
+    // Orbit: rotate the framing camera's eye about the target around its up axis (y here).
+    auto cam = ready["camera"];
+    std::array<double, 3> eye = cam["eye"], target = cam["target"];
+    double dx = eye[0] - target[0], dz = eye[2] - target[2];
+    if (!out.empty()) std::filesystem::create_directories(out);
+    std::vector<double> latency;
+    double render_ms_sum = 0;
+    uint64_t bytes_sum = 0;
+    auto t0 = std::chrono::steady_clock::now();
+    for (int i = 0; i < frames; ++i) {
+      double a = 2 * M_PI * i / frames;
+      std::array<double, 3> e{target[0] + dx * std::cos(a) + dz * std::sin(a), eye[1],
+                              target[2] - dx * std::sin(a) + dz * std::cos(a)};
+      auto ts = std::chrono::steady_clock::now();
+      c.send_text(json{{"type", "camera"}, {"seq", i}, {"eye", e}}.dump());
+      json header = next_json(c, timeout);
+      if (header.value("type", "") != "frame") throw std::runtime_error("expected frame, got " + header.dump());
+      Message payload = c.read(timeout);
+      latency.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ts).count());
+      bytes_sum += payload.data.size();
+      render_ms_sum += header.value("render_ms", 0.0);
+      if (!out.empty()) {
+        char name[64];
+        std::snprintf(name, sizeof name, "frame_%04d.%s", i, format.c_str());
+        std::ofstream(std::filesystem::path(out) / name, std::ios::binary) << payload.data;
+      }
+    }
+    double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    c.close();
+    json r = {{"frames", frames},
+              {"fps", frames / secs},
+              {"latency_p50_ms", percentile(latency, 50)},
+              {"latency_p99_ms", percentile(latency, 99)},
+              {"bytes_per_frame", bytes_sum / frames},
+              {"render_ms_mean", render_ms_sum / frames},
+              {"format", format}};
+    std::printf("%d frames in %.2f s: %.1f fps, latency p50 %.1f ms p99 %.1f ms, %llu bytes/frame\n", frames, secs,
+                frames / secs, r["latency_p50_ms"].get<double>(), r["latency_p99_ms"].get<double>(),
+                static_cast<unsigned long long>(bytes_sum / frames));
+    std::printf("%s\n", r.dump().c_str());
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "vismap-client: %s\n", e.what());
+    return 1;
+  }
+}

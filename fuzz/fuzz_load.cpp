@@ -1,0 +1,25 @@
+// libFuzzer target for the scene loaders (core/load_scene_from_memory). The first input byte picks
+// the format (by the name's extension), the rest is the file. The contract under test: any bytes
+// either load or throw InputError; nothing else (no crash, no other exception, no leak, no UB).
+// Build and run: fuzz/README.md.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "core/error.h"
+#include "core/scene.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  static const char* names[] = {"f.ply", "f.ply.gz", "f.obj", "f.off", "f.stl", "f.gltf", "f.glb", "f.json"};
+  if (size < 1) return 0;
+  const std::string name = names[data[0] % 8];
+  const std::string bytes(reinterpret_cast<const char*>(data + 1), size - 1);
+  vismap::LoadOptions opts;
+  opts.max_triangles = 1u << 20;  // keeps the fuzzer's memory bounded; TooLarge is an InputError
+  try {
+    vismap::Scene s = vismap::load_scene_from_memory(name, bytes, opts);
+    (void)s;
+  } catch (const vismap::InputError&) {
+  }
+  return 0;
+}

@@ -1,0 +1,55 @@
+// vismapd configuration: defaults, overridden by a JSON file (--config), overridden by flags.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace vismap::server {
+
+struct Limits {
+  uint64_t max_message_bytes = 0;        // one WebSocket message; 0: derived from max_scene_bytes
+  uint64_t max_control_bytes = 64 << 10; // one JSON control message
+  uint64_t max_scene_bytes = 64ull << 20;     // one uploaded scene file
+  uint64_t max_triangles = 5'000'000;         // per scene
+  uint64_t max_session_bytes = 512ull << 20;  // upload + loaded scene, per session
+  uint32_t max_sessions = 64;
+  uint32_t max_connections = 256;             // TCP connections, upgraded or not
+  uint32_t max_viewport = 8192;               // width and height
+  double handshake_timeout_s = 5;        // TCP accept -> WebSocket upgrade, and upgrade -> hello
+  double idle_timeout_s = 60;            // no message from the client for this long
+
+  // What Beast enforces per message: a base64 scene in JSON must fit.
+  uint64_t message_max() const {
+    if (max_message_bytes) return max_message_bytes;
+    uint64_t b64 = max_scene_bytes / 3 * 4 + 4096;
+    return b64 < (1u << 20) ? (1u << 20) : b64;
+  }
+};
+
+struct Config {
+  std::string address = "127.0.0.1";
+  uint16_t port = 8080;
+  std::string library;        // folder of scenes clients may name; empty: none
+  std::string www;            // folder served at /; empty: the built-in default
+  std::string token;          // non-empty: hello must carry it
+  std::string device;         // Renderer device string ("" = default)
+  uint32_t renderers = 1;     // Renderer instances (worker threads) sharing the device
+  uint32_t io_threads = 2;
+  uint32_t load_threads = 2;  // scene parsing off the network threads
+  double drain_timeout_s = 10;  // graceful stop: longest wait for frames in flight
+  std::string log_level = "info";  // info | warn | off
+  Limits limits;
+};
+
+// Applies a JSON object (same keys as Config/Limits, e.g. {"port":9000,"limits":{"max_sessions":8}})
+// to cfg. Unknown keys are an error: a typo must not silently keep a default.
+void apply_json(Config& cfg, const std::string& json_text, const std::string& origin);
+
+// Parses argv into cfg (after --config is applied). Returns false and sets `usage` on --help.
+// Throws std::runtime_error with a one-line message on a bad flag.
+bool parse_args(Config& cfg, int argc, char** argv, std::string& usage);
+
+std::string read_file(const std::string& path);
+
+}  // namespace vismap::server

@@ -1,0 +1,27 @@
+// vismapd: the streaming server. See docs/SERVER.md and proto/PROTOCOL.md.
+#include <cstdio>
+#include <exception>
+
+#include <nlohmann/json.hpp>
+
+#include "server/server.h"
+
+int main(int argc, char** argv) {
+  using namespace vismap::server;
+  Config cfg;
+  try {
+    std::string usage;
+    if (!parse_args(cfg, argc, argv, usage)) {
+      std::fputs(usage.c_str(), stdout);
+      return 0;
+    }
+    Server server(cfg);
+    server.start();
+    server.run_until_signal();
+    return 0;
+  } catch (const std::exception& e) {
+    nlohmann::json j = {{"level", "error"}, {"event", "fatal"}, {"message", e.what()}};
+    std::fprintf(stderr, "%s\n", j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
+    return 1;
+  }
+}

@@ -1,0 +1,270 @@
+#include "server/protocol.h"
+
+#include <array>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+namespace vismap::server {
+
+using nlohmann::json;
+
+namespace {
+
+[[noreturn]] void bad(const std::string& msg) { throw ProtoError(code::bad_message, msg); }
+
+const json* field(const json& j, const char* key) {
+  auto it = j.find(key);
+  return it == j.end() || it->is_null() ? nullptr : &*it;
+}
+
+// The helpers below read a field that must be there (callers test optional ones with field()).
+const json* required(const json& j, const char* key) {
+  const json* v = field(j, key);
+  if (!v) bad(std::string("'") + key + "' is required");
+  return v;
+}
+
+double number(const json& j, const char* key) {
+  const json* v = required(j, key);
+  if (!v->is_number()) bad(std::string("'") + key + "' must be a number");
+  double d = v->get<double>();
+  if (!std::isfinite(d)) bad(std::string("'") + key + "' must be finite");
+  return d;
+}
+
+uint64_t uint(const json& j, const char* key, uint64_t hi) {
+  const json* v = required(j, key);
+  if (!v->is_number_unsigned() && !(v->is_number_integer() && v->get<int64_t>() >= 0))
+    bad(std::string("'") + key + "' must be a non-negative integer");
+  uint64_t n = v->get<uint64_t>();
+  if (n > hi) bad(std::string("'") + key + "' is larger than " + std::to_string(hi));
+  return n;
+}
+
+std::string string(const json& j, const char* key) {
+  const json* v = required(j, key);
+  if (!v->is_string()) bad(std::string("'") + key + "' must be a string");
+  return v->get<std::string>();
+}
+
+Vec3 vec3(const json& j, const char* key) {
+  const json* v = required(j, key);
+  if (!v->is_array() || v->size() != 3) bad(std::string("'") + key + "' must be [x, y, z]");
+  Vec3 r{};
+  for (int i = 0; i < 3; ++i) {
+    if (!(*v)[i].is_number()) bad(std::string("'") + key + "' must hold numbers");
+    r[i] = (*v)[i].get<double>();
+    if (!std::isfinite(r[i])) bad(std::string("'") + key + "' must be finite");
+  }
+  return r;
+}
+
+void viewport(const json& j, uint32_t& w, uint32_t& h, uint32_t max_viewport) {
+  w = static_cast<uint32_t>(uint(j, "width", max_viewport));
+  h = static_cast<uint32_t>(uint(j, "height", max_viewport));
+  if (w == 0 || h == 0) bad("viewport width and height must be >= 1");
+}
+
+Hello parse_hello(const json& j, uint32_t max_viewport) {
+  Hello h;
+  std::vector<int> offered;
+  if (const json* v = field(j, "version")) {
+    if (!v->is_number_integer()) bad("'version' must be an integer");
+    offered.push_back(v->get<int>());
+  }
+  if (const json* v = field(j, "versions")) {
+    if (!v->is_array()) bad("'versions' must be an array of integers");
+    for (const json& e : *v) {
+      if (!e.is_number_integer()) bad("'versions' must be an array of integers");
+      offered.push_back(e.get<int>());
+    }
+  }
+  if (offered.empty()) bad("hello needs 'version' or 'versions'");
+  bool ok = false;
+  for (int v : offered) ok = ok || v == kProtocolVersion;
+  if (!ok)
+    throw ProtoError(code::version_mismatch,
+                     "server speaks protocol version " + std::to_string(kProtocolVersion), true);
+  if (field(j, "format")) {
+    std::string f = string(j, "format");
+    if (f == "svg") h.format = Format::Svg;
+    else if (f == "bin") h.format = Format::Bin;
+    else bad("'format' must be \"svg\" or \"bin\"");
+  }
+  if (const json* v = field(j, "attributes")) {
+    if (!v->is_boolean()) bad("'attributes' must be a boolean");
+    h.attributes = v->get<bool>();
+  }
+  if (field(j, "fill")) {
+    std::string f = string(j, "fill");
+    if (f != "shade" && f != "id") bad("'fill' must be \"shade\" or \"id\"");
+    h.fill_id = f == "id";
+  }
+  if (const json* v = field(j, "viewport")) {
+    if (!v->is_object()) bad("'viewport' must be {\"width\":W,\"height\":H}");
+    viewport(*v, h.width, h.height, max_viewport);
+  }
+  if (field(j, "token")) h.token = string(j, "token");
+  return h;
+}
+
+SceneRequest parse_scene(const json& j, uint64_t max_scene_bytes) {
+  SceneRequest s;
+  int sources = 0;
+  if (field(j, "library")) {
+    s.library = string(j, "library");
+    s.name = s.library;
+    ++sources;
+  }
+  if (field(j, "name")) s.name = string(j, "name");
+  if (field(j, "data")) {
+    const json* d = field(j, "data");
+    if (!d->is_string()) bad("'data' must be a base64 string");
+    const std::string& b64 = d->get_ref<const std::string&>();
+    if (b64.size() / 4 * 3 > max_scene_bytes + 3)
+      throw ProtoError(code::too_large, "scene is larger than max_scene_bytes (" +
+                                            std::to_string(max_scene_bytes) + ")");
+    bool ok = true;
+    s.data = base64_decode(b64, ok);
+    if (!ok) bad("'data' is not valid base64");
+    if (s.data->size() > max_scene_bytes)
+      throw ProtoError(code::too_large, "scene is larger than max_scene_bytes (" +
+                                            std::to_string(max_scene_bytes) + ")");
+    ++sources;
+  }
+  if (field(j, "size")) {
+    s.size = uint(j, "size", UINT64_MAX);
+    if (s.size > max_scene_bytes)
+      throw ProtoError(code::too_large, "scene of " + std::to_string(s.size) +
+                                            " bytes is larger than max_scene_bytes (" +
+                                            std::to_string(max_scene_bytes) + ")");
+    if (s.size == 0) bad("'size' must be >= 1");
+    ++sources;
+  }
+  if (sources != 1) bad("scene needs exactly one of 'library', 'data' or 'size'");
+  if (s.name.empty()) bad("scene needs a 'name' (its extension picks the format)");
+  if (s.name.size() > 255) bad("'name' is longer than 255 characters");
+  return s;
+}
+
+CameraRequest parse_camera(const json& j, uint32_t max_viewport) {
+  CameraRequest c;
+  if (field(j, "seq")) c.seq = uint(j, "seq", UINT64_MAX);
+  if (field(j, "eye")) c.eye = vec3(j, "eye");
+  if (field(j, "target")) c.target = vec3(j, "target");
+  if (field(j, "up")) c.up = vec3(j, "up");
+  if (field(j, "fov_y_deg")) c.fov_y_deg = number(j, "fov_y_deg");
+  if (field(j, "ortho_height")) c.ortho_height = number(j, "ortho_height");
+  if (field(j, "near")) c.near_plane = number(j, "near");
+  if (field(j, "far")) c.far_plane = number(j, "far");
+  if (field(j, "projection")) {
+    std::string p = string(j, "projection");
+    if (p != "perspective" && p != "orthographic")
+      bad("'projection' must be \"perspective\" or \"orthographic\"");
+    c.orthographic = p == "orthographic";
+  }
+  if (const json* v = field(j, "viewport")) {
+    if (!v->is_object()) bad("'viewport' must be {\"width\":W,\"height\":H}");
+    uint32_t w, h;
+    viewport(*v, w, h, max_viewport);
+    c.width = w;
+    c.height = h;
+  }
+  return c;
+}
+
+}  // namespace
+
+void CameraRequest::apply_to(Camera& c) const {
+  if (eye) c.eye = *eye;
+  if (target) c.target = *target;
+  if (up) c.up = *up;
+  if (fov_y_deg) c.fov_y_deg = *fov_y_deg;
+  if (ortho_height) c.ortho_height = *ortho_height;
+  if (near_plane) c.near_plane = *near_plane;
+  if (far_plane) c.far_plane = *far_plane;
+  if (orthographic)
+    c.projection = *orthographic ? Camera::Projection::Orthographic : Camera::Projection::Perspective;
+  if (width) c.width = *width;
+  if (height) c.height = *height;
+}
+
+Request parse_request(const std::string& text, uint64_t max_scene_bytes, uint32_t max_viewport) {
+  json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded()) throw ProtoError(code::bad_json, "message is not valid JSON");
+  if (!j.is_object()) throw ProtoError(code::bad_message, "message must be a JSON object");
+  const json* t = field(j, "type");
+  if (!t || !t->is_string()) throw ProtoError(code::bad_message, "message needs a string 'type'");
+  const std::string& type = t->get_ref<const std::string&>();
+  if (type == "hello") return parse_hello(j, max_viewport);
+  if (type == "scene") return parse_scene(j, max_scene_bytes);
+  if (type == "camera") return parse_camera(j, max_viewport);
+  if (type == "ping") {
+    Ping p;
+    if (field(j, "seq")) p.seq = uint(j, "seq", UINT64_MAX);
+    return p;
+  }
+  std::string shown = type.size() > 40 ? type.substr(0, 40) + "..." : type;
+  throw ProtoError(code::unknown_message, "unknown message type '" + shown + "'");
+}
+
+std::string error_code(const vismap::InputError& e) { return vismap::to_string(e.kind()); }
+
+std::string error_json(const std::string& c, const std::string& message, bool fatal,
+                       std::optional<uint64_t> seq) {
+  json j = {{"type", "error"}, {"code", c}, {"message", message}, {"fatal", fatal}};
+  if (seq) j["seq"] = *seq;
+  return j.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+std::string base64_decode(const std::string& in, bool& ok) {
+  static const auto table = [] {
+    std::array<int8_t, 256> t{};
+    t.fill(-1);
+    const char* a = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    for (int i = 0; i < 64; ++i) t[static_cast<uint8_t>(a[i])] = static_cast<int8_t>(i);
+    return t;
+  }();
+  std::string out;
+  out.reserve(in.size() / 4 * 3);
+  uint32_t acc = 0;
+  int bits = 0;
+  size_t pad = 0;
+  ok = true;
+  for (char ch : in) {
+    if (ch == '=') {
+      ++pad;
+      continue;
+    }
+    if (ch == '\n' || ch == '\r') continue;
+    int v = table[static_cast<uint8_t>(ch)];
+    if (v < 0 || pad) {
+      ok = false;
+      return {};
+    }
+    acc = (acc << 6) | static_cast<uint32_t>(v);
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out.push_back(static_cast<char>((acc >> bits) & 0xff));
+    }
+  }
+  if (pad > 2) ok = false;
+  return out;
+}
+
+bool safe_library_name(const std::string& name) {
+  if (name.empty() || name.front() == '/' || name.find('\\') != std::string::npos) return false;
+  if (name.find('\0') != std::string::npos) return false;
+  size_t start = 0;
+  while (start <= name.size()) {
+    size_t end = name.find('/', start);
+    if (end == std::string::npos) end = name.size();
+    std::string part = name.substr(start, end - start);
+    if (part.empty() || part == "." || part == "..") return false;
+    start = end + 1;
+  }
+  return true;
+}
+
+}  // namespace vismap::server

@@ -1,0 +1,96 @@
+// The control messages of proto/PROTOCOL.md as C++ values, and their JSON parsing. No networking
+// here: the session (server.cpp) feeds text messages in and gets typed requests or a ProtoError.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <variant>
+
+#include "core/camera.h"
+#include "core/error.h"
+
+namespace vismap::server {
+
+inline constexpr int kProtocolVersion = 1;
+
+// Protocol error codes (proto/PROTOCOL.md, "Error codes"). Scene and camera errors use the
+// vismap::InputErrorKind strings (to_string(kind)) unchanged.
+namespace code {
+inline constexpr const char* bad_json = "bad_json";
+inline constexpr const char* bad_message = "bad_message";
+inline constexpr const char* unknown_message = "unknown_message";
+inline constexpr const char* unexpected_message = "unexpected_message";
+inline constexpr const char* version_mismatch = "version_mismatch";
+inline constexpr const char* too_large = "too_large";
+inline constexpr const char* unauthorized = "unauthorized";
+inline constexpr const char* timeout = "timeout";
+inline constexpr const char* busy = "busy";
+inline constexpr const char* no_scene = "no_scene";
+inline constexpr const char* shutting_down = "shutting_down";
+inline constexpr const char* device_error = "device_error";
+inline constexpr const char* internal = "internal";
+}  // namespace code
+
+// A request the server refuses. fatal: the server closes the session after sending it.
+struct ProtoError : std::runtime_error {
+  ProtoError(std::string c, const std::string& msg, bool f = false)
+      : std::runtime_error(msg), code(std::move(c)), fatal(f) {}
+  std::string code;
+  bool fatal;
+};
+
+enum class Format { Svg, Bin };
+
+struct Hello {
+  int version = kProtocolVersion;  // chosen: the highest of the client's versions we speak
+  Format format = Format::Svg;
+  bool attributes = false;
+  bool fill_id = false;
+  uint32_t width = 1024, height = 1024;
+  std::string token;
+};
+
+// Scene upload header. Exactly one source: `library` (a file in the server's library), `data`
+// (base64 bytes inline) or `size` (bytes follow as the next binary message).
+struct SceneRequest {
+  std::string name;       // file name; its extension picks the loader
+  std::string library;
+  std::optional<std::string> data;  // decoded bytes
+  uint64_t size = 0;
+};
+
+// Camera update. Missing fields keep the scene's framing camera (frame_scene) values.
+struct CameraRequest {
+  uint64_t seq = 0;
+  std::optional<Vec3> eye, target, up;
+  std::optional<double> fov_y_deg, ortho_height, near_plane, far_plane;
+  std::optional<bool> orthographic;
+  std::optional<uint32_t> width, height;
+  void apply_to(Camera& c) const;
+};
+
+struct Ping {
+  uint64_t seq = 0;
+};
+
+using Request = std::variant<Hello, SceneRequest, CameraRequest, Ping>;
+
+// Parses one text message. Throws ProtoError (bad_json, bad_message, unknown_message,
+// version_mismatch, too_large).
+Request parse_request(const std::string& text, uint64_t max_scene_bytes, uint32_t max_viewport);
+
+// The code for a core input error: to_string(kind).
+std::string error_code(const vismap::InputError& e);
+
+std::string error_json(const std::string& code, const std::string& message, bool fatal,
+                       std::optional<uint64_t> seq = std::nullopt);
+
+std::string base64_decode(const std::string& in, bool& ok);
+
+// A file name from the library: a plain name or relative path without "..", "\\" or a leading
+// "/". Returns false when the name may escape the library folder.
+bool safe_library_name(const std::string& name);
+
+}  // namespace vismap::server
