@@ -8,6 +8,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
 #include <vector>
 
 #include "clients/wsclient.h"
@@ -18,7 +19,40 @@ using namespace vismap::client;
 static const char* kUsage =
     "usage: vismap-client --url ws://HOST:PORT/ (--scene FILE | --library NAME) --frames N\n"
     "                     [--format svg|bin] [--out DIR] [--width W] [--height H] [--attributes]\n"
-    "                     [--token-file FILE] [--timeout S]\n";
+    "                     [--token-file FILE] [--timeout S] [--retries N]\n"
+    "       vismap-client --health http://HOST:PORT/health   (exit 0 when the server answers 200 ok;\n"
+    "                                                         a container HEALTHCHECK without curl)\n";
+
+// GET /health: 0 when the server answers 200 with status ok, 1 otherwise (stopping, refused, timeout).
+static int health(const std::string& url_text, double timeout) {
+  try {
+    Url u = parse_url(url_text);
+    HttpResponse r = http_get(u.host, u.port, u.target.empty() ? "/health" : u.target, timeout);
+    while (!r.body.empty() && r.body.back() == '\n') r.body.pop_back();
+    std::printf("%d %s\n", r.status, r.body.c_str());
+    return r.status == 200 && json::parse(r.body, nullptr, false).value("status", "") == "ok" ? 0 : 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "vismap-client: health: %s\n", e.what());
+    return 1;
+  }
+}
+
+// Connects with exponential backoff (0.1 s doubling to 2 s): a server that restarts, or a load
+// balancer whose backend just went away, gets `retries` more tries.
+static void connect_with_retry(WsClient& c, const std::string& url, int retries) {
+  double delay = 0.1;
+  for (int attempt = 0;; ++attempt) {
+    try {
+      c.connect(url, 10);
+      return;
+    } catch (const std::exception& e) {
+      if (attempt >= retries) throw;
+      std::fprintf(stderr, "vismap-client: %s; retrying in %.1f s\n", e.what(), delay);
+      std::this_thread::sleep_for(std::chrono::duration<double>(delay));
+      delay = std::min(2 * delay, 2.0);
+    }
+  }
+}
 
 static std::string slurp(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
@@ -48,8 +82,8 @@ static double percentile(std::vector<double> v, double p) {
 }
 
 int main(int argc, char** argv) {
-  std::string url, scene, library, format = "svg", out, token_file;
-  int frames = 36;
+  std::string url, scene, library, format = "svg", out, token_file, health_url;
+  int frames = 36, retries = 0;
   uint32_t width = 1024, height = 1024;
   bool attributes = false;
   double timeout = 60;
@@ -70,12 +104,15 @@ int main(int argc, char** argv) {
       else if (a == "--height") height = static_cast<uint32_t>(std::stoul(val()));
       else if (a == "--token-file") token_file = val();
       else if (a == "--timeout") timeout = std::stod(val());
+      else if (a == "--retries") retries = std::stoi(val());
+      else if (a == "--health") health_url = val();
       else if (a == "--attributes") attributes = true;
       else if (a == "--help" || a == "-h") {
         std::fputs(kUsage, stdout);
         return 0;
       } else throw std::runtime_error("unknown flag " + a);
     }
+    if (!health_url.empty()) return health(health_url, std::min(timeout, 10.0));
     if (url.empty() || (scene.empty() == library.empty()) || frames < 1 || (format != "svg" && format != "bin"))
       throw std::runtime_error("bad arguments");
   } catch (const std::exception& e) {
@@ -85,7 +122,7 @@ int main(int argc, char** argv) {
 
   try {
     WsClient c;
-    c.connect(url, 10);
+    connect_with_retry(c, url, retries);
     json hello = {{"type", "hello"}, {"version", 1}, {"format", format}, {"attributes", attributes},
                   {"viewport", {{"width", width}, {"height", height}}}};
     if (!token_file.empty()) {

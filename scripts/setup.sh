@@ -11,7 +11,23 @@ PACKAGES=(
   librsvg2-bin libxml2-utils python3
   time
   python3-websockets python3-jsonschema
+  chromium nodejs nginx
 )
+
+ROOT="$(cd "$(dirname "$0")/.." && pwd)"
+
+# The web viewer's browser test drives Debian's Chromium with playwright-core from the npm
+# registry (the library only: it downloads no browser). Installed into the checkout, untracked.
+install_playwright() {
+  [ -d "$ROOT/node_modules/playwright-core" ] && return 0
+  if command -v npm >/dev/null 2>&1; then
+    (cd "$ROOT" && npm install --no-save --no-audit --no-fund --no-package-lock playwright-core@1 >/dev/null 2>&1) \
+      && echo "setup: playwright-core installed" \
+      || echo "setup: playwright-core could not be installed (the web viewer test will be skipped)"
+  else
+    echo "setup: no npm (the web viewer test will be skipped)"
+  fi
+}
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -20,6 +36,7 @@ done
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#PACKAGES[@]} packages present"
+  install_playwright
   exit 0
 fi
 
@@ -29,4 +46,5 @@ echo "setup: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+install_playwright
 echo "setup: done"

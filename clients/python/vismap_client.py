@@ -10,7 +10,9 @@ for the binary frame format (proto/FORMAT.md).
     asyncio.run(main())
 """
 import array
+import asyncio
 import json
+import random
 import struct
 import sys
 from dataclasses import dataclass, field
@@ -75,27 +77,65 @@ def read_bin(data: bytes) -> BinFrame:
 
 
 class Session:
-    """One vismapd session. Use as `async with Session(url, ...) as s:`."""
+    """One vismapd session. Use as `async with Session(url, ...) as s:`.
 
-    def __init__(self, url, fmt="svg", width=1024, height=1024, attributes=False, token=None, timeout=60):
+    With retries > 0 the session survives the loss of its server (behind a load balancer such as
+    deploy/nginx.conf): connecting retries with exponential backoff and jitter (backoff, doubling
+    up to max_backoff seconds), and when the connection drops, or the server answers a fatal
+    `shutting_down`, frame() reconnects, sends hello and the last scene again, and retries the
+    camera. `reconnects` counts the reconnections."""
+
+    def __init__(self, url, fmt="svg", width=1024, height=1024, attributes=False, token=None, timeout=60,
+                 retries=0, backoff=0.1, max_backoff=2.0):
         self.url, self.fmt, self.timeout = url, fmt, timeout
         self.hello = {"type": "hello", "version": PROTOCOL_VERSION, "format": fmt, "attributes": attributes,
                       "viewport": {"width": width, "height": height}}
         if token is not None:
             self.hello["token"] = token
+        self.retries, self.backoff, self.max_backoff = retries, backoff, max_backoff
+        self.reconnects = 0
         self.ws = None
         self.welcome = None
         self.scene = None
+        self._scene_source = None  # ("upload", name, bytes) or ("library", name): replayed on reconnect
         self._seq = 0
 
     async def __aenter__(self):
-        self.ws = await websockets.connect(self.url, max_size=None, open_timeout=self.timeout)
-        await self.send(self.hello)
-        self.welcome = await self.recv_json()
+        await self._open_with_retry()
         return self
 
     async def __aexit__(self, *exc):
         await self.ws.close()
+
+    async def _open(self):
+        self.ws = await websockets.connect(self.url, max_size=None, open_timeout=self.timeout)
+        await self.send(self.hello)
+        self.welcome = await self.recv_json()
+
+    async def _open_with_retry(self):
+        delay = self.backoff
+        for attempt in range(self.retries + 1):
+            try:
+                return await self._open()
+            except (OSError, asyncio.TimeoutError, websockets.WebSocketException, ServerError) as e:
+                if self.ws is not None:
+                    await self.ws.close()
+                if attempt == self.retries or (isinstance(e, ServerError) and e.code != "busy"):
+                    raise
+                await asyncio.sleep(delay * random.uniform(0.5, 1.5))
+                delay = min(2 * delay, self.max_backoff)
+
+    async def reconnect(self):
+        """Opens a new connection (with backoff), sends hello and the last scene again."""
+        if self.ws is not None:
+            await self.ws.close()
+        await self._open_with_retry()
+        self.reconnects += 1
+        if self._scene_source is not None:
+            if self._scene_source[0] == "upload":
+                await self.upload(self._scene_source[1], self._scene_source[2])
+            else:
+                await self.library(self._scene_source[1])
 
     async def send(self, msg):
         await self.ws.send(json.dumps(msg))
@@ -104,7 +144,6 @@ class Session:
         return await self._wait(self.ws.recv())
 
     async def _wait(self, aw):
-        import asyncio
         return await asyncio.wait_for(aw, self.timeout)
 
     async def recv_json(self):
@@ -119,12 +158,14 @@ class Session:
 
     async def upload(self, name, data: bytes):
         """Uploads scene bytes (name's extension picks the loader); returns scene_ready."""
+        self._scene_source = ("upload", name, data)
         await self.send({"type": "scene", "name": name, "size": len(data)})
         await self.ws.send(data)
         self.scene = await self.recv_json()
         return self.scene
 
     async def library(self, name):
+        self._scene_source = ("library", name)
         await self.send({"type": "scene", "library": name})
         self.scene = await self.recv_json()
         return self.scene
@@ -146,5 +187,13 @@ class Session:
         return header, payload
 
     async def frame(self, **fields):
-        await self.camera(**fields)
-        return await self.next_frame()
+        """Sends a camera and returns its frame; with retries, reconnects when the server is lost."""
+        for attempt in range(self.retries + 1):
+            try:
+                await self.camera(**fields)
+                return await self.next_frame()
+            except (websockets.ConnectionClosed, OSError, ServerError) as e:
+                lost = not isinstance(e, ServerError) or (e.fatal and e.code == "shutting_down")
+                if not lost or attempt == self.retries:
+                    raise
+                await self.reconnect()
