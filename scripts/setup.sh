@@ -9,6 +9,7 @@ PACKAGES=(
   libtinygltf-dev libopenmesh-dev libcgal-dev libgmp-dev libmpfr-dev
   libboost-dev nlohmann-json3-dev googletest libgtest-dev zlib1g-dev
   librsvg2-bin libxml2-utils python3
+  time
   python3-websockets python3-jsonschema
   chromium nodejs nginx
 )
