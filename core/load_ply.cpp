@@ -5,6 +5,7 @@
 // non-manifold edges (happy_vrip_res3.ply), cannot read tristrips (igea.ply) and is slower on the
 // ascii bunny (52 ms against about 15 ms here); the renderer must see every face in file order.
 #include <bit>
+#include <cmath>
 #include <cstring>
 
 #include "core/load_internal.h"
@@ -167,8 +168,9 @@ struct Reader {
   uint32_t vertex_index(double v, const char* elem, uint64_t i) {
     if (!(v >= 0 && v < static_cast<double>(nv)))
       fail(InputErrorKind::IndexOutOfRange, src, mesh, elem, static_cast<int64_t>(i),
-           "vertex index " + std::to_string(static_cast<int64_t>(v)) + " out of range (" +
-               std::to_string(nv) + " vertices)");
+           "vertex index " +
+               (std::fabs(v) < 9e18 ? std::to_string(static_cast<int64_t>(v)) : std::to_string(v)) +
+               " out of range (" + std::to_string(nv) + " vertices)");
     return static_cast<uint32_t>(v);
   }
   void end_face() {

@@ -139,6 +139,8 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
     int64_t line = 1 + std::count(bytes.begin(), bytes.begin() + (at ? at - 1 : 0), '\n');
     fail(at >= bytes.size() ? InputErrorKind::Truncated : InputErrorKind::ParseError, src, "", "line", line,
          std::string("JSON: ") + e.what());
+  } catch (const json::exception& e) {  // e.g. a number too large for any JSON number type
+    fail(InputErrorKind::ParseError, src, "", "", -1, std::string("JSON: ") + e.what());
   }
   Checker ck{src};
   ck.keys(doc, "", {"meshes", "camera"});

@@ -196,6 +196,10 @@ TEST(LoadErrors, BadJsonAndSceneKeys) {
                K::BadCamera, {"camera"});
   // A missing referenced file names that file.
   expect_error(dir.write("m.json", R"({"meshes":[{"file":"gone.ply"}]})"), K::FileNotFound, {"gone.ply"});
+  // A number too large for any JSON number type (found by the loader fuzzer): ParseError, not
+  // an escaping nlohmann exception.
+  expect_error(dir.write("n.json", R"({"meshes":[{"file":"tri.obj","scale":)" + std::string(400, '2') + "}]}"),
+               K::ParseError, {"n.json"});
   // Uploaded scene files cannot reach the file system.
   try {
     load_scene_from_memory("up.json", R"({"meshes":[{"file":"/etc/passwd.ply"}]})");
