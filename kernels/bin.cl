@@ -24,6 +24,12 @@ __kernel void edge_bbox(__global const VmEdge* edges, uint n, __global int4* bb)
 /* Tiles are powers of two wide: a shift, not a division, in the hottest loops. */
 inline int tile_coord(int v, int shift, int count) { return clamp(v >> shift, 0, count - 1); }
 
+/* The tiles (x0, y0, x1, y1, inclusive) that a grid box touches. */
+inline int4 tile_range(int4 b, VmGrid g) {
+  return (int4)(tile_coord(b.x, g.tile_shift, g.tiles_x), tile_coord(b.y, g.tile_shift, g.tiles_y),
+                tile_coord(b.z, g.tile_shift, g.tiles_x), tile_coord(b.w, g.tile_shift, g.tiles_y));
+}
+
 /* Should the pair of boxes a, b be looked at in tile (tx, ty)? Only in the tile holding the low
  * corner of their overlap, so a pair that shares several tiles is visited once. `open`: boxes
  * that only touch (zero-width overlap) are skipped too. */
@@ -51,8 +57,8 @@ __kernel void bin_count(__global const int4* bb, uint n, VmGrid g, __global uint
   uint i = get_global_id(0);
   if (i >= n) return;
   int4 b = bb[i];
-  int tx0 = tile_coord(b.x, g.tile_shift, g.tiles_x), tx1 = tile_coord(b.z, g.tile_shift, g.tiles_x);
-  int ty0 = tile_coord(b.y, g.tile_shift, g.tiles_y), ty1 = tile_coord(b.w, g.tile_shift, g.tiles_y);
+  int4 tr = tile_range(b, g);
+  int tx0 = tr.x, ty0 = tr.y, tx1 = tr.z, ty1 = tr.w;
   for (int ty = ty0; ty <= ty1; ++ty)
     for (int tx = tx0; tx <= tx1; ++tx) atomic_inc(&tile_count[ty * g.tiles_x + tx]);
 }
@@ -62,8 +68,8 @@ __kernel void bin_fill(__global const int4* bb, uint n, VmGrid g, __global const
   uint i = get_global_id(0);
   if (i >= n) return;
   int4 b = bb[i];
-  int tx0 = tile_coord(b.x, g.tile_shift, g.tiles_x), tx1 = tile_coord(b.z, g.tile_shift, g.tiles_x);
-  int ty0 = tile_coord(b.y, g.tile_shift, g.tiles_y), ty1 = tile_coord(b.w, g.tile_shift, g.tiles_y);
+  int4 tr = tile_range(b, g);
+  int tx0 = tr.x, ty0 = tr.y, tx1 = tr.z, ty1 = tr.w;
   for (int ty = ty0; ty <= ty1; ++ty)
     for (int tx = tx0; tx <= tx1; ++tx) {
       uint t = ty * g.tiles_x + tx;

@@ -48,8 +48,8 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
                           __global const uint* tile_offset, __global const uint* tile_count,
                           __global const uint* tile_list, __global uint* out) {
   int4 tb = tri_bb[t];
-  int tx0 = tile_coord(tb.x, g.tile_shift, g.tiles_x), tx1 = tile_coord(tb.z, g.tile_shift, g.tiles_x);
-  int ty0 = tile_coord(tb.y, g.tile_shift, g.tiles_y), ty1 = tile_coord(tb.w, g.tile_shift, g.tiles_y);
+  int4 tr = tile_range(tb, g);
+  int tx0 = tr.x, ty0 = tr.y, tx1 = tr.z, ty1 = tr.w;
   uint count = 0;
   for (int ty = ty0; ty <= ty1; ++ty)
     for (int tx = tx0; tx <= tx1; ++tx) {

@@ -129,8 +129,8 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
   int4 tb = tri_bb[t];
   VmScreenTri me = tris[t];
   double qmin = fmin(fmin(me.q[0], me.q[1]), me.q[2]), qmax = fmax(fmax(me.q[0], me.q[1]), me.q[2]);
-  int tx0 = tile_coord(tb.x, g.tile_shift, g.tiles_x), tx1 = tile_coord(tb.z, g.tile_shift, g.tiles_x);
-  int ty0 = tile_coord(tb.y, g.tile_shift, g.tiles_y), ty1 = tile_coord(tb.w, g.tile_shift, g.tiles_y);
+  int4 tr = tile_range(tb, g);
+  int tx0 = tr.x, ty0 = tr.y, tx1 = tr.z, ty1 = tr.w;
   uint count = 0;
   for (int ty = ty0; ty <= ty1; ++ty)
     for (int tx = tx0; tx <= tx1; ++tx) {
