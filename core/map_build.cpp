@@ -50,7 +50,21 @@ HomPoint intersect(const VmLine& la, const VmLine& lb) {
 
 double to_pixels(__int128 num, __int128 w, uint32_t grid_scale) {
   constexpr int kBits = 20;
-  __int128 q = round_div(num * (__int128(1) << kBits), w);
+  // q = round(num * 2^20 / w), ties up, without a 128-bit division in the common case: estimate
+  // in double, then confirm exactly that (2q-1)w <= 2 num 2^20 < (2q+1)w (|q| < 2^43, w < 2^48:
+  // every product fits in 128 bits) and step by one if the estimate was off.
+  const __int128 n2 = num * (__int128(1) << (kBits + 1));
+  __int128 q = static_cast<__int128>(
+      std::floor(static_cast<double>(num) * double(1 << kBits) / static_cast<double>(w) + 0.5));
+  for (int guard = 0; guard < 4; ++guard) {
+    if ((2 * q - 1) * w > n2)
+      --q;
+    else if (n2 >= (2 * q + 1) * w)
+      ++q;
+    else
+      return static_cast<double>(static_cast<int64_t>(q)) / (double(grid_scale) * double(1 << kBits));
+  }
+  q = round_div(num * (__int128(1) << kBits), w);  // the estimate was far off: divide
   return static_cast<double>(static_cast<int64_t>(q)) / (double(grid_scale) * double(1 << kBits));
 }
 
@@ -60,6 +74,21 @@ void build_planar_map(const VisibleFragments& frags, bool exact, bool orthograph
   const uint32_t S = VM_GRID_SCALE;
   const bool attributes = tris && tri_bary;
   map.grid_scale = S;
+  size_t nverts = 0;
+  for (const VmFragMeta& m : frags.meta) nverts += m.nlines;
+  map.xy.reserve(map.xy.size() + 2 * nverts);
+  map.offsets.reserve(map.offsets.size() + frags.meta.size());
+  map.mesh.reserve(map.mesh.size() + frags.meta.size());
+  map.triangle.reserve(map.triangle.size() + frags.meta.size());
+  if (exact) {
+    map.hx.reserve(map.hx.size() + nverts);
+    map.hy.reserve(map.hy.size() + nverts);
+    map.hw.reserve(map.hw.size() + nverts);
+  }
+  if (attributes) {
+    map.bary.reserve(map.bary.size() + 3 * nverts);
+    map.inv_w.reserve(map.inv_w.size() + nverts);
+  }
   for (size_t f = 0; f < frags.meta.size(); ++f) {
     const VmFragMeta& m = frags.meta[f];
     const VmLine* L = &frags.lines[f * frags.maxl];
