@@ -243,8 +243,7 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
       Role role = role_of(e, ix, iy, iz, il);
       if (role == Role::Face) m.indices.reserve(std::min<uint64_t>(e.count * 3, bytes.size()));
       for (uint64_t i = 0; i < e.count; ++i) {
-        auto number = [&](double& out) {
-          std::string_view t = c.token();
+        auto parse = [&](std::string_view t, double& out) {
           if (t.empty())
             fail(InputErrorKind::Truncated, src, m.name, e.name, int64_t(i),
                  "file ends before " + e.name + " " + std::to_string(i) + " of " +
@@ -253,20 +252,14 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
             fail(InputErrorKind::ParseError, src, m.name, e.name, int64_t(i),
                  "line " + std::to_string(c.line()) + ": expected a number, got " + quote(t));
         };
+        auto number = [&](double& out) { parse(c.token(), out); };
         auto index = [&](double& out) {  // integers first: faster than a double parse
           std::string_view t = c.token();
           int64_t n;
-          if (parse_number(t, n)) {
+          if (parse_number(t, n))
             out = double(n);
-            return;
-          }
-          if (t.empty())
-            fail(InputErrorKind::Truncated, src, m.name, e.name, int64_t(i),
-                 "file ends before " + e.name + " " + std::to_string(i) + " of " +
-                     std::to_string(e.count) + " is complete");
-          if (!parse_number(t, out))
-            fail(InputErrorKind::ParseError, src, m.name, e.name, int64_t(i),
-                 "line " + std::to_string(c.line()) + ": expected a number, got " + quote(t));
+          else
+            parse(t, out);
         };
         vals.assign(3, 0.0);
         for (size_t p = 0; p < e.props.size(); ++p) {
