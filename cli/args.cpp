@@ -36,6 +36,21 @@ uint32_t parse_pixels(const std::string& flag, const std::string& s) {
   return static_cast<uint32_t>(v);
 }
 
+uint64_t parse_bytes(const std::string& flag, const std::string& s) {
+  char* end = nullptr;
+  double v = std::strtod(s.c_str(), &end);
+  double unit = 1;
+  std::string suffix = end ? end : "";
+  if (suffix == "K" || suffix == "k") unit = 1024.0;
+  else if (suffix == "M" || suffix == "m") unit = 1024.0 * 1024;
+  else if (suffix == "G" || suffix == "g") unit = 1024.0 * 1024 * 1024;
+  else if (!suffix.empty()) unit = 0;
+  v *= unit;
+  if (s.empty() || end == s.c_str() || unit == 0 || !std::isfinite(v) || v < 1 || v > 1e18)
+    throw UsageError(flag + ": expected a byte count such as 800M or 2G, got '" + s + "'");
+  return static_cast<uint64_t>(v);
+}
+
 bool parse_view_flag(const std::string& f, const std::function<std::string()>& value, ViewArgs& a) {
   if (f == "--width") a.width = parse_pixels(f, value());
   else if (f == "--height") a.height = parse_pixels(f, value());

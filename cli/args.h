@@ -20,6 +20,8 @@ struct UsageError : std::runtime_error {
 Vec3 parse_vec3(const std::string& flag, const std::string& s);
 double parse_number(const std::string& flag, const std::string& s);
 uint32_t parse_pixels(const std::string& flag, const std::string& s);
+// A byte count: an integer with an optional K, M or G suffix (powers of 1024), e.g. 512M, 1G.
+uint64_t parse_bytes(const std::string& flag, const std::string& s);
 
 // --width --height --eye --target --up --fov-y --ortho --near --far --device
 struct ViewArgs {

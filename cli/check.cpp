@@ -34,6 +34,7 @@ CheckArgs parse_check(int argc, char** argv) {
       a.opts.pixels = parse_pixels(f, value());
       pixels_given = true;
     } else if (f == "--tile-pixels") a.opts.tile_pixels = parse_pixels(f, value());
+    else if (f == "--memory-budget") a.opts.memory_budget = parse_bytes(f, value());
     else if (f == "--reverse") a.reverse = true;
     else if (f == "--strict") a.tol.strict = true;
     else if (f == "--no-reference") a.opts.reference = false;

@@ -30,8 +30,9 @@ const char* kUsage =
     "usage:\n"
     "  vismap render SCENE -o OUT [--format svg|bin] [--fill shade|id] [--width W --height H]\n"
     "                [--eye X,Y,Z --target X,Y,Z --up X,Y,Z] [--fov-y DEG | --ortho HEIGHT]\n"
-    "                [--near N --far F] [--device NAME] [--stats]\n"
+    "                [--near N --far F] [--device NAME] [--memory-budget BYTES] [--stats]\n"
     "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
+    "                [--memory-budget BYTES]\n"
     "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 if over tolerance\n"
     "  vismap devices\n"
     "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb or a .json scene file.\n"
@@ -41,6 +42,7 @@ struct RenderArgs {
   std::string scene, out, format = "svg", fill = "shade";
   ViewArgs view;
   bool stats = false;
+  uint64_t memory_budget = 0;
 };
 
 RenderArgs parse_render(int argc, char** argv) {
@@ -56,6 +58,7 @@ RenderArgs parse_render(int argc, char** argv) {
     else if (f == "--fill") a.fill = value();
     else if (parse_view_flag(f, value, a.view)) continue;
     else if (f == "--stats") a.stats = true;
+    else if (f == "--memory-budget") a.memory_budget = parse_bytes(f, value());
     else if (!f.empty() && f[0] == '-') throw UsageError("unknown option " + f);
     else if (a.scene.empty()) a.scene = f;
     else throw UsageError("unexpected argument " + f);
@@ -102,6 +105,7 @@ int cmd_render(int argc, char** argv) {
   Renderer renderer(a.view.device);
   RenderOptions opts;
   opts.attributes = a.format == "bin";
+  opts.memory_budget = a.memory_budget;
   bool tty = ::isatty(2);
   if (tty) {
     opts.progress = [t0, shown = false](double f) mutable {
@@ -113,6 +117,10 @@ int cmd_render(int argc, char** argv) {
   RenderStats st;
   PlanarMap map = renderer.render(scene, cam, opts, &st);
   auto t_render = Clock::now();
+  if (a.memory_budget && st.peak_device_bytes > a.memory_budget)
+    std::fprintf(stderr, "vismap: warning: device memory peaked at %.1f MB, over the budget of %.1f MB "
+                 "(a part of the screen holds more than the budget allows; see docs/PERFORMANCE.md)\n",
+                 st.peak_device_bytes / 1e6, a.memory_budget / 1e6);
   std::string bytes = a.format == "bin" ? write_bin(map, scene)
                                         : write_svg(map, scene, cam, a.fill == "id" ? Fill::Id : Fill::Shade);
   write_atomically(a.out, bytes);
@@ -137,10 +145,13 @@ int cmd_render(int argc, char** argv) {
                  static_cast<unsigned long long>(scene.dropped_degenerate),
                  static_cast<unsigned long long>(st.screen_triangles),
                  static_cast<unsigned long long>(st.silhouette_edges));
-    std::fprintf(stderr, "fragments %llu, visible %llu, clip rounds %u, device memory %.1f MB\n",
+    std::fprintf(stderr, "fragments %llu, visible %llu, clip rounds %u, device memory peak %.1f MB (%.1f MB allocated in all)\n",
                  static_cast<unsigned long long>(st.fragments),
                  static_cast<unsigned long long>(st.visible_fragments), st.clip_rounds,
-                 st.peak_device_bytes / 1e6);
+                 st.peak_device_bytes / 1e6, st.allocated_device_bytes / 1e6);
+    if (a.memory_budget)
+      std::fprintf(stderr, "memory budget %.1f MB: %u bucket(s), each planned under %.1f MB of work\n",
+                   a.memory_budget / 1e6, st.buckets, st.bucket_work_bytes / 1e6);
     std::fprintf(stderr, "output: %llu triangles in %zu fragments, %zu bytes (%s)\n",
                  static_cast<unsigned long long>(out_tris), map.fragment_count(), bytes.size(), a.format.c_str());
     std::fprintf(stderr, "time: load %.1f ms, render %.1f ms, write %.1f ms, total %.1f ms\n",

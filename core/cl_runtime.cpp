@@ -16,7 +16,7 @@ namespace {
 // Concatenation order of the embedded sources: shared layout first, then one file per stage.
 const char* const kProgramFiles[] = {
     "kernels/layout.h",  "kernels/int128.cl",     "kernels/geometry.cl",
-    "kernels/scan.cl",   "kernels/transform.cl",  "kernels/bin.cl", "kernels/crossing.cl",
+    "kernels/scan.cl",   "kernels/bin.cl",  "kernels/transform.cl", "kernels/crossing.cl",
     "kernels/silhouette.cl", "kernels/clip.cl",   "kernels/occlude.cl",
     "kernels/emit.cl",
 };
@@ -192,11 +192,29 @@ void ClRuntime::enqueue(const char* stage, const char* name, cl::Kernel& k, size
   launches_.push_back({stage, ev});
 }
 
+namespace {
+struct LiveRecord {
+  std::shared_ptr<std::atomic<uint64_t>> live;
+  uint64_t bytes;
+};
+void CL_CALLBACK on_release(cl_mem, void* user) {
+  auto* r = static_cast<LiveRecord*>(user);
+  r->live->fetch_sub(r->bytes);
+  delete r;
+}
+}  // namespace
+
 cl::Buffer ClRuntime::alloc(size_t bytes, const char* what) {
   bytes = std::max<size_t>(bytes, 16);
   try {
     cl::Buffer b(ctx_, CL_MEM_READ_WRITE, bytes);
     allocated_ += bytes;
+    auto* rec = new LiveRecord{live_, bytes};
+    if (clSetMemObjectDestructorCallback(b(), on_release, rec) == CL_SUCCESS) {
+      peak_ = std::max<uint64_t>(peak_, live_->fetch_add(bytes) + bytes);
+    } else {
+      delete rec;
+    }
     return b;
   } catch (const cl::Error& e) {
     throw DeviceError(std::string("allocating ") + std::to_string(bytes) + " bytes for " + what +

@@ -5,8 +5,10 @@
 
 #include <CL/opencl.hpp>
 
+#include <atomic>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -58,8 +60,14 @@ class ClRuntime {
   // Profiling: per-stage event times since the last reset (waits for the queue).
   void reset_profile();
   std::map<std::string, std::pair<double, uint32_t>> collect_profile();
+  // Device memory: the sum of every allocation since reset_allocated() (an upper bound), the
+  // bytes held now (buffers release theirs when their last handle goes), and the most held at
+  // once since reset_peak().
   uint64_t allocated_bytes() const { return allocated_; }
   void reset_allocated() { allocated_ = 0; }
+  uint64_t live_bytes() const { return live_->load(); }
+  uint64_t peak_bytes() const { return peak_; }
+  void reset_peak() { peak_ = live_->load(); }
 
  private:
   template <class A, class... Rest>
@@ -84,6 +92,9 @@ class ClRuntime {
   };
   std::vector<Launch> launches_;
   uint64_t allocated_ = 0;
+  // Shared with the release callbacks, which may run after the runtime is gone.
+  std::shared_ptr<std::atomic<uint64_t>> live_ = std::make_shared<std::atomic<uint64_t>>(0);
+  uint64_t peak_ = 0;
   cl::Buffer scratch_total_;
 };
 

@@ -1,5 +1,6 @@
 #include "core/map_build.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace vismap {
@@ -76,18 +77,22 @@ void build_planar_map(const VisibleFragments& frags, bool exact, bool orthograph
   map.grid_scale = S;
   size_t nverts = 0;
   for (const VmFragMeta& m : frags.meta) nverts += m.nlines;
-  map.xy.reserve(map.xy.size() + 2 * nverts);
-  map.offsets.reserve(map.offsets.size() + frags.meta.size());
-  map.mesh.reserve(map.mesh.size() + frags.meta.size());
-  map.triangle.reserve(map.triangle.size() + frags.meta.size());
+  // Called once per bucket: grow geometrically, not to the exact size each time.
+  auto grow = [](auto& v, size_t more) {
+    if (v.size() + more > v.capacity()) v.reserve(std::max(v.size() + more, v.capacity() + v.capacity() / 2));
+  };
+  grow(map.xy, 2 * nverts);
+  grow(map.offsets, frags.meta.size());
+  grow(map.mesh, frags.meta.size());
+  grow(map.triangle, frags.meta.size());
   if (exact) {
-    map.hx.reserve(map.hx.size() + nverts);
-    map.hy.reserve(map.hy.size() + nverts);
-    map.hw.reserve(map.hw.size() + nverts);
+    grow(map.hx, nverts);
+    grow(map.hy, nverts);
+    grow(map.hw, nverts);
   }
   if (attributes) {
-    map.bary.reserve(map.bary.size() + 3 * nverts);
-    map.inv_w.reserve(map.inv_w.size() + nverts);
+    grow(map.bary, 3 * nverts);
+    grow(map.inv_w, nverts);
   }
   for (size_t f = 0; f < frags.meta.size(); ++f) {
     const VmFragMeta& m = frags.meta[f];

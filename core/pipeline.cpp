@@ -52,7 +52,95 @@ struct Renderer::Impl {
   std::vector<uint32_t> cull_modes(const Scene& scene, const Camera& cam) const;
   PlanarMap run(const Scene& scene, const Camera& cam, const RenderOptions& opts, RenderStats& st,
                 ScreenTriangles* screen);
+  std::vector<cl_int4> plan_buckets(uint64_t budget, uint32_t W, uint32_t H, cl_int ortho,
+                                    cl::Buffer& clip, cl::Buffer& mesh_cull, cl::Buffer& boxes,
+                                    RenderStats& st);
 };
+
+// Device bytes a bucket needs per screen triangle in it, all stages together (measured peak
+// over screen triangles on the bench scenes, with margin; docs/PERFORMANCE.md).
+constexpr uint64_t kBucketBytesPerTriangle = 1400;
+
+// Splits the screen into rectangles whose estimated working memory fits in what the budget
+// leaves after the scene and the per-frame buffers: one pass counts, per cell of a coarse grid,
+// the screen triangles whose box touches it (an upper bound for any rectangle of cells), then
+// rectangles are halved at their count median, longer side first, until each fits or is one
+// cell. Also fills `boxes` (each input triangle's box in pixels) so that buckets skip the
+// triangles that cannot reach them without clipping them again.
+std::vector<cl_int4> Renderer::Impl::plan_buckets(uint64_t budget, uint32_t W, uint32_t H,
+                                                  cl_int ortho, cl::Buffer& clip,
+                                                  cl::Buffer& mesh_cull, cl::Buffer& boxes,
+                                                  RenderStats& st) {
+  const uint32_t cell_px = std::max<uint32_t>(16, next_pow2((std::max(W, H) + 63) / 64));
+  VmGrid cells;
+  cells.tile_size = static_cast<int32_t>(cell_px * VM_GRID_SCALE);
+  cells.tiles_x = static_cast<int32_t>((W + cell_px - 1) / cell_px);
+  cells.tiles_y = static_cast<int32_t>((H + cell_px - 1) / cell_px);
+  cells.tile_shift = 0;
+  while ((1 << cells.tile_shift) < cells.tile_size) ++cells.tile_shift;
+  const uint32_t cx = uint32_t(cells.tiles_x), cy = uint32_t(cells.tiles_y);
+  const cl_int4 full = {{0, 0, cl_int(W * VM_GRID_SCALE), cl_int(H * VM_GRID_SCALE)}};
+
+  boxes = rt.alloc(size_t(ntri) * sizeof(cl_ushort4), "triangle boxes");
+  std::vector<uint32_t> hist(size_t(cx) * cy);
+  {
+    cl::Buffer h = rt.alloc(hist.size() * 4, "bucket cell counts");
+    rt.fill_u32(h, 0, hist.size(), "transform");
+    rt.launch("transform", "clip_cells", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
+              ortho, full, cells, h, boxes);
+    rt.queue().enqueueReadBuffer(h, CL_TRUE, 0, hist.size() * 4, hist.data());
+  }
+  // What every bucket holds besides its own work: the scene, the clip-space vertices, the
+  // per-input-triangle counts, offsets and boxes (all allocated by now).
+  const uint64_t fixed = rt.live_bytes();
+  if (budget <= fixed + (fixed >> 3))
+    throw InputError(InputErrorKind::TooLarge, "", "", "", -1,
+                     "memory budget of " + std::to_string(budget >> 20) + " MiB is too small: the scene alone holds " +
+                         std::to_string(fixed >> 20) + " MiB of device memory");
+  const uint64_t work = budget - fixed;
+  st.bucket_work_bytes = work;
+
+  // Summed-area table over the cells.
+  std::vector<uint64_t> sat((cx + 1) * size_t(cy + 1), 0);
+  for (uint32_t y = 0; y < cy; ++y)
+    for (uint32_t x = 0; x < cx; ++x)
+      sat[(y + 1) * size_t(cx + 1) + x + 1] = hist[y * size_t(cx) + x] + sat[y * size_t(cx + 1) + x + 1] +
+                                              sat[(y + 1) * size_t(cx + 1) + x] - sat[y * size_t(cx + 1) + x];
+  auto sum = [&](uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) {
+    return sat[y1 * size_t(cx + 1) + x1] - sat[y0 * size_t(cx + 1) + x1] - sat[y1 * size_t(cx + 1) + x0] +
+           sat[y0 * size_t(cx + 1) + x0];
+  };
+  std::vector<cl_int4> out;
+  auto split = [&](auto&& self, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) -> void {
+    const uint64_t n = sum(x0, y0, x1, y1);
+    if (n == 0) return;  // nothing reaches it: nothing to draw there
+    const bool wide = (x1 - x0) >= (y1 - y0);
+    if (n * kBucketBytesPerTriangle <= work || (x1 - x0 == 1 && y1 - y0 == 1)) {
+      out.push_back({{cl_int(x0 * cell_px * VM_GRID_SCALE), cl_int(y0 * cell_px * VM_GRID_SCALE),
+                      cl_int(std::min(x1 * cell_px, W) * VM_GRID_SCALE),
+                      cl_int(std::min(y1 * cell_px, H) * VM_GRID_SCALE)}});
+      return;
+    }
+    // Cut at the median of the counts along the longer side (a side of one cell is not cut).
+    const bool cut_x = (x1 - x0 > 1) && (wide || y1 - y0 == 1);
+    const uint32_t lo = cut_x ? x0 : y0, hi = cut_x ? x1 : y1;
+    uint32_t m = lo + 1;
+    for (; m + 1 < hi; ++m) {
+      uint64_t part = cut_x ? sum(x0, y0, m, y1) : sum(x0, y0, x1, m);
+      if (2 * part >= n) break;
+    }
+    if (cut_x) {
+      self(self, x0, y0, m, y1);
+      self(self, m, y0, x1, y1);
+    } else {
+      self(self, x0, y0, x1, m);
+      self(self, x0, m, x1, y1);
+    }
+  };
+  split(split, 0, 0, cx, cy);
+  if (out.empty()) out.push_back(full);  // nothing on screen: one (empty) bucket
+  return out;
+}
 
 void Renderer::Impl::upload(const Scene& scene, RenderStats& st) {
   const float* first = scene.meshes.empty() ? nullptr : scene.meshes[0].positions.data();
@@ -125,11 +213,12 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   st.input_triangles = ntri;
   rt.reset_profile();
   rt.reset_allocated();
+  rt.reset_peak();
   if (ntri == 0) return map;
   auto& q = rt.queue();
   const bool want_bary = opts.attributes;
 
-  // ---- transform + clip + cull + snap -------------------------------------------------------
+  // ---- transform (once per frame) ----------------------------------------------------------
   Mat4 vp = cam.view_projection();
   cl::Buffer mat = rt.upload(std::vector<double>(vp.begin(), vp.end()), "view-projection");
   cl::Buffer mesh_cull = rt.upload(cull_modes(scene, cam), "cull modes");
@@ -137,17 +226,45 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   rt.launch("transform", "transform_vertices", nv, pos, nv, mat, clip);
   cl::Buffer counts = rt.alloc(size_t(ntri) * 4, "clip counts");
   cl::Buffer offsets = rt.alloc(size_t(ntri) * 4, "clip offsets");
-  cl_int iortho = ortho ? 1 : 0;
+  const cl_int iortho = ortho ? 1 : 0;
+  const cl_int4 full = {{0, 0, cl_int(W * VM_GRID_SCALE), cl_int(H * VM_GRID_SCALE)}};
+
+  // ---- buckets (--memory-budget): parts of the screen rendered one after another ------------
+  std::vector<cl_int4> regions{full};
+  cl::Buffer boxes = rt.alloc(16, "triangle boxes");
+  if (opts.memory_budget) regions = plan_buckets(opts.memory_budget, W, H, iortho, clip, mesh_cull, boxes, st);
+  const cl_int use_boxes = regions.size() > 1 ? 1 : 0;
+  const cl_int clip_region = use_boxes;
+  st.buckets = static_cast<uint32_t>(regions.size());
+
+  std::map<std::string, std::pair<double, uint32_t>> profile;
+  std::map<std::string, std::pair<uint64_t, uint64_t>> io;
+  auto add_io = [&](const char* stage, uint64_t in, uint64_t out) {
+    io[stage].first += in;
+    io[stage].second += out;
+  };
+  if (screen) {
+    screen->grid_scale = VM_GRID_SCALE;
+    screen->xy.clear();
+    screen->depth.clear();
+    screen->mesh.clear();
+    screen->triangle.clear();
+  }
+
+  for (size_t bucket = 0; bucket < regions.size(); ++bucket) {
+  const cl_int4 region = regions[bucket];
+  // ---- clip + cull + snap, keeping the triangles that reach the region ----------------------
   rt.launch("transform", "clip_count", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
-            iortho, counts);
+            iortho, region, boxes, use_boxes, counts);
   const uint32_t S = rt.scan("transform", counts, offsets, ntri);
-  st.screen_triangles = S;
-  if (S == 0) return map;
+  st.screen_triangles += S;
+  add_io("transform", use_boxes ? 0 : ntri, S);
+  if (S == 0) continue;
   cl::Buffer tris = rt.alloc(size_t(S) * sizeof(VmScreenTri), "screen triangles");
   cl::Buffer tri_bary = rt.alloc(want_bary ? size_t(S) * 9 * sizeof(float) : 16, "screen barycentrics");
   cl_int iwant = want_bary ? 1 : 0;
   rt.launch("transform", "clip_fill", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
-            iortho, offsets, tris, tri_bary, iwant);
+            iortho, region, boxes, use_boxes, offsets, tris, tri_bary, iwant);
 
   cl::Buffer totals = rt.alloc(kSlots * 4, "totals");
   rt.fill_u32(totals, 0, kSlots, "transform");
@@ -171,7 +288,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   rt.launch("silhouettes", "edge_classify", nedges, tris, nedges, slot_of_edge, slot_count, slot_min,
             slot_max, eflags);
   const uint32_t E = rt.scan("silhouettes", eflags, eoffs, nedges);
-  st.silhouette_edges = E;
 
   // ---- bins ---------------------------------------------------------------------------------
   auto make_grid = [&](uint32_t tile_px) {
@@ -225,16 +341,17 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   constexpr uint32_t kInline = 4;  // VM_PAIRS_INLINE in kernels/crossing.cl
   cl::Buffer pcount = rt.alloc(size_t(S) * 4, "pair counts");
   cl::Buffer poffset = rt.alloc(size_t(S) * 4, "pair offsets");
+  uint32_t npairs = 0;
   {
     cl::Buffer scr_o = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
     cl::Buffer scr_rel = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
     cl::Buffer scr_line = rt.alloc(size_t(S) * kInline * sizeof(VmLine), "pair scratch");
     rt.launch("crossings", "cross_pairs", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.count,
               tbins.list, pcount, scr_o, scr_rel, scr_line, totals);
-    st.entangled_pairs = rt.scan("crossings", pcount, poffset, S);
+    npairs = rt.scan("crossings", pcount, poffset, S);
     uint32_t status = 0;
     q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof status, &status);
-    const uint32_t P = static_cast<uint32_t>(st.entangled_pairs);
+    const uint32_t P = npairs;
     pair_t = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
     pair_o = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
     pair_rel = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
@@ -246,7 +363,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       rt.launch("crossings", "cross_compact", S, S, pcount, poffset, scr_o, scr_rel, scr_line,
                 pair_t, pair_o, pair_rel, pair_line);
   }
-  const uint32_t P = static_cast<uint32_t>(st.entangled_pairs);
+  const uint32_t P = npairs;
   cl::Buffer in_count = rt.alloc(size_t(S) * 4, "incoming pair counts");
   cl::Buffer in_offset = rt.alloc(size_t(S) * 4, "incoming pair offsets");
   cl::Buffer in_cursor = rt.alloc(size_t(S) * 4, "incoming pair cursors");
@@ -261,7 +378,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   rt.launch("crossings", "cross_entry_count", S, S, pcount, poffset, in_count, in_offset, in_list,
             pair_rel, cross_count);
   const uint32_t X = rt.scan("crossings", cross_count, cross_offset, S);
-  st.crossing_lines = X;
   cl::Buffer edges = rt.alloc((size_t(E) + X) * sizeof(VmEdge), "clipping edges");
   cl::Buffer partner = rt.alloc(std::max<size_t>(X, 1) * 4, "crossing partners");
   rt.launch("silhouettes", "edge_emit", nedges, tris, nedges, eflags, eoffs, edges);
@@ -291,7 +407,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     try {
       cl::Buffer qmeta = rt.alloc(size_t(S) * sizeof(VmFragMeta), "fragment queue");
       cl::Buffer qlines = rt.alloc(size_t(S) * L * sizeof(VmLine), "fragment lines");
-      rt.launch("clip", "frag_init", S, tris, S, qmeta, qlines);
+      rt.launch("clip", "frag_init", S, tris, S, region, clip_region, qmeta, qlines);
       uint32_t nq = S, done_cap = std::max<uint32_t>(S, 1024);
       done_meta = rt.alloc(size_t(done_cap) * sizeof(VmFragMeta), "finished fragments");
       done_lines = rt.alloc(size_t(done_cap) * L * sizeof(VmLine), "finished fragment lines");
@@ -346,8 +462,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       rt.fill_u32(totals, 0, kSlots, "clip");
     }
   }
-  st.clip_rounds = rounds;
-  st.fragments = nd;
   const uint32_t L = rt.maxl();
 
   // ---- occlusion ----------------------------------------------------------------------------
@@ -356,7 +470,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   rt.launch("occlusion", "occlude", nd, done_meta, done_lines, nd, tris, tri_bb, og, tbins.offset,
             tbins.count, tbins.list, edges, E, cross_offset, cross_count, partner, visible, totals);
   const uint32_t V = rt.scan("occlusion", visible, voff, nd);
-  st.visible_fragments = V;
 
   // ---- planar map ---------------------------------------------------------------------------
   VisibleFragments vf;
@@ -375,7 +488,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   }
   uint32_t tot[kSlots];
   q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof tot, tot);
-  st.sliver_fragments = tot[kSlivers];
   vf.mesh.resize(V);
   vf.triangle.resize(V);
   for (uint32_t i = 0; i < V; ++i) {
@@ -393,19 +505,37 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     host_bary.resize(size_t(S) * 9);
     q.enqueueReadBuffer(tri_bary, CL_TRUE, 0, host_bary.size() * sizeof(float), host_bary.data());
   }
-  auto profile = rt.collect_profile();
+  for (const auto& [stage, t] : rt.collect_profile()) {
+    profile[stage].first += t.first;
+    profile[stage].second += t.second;
+  }
   auto t_emit = Clock::now();
   build_planar_map(vf, opts.exact, ortho, want_bary ? &host_tris : nullptr,
                    want_bary ? &host_bary : nullptr, map);
   profile["emit"].first += ms_since(t_emit);
 
+  st.silhouette_edges += E;
+  st.entangled_pairs += P;
+  st.crossing_lines += X;
+  st.clip_rounds += rounds;
+  st.fragments += nd;
+  st.visible_fragments += V;
+  st.sliver_fragments += tot[kSlivers];
+  add_io("silhouettes", uint64_t(3) * S, E);
+  add_io("bin", uint64_t(S) + E, uint64_t(tbins.pairs) + ebins.pairs);
+  add_io("crossings", S, P);
+  add_io("candidates", S, C);
+  add_io("clip", S, nd);
+  add_io("occlusion", nd, V);
+
   if (screen) {
-    screen->grid_scale = VM_GRID_SCALE;
-    screen->xy.clear();
-    screen->depth.clear();
-    screen->mesh.clear();
-    screen->triangle.clear();
+    // In buckets a triangle is seen by every bucket its box meets; it is kept once, by the
+    // bucket holding its box's low corner (buckets tile the screen, half-open).
     for (const VmScreenTri& t : host_tris) {
+      if (use_boxes) {
+        int x0 = std::min({t.x[0], t.x[1], t.x[2]}), y0 = std::min({t.y[0], t.y[1], t.y[2]});
+        if (x0 < region.s[0] || x0 >= region.s[2] || y0 < region.s[1] || y0 >= region.s[3]) continue;
+      }
       for (int k = 0; k < 3; ++k) {
         screen->xy.push_back(t.x[k]);
         screen->xy.push_back(t.y[k]);
@@ -415,24 +545,23 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       screen->triangle.push_back(t.tri);
     }
   }
+  }  // buckets
+  add_io("emit", st.visible_fragments, map.vertex_count());
 
-  const std::pair<const char*, std::pair<uint64_t, uint64_t>> order[] = {
-      {"transform", {ntri, S}},   {"silhouettes", {uint64_t(3) * S, E}},
-      {"bin", {uint64_t(S) + E, uint64_t(tbins.pairs) + ebins.pairs}},
-      {"crossings", {S, st.entangled_pairs}},  {"candidates", {S, C}},
-      {"clip", {S, nd}},          {"occlusion", {nd, V}},
-      {"emit", {V, map.vertex_count()}},
-  };
-  for (const auto& [name, io] : order) {
+  for (const char* name : {"transform", "silhouettes", "bin", "crossings", "candidates", "clip",
+                           "occlusion", "emit"}) {
     StageStat s;
     s.name = name;
     s.ms = profile[name].first;
     s.launches = profile[name].second;
-    s.items_in = io.first;
-    s.items_out = io.second;
+    s.items_in = io[name].first;
+    s.items_out = io[name].second;
     st.stages.push_back(s);
   }
-  st.peak_device_bytes = rt.allocated_bytes();
+  if (!use_boxes) st.stages[0].items_in = ntri;
+  else st.stages[0].items_in = uint64_t(ntri) * regions.size();
+  st.peak_device_bytes = rt.peak_bytes();
+  st.allocated_device_bytes = rt.allocated_bytes();
   return map;
 }
 

@@ -19,6 +19,9 @@ struct RenderOptions {
   bool exact = false;               // exact homogeneous vertices (checks)
   bool keep_screen_triangles = false;
   uint32_t tile_pixels = 0;         // 0: chosen from the input
+  // Device memory (bytes) the render may hold at once; 0: no limit. Over the limit the screen
+  // is rendered in buckets (rectangles of whole pixels, each clipped exactly), one at a time.
+  uint64_t memory_budget = 0;
   std::function<void(double)> progress;  // called with a fraction in [0,1], if set
 };
 
@@ -33,13 +36,17 @@ struct RenderStats {
   std::vector<StageStat> stages;
   double pipeline_ms = 0;           // host wall time of render(), upload included
   double upload_ms = 0;
+  // Counts are summed over buckets: a triangle over several buckets counts in each.
   uint64_t input_triangles = 0, screen_triangles = 0, silhouette_edges = 0;
   uint64_t entangled_pairs = 0;     // screen-triangle pairs that cross or tie (coplanar)
   uint64_t crossing_lines = 0;      // clipping entries those pairs add (lines and partner edges)
   uint64_t fragments = 0, visible_fragments = 0;
   uint64_t sliver_fragments = 0;    // fragments thinner than the sample grid (dropped)
-  uint64_t peak_device_bytes = 0;   // device memory allocated during the render (upper bound)
-  uint32_t clip_rounds = 0;
+  uint64_t peak_device_bytes = 0;   // most device memory held at once (scene upload included)
+  uint64_t allocated_device_bytes = 0;  // sum of every allocation during the render
+  uint32_t clip_rounds = 0;         // summed over buckets
+  uint32_t buckets = 1;             // screen rectangles rendered one after another
+  uint64_t bucket_work_bytes = 0;   // the estimate each bucket was planned to stay under
 };
 
 struct DeviceInfo {

@@ -93,24 +93,64 @@ __kernel void cand_fill(__global const VmScreenTri* tris, uint ntris, __global c
                 cand + offsets[t] + nc);
 }
 
-/* The root fragment of every screen triangle: its three edges. */
-__kernel void frag_init(__global const VmScreenTri* tris, uint ntris, __global VmFragMeta* meta,
-                        __global VmLine* lines) {
+/* The root fragment of every screen triangle: its three edges, clipped to the region being
+ * rendered when that is only part of the screen (clip_region set). The region's sides are grid
+ * lines, so the clipped fragment is still bounded by lines through grid points and fragments of
+ * neighbouring regions meet exactly. A triangle whose box meets the region but whose interior
+ * does not gets nlines = 0 and is dropped by the first round. */
+__kernel void frag_init(__global const VmScreenTri* tris, uint ntris, int4 region, int clip_region,
+                        __global VmFragMeta* meta, __global VmLine* lines) {
   uint t = get_global_id(0);
   if (t >= ntris) return;
   VmScreenTri s = tris[t];
+  VmLine P[VM_MAXL], Q[VM_MAXL];
+  uint n = 3;
+  for (int i = 0; i < 3; ++i) {
+    int j = i == 2 ? 0 : i + 1;
+    VmLine l = {s.x[i], s.y[i], s.x[j], s.y[j]};
+    P[i] = l;
+  }
+  if (clip_region) {
+    /* The region's sides, directed so that its interior is on their positive side. */
+    VmLine side[4] = {{region.x, region.y, region.z, region.y}, {region.z, region.y, region.z, region.w},
+                      {region.z, region.w, region.x, region.w}, {region.x, region.w, region.x, region.y}};
+    for (int k = 0; k < 4 && n > 0; ++k) {
+      Line3 LE = line_of(side[k].x0, side[k].y0, side[k].x1, side[k].y1);
+      int sgn[VM_MAXL];
+      int pos = 0, neg = 0;
+      Line3 first = line_of_vm(P[0]), cur = first;
+      for (uint i = 0; i < n; ++i) {
+        Line3 nxt = i + 1 == n ? first : line_of_vm(P[i + 1]);
+        sgn[i] = vertex_side(cur, nxt, LE);
+        pos |= sgn[i] > 0;
+        neg |= sgn[i] < 0;
+        cur = nxt;
+      }
+      if (!neg) continue;    /* wholly inside this side */
+      if (!pos) {            /* wholly outside: nothing of t in the region */
+        n = 0;
+        break;
+      }
+      /* Keep the positive side: as split_side, on private arrays (at most 3 + 4 lines). */
+      uint m = 0;
+      for (uint i = 0; i < n; ++i) {
+        int s_prev = sgn[i == 0 ? n - 1 : i - 1], s_end = sgn[i];
+        if (s_prev > 0 || s_end > 0) {
+          Q[m++] = P[i];
+          if (s_end <= 0) Q[m++] = side[k];
+        }
+      }
+      n = m;
+      for (uint i = 0; i < n; ++i) P[i] = Q[i];
+    }
+  }
   VmFragMeta m;
   m.tri = t;
-  m.nlines = 3;
+  m.nlines = n;
   m.next = 0;
   m.pad = 0;
   meta[t] = m;
-  for (int i = 0; i < 3; ++i) {
-    int j = i == 2 ? 0 : i + 1;
-    VmLine l;
-    l.x0 = s.x[i]; l.y0 = s.y[i]; l.x1 = s.x[j]; l.y1 = s.y[j];
-    lines[(size_t)t * VM_MAXL + i] = l;
-  }
+  for (uint i = 0; i < n; ++i) lines[(size_t)t * VM_MAXL + i] = P[i];
 }
 
 /* Signs of the fragment's vertices (vertex i = line i ^ line i+1) with respect to LE, and
@@ -165,6 +205,12 @@ __kernel void clip_find(__global const VmFragMeta* meta, __global const VmLine* 
   uint i = get_global_id(0);
   if (i >= nq) return;
   VmFragMeta m = meta[i];
+  if (m.nlines == 0) { /* a root fragment outside its region (frag_init) */
+    split_at[i] = VM_NONE;
+    next_count[i] = 0;
+    done_count[i] = 0;
+    return;
+  }
   __global const VmLine* L = lines + (size_t)i * VM_MAXL;
   uint off = cand_offset[m.tri], n = cand_count[m.tri];
   int sgn[VM_MAXL];
@@ -215,6 +261,7 @@ __kernel void clip_apply(__global const VmFragMeta* meta, __global const VmLine*
   VmFragMeta m = meta[i];
   __global const VmLine* L = lines + (size_t)i * VM_MAXL;
   uint k = split_at[i];
+  if (m.nlines == 0) return;
   if (k == VM_NONE) {
     uint d = done_base + done_offset[i];
     done_meta[d] = m;

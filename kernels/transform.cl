@@ -57,11 +57,16 @@ inline void clip_edge(double4 a, float3 ba, double4 b, float3 bb, int k, double4
 
 /* Clips input triangle t and emits its snapped, non-degenerate, non-culled fan triangles.
  * Returns how many; writes them at out[base...] when write is set. */
+/* The region (grid units, x0 y0 x1 y1) is the part of the screen being rendered: fan
+ * triangles whose box misses its interior are left out (DESIGN: buckets, --memory-budget). When
+ * cells is given, each kept fan triangle adds one to every cell of that grid its box touches, and
+ * box_out (pixels) receives the union of their boxes. */
 inline uint clip_triangle(uint t, __global const uint* idx, __global const double4* clip,
                           __global const uint* tri_mesh, __global const uint* tri_local,
                           __global const uint* mesh_cull, uint width, uint height, int ortho,
-                          int write, uint base, __global VmScreenTri* out,
-                          __global float* bary_out) {
+                          int4 region, int write, uint base, __global VmScreenTri* out,
+                          __global float* bary_out, VmGrid cells, __global uint* hist,
+                          __global ushort4* box_out) {
   double4 p[VM_CLIP_MAXV], np[VM_CLIP_MAXV];
   float3 b[VM_CLIP_MAXV], nb[VM_CLIP_MAXV];
   int n = 3;
@@ -111,12 +116,22 @@ inline uint clip_triangle(uint t, __global const uint* idx, __global const doubl
 
   uint cull = mesh_cull[tri_mesh[t]];
   uint count = 0;
+  int4 box = (int4)(INT_MAX, INT_MAX, INT_MIN, INT_MIN);
   for (int i = 1; i + 1 < n; ++i) {
     int a = 0, c1 = i, c2 = i + 1;
     long o = orient_points(X[a], Y[a], X[c1], Y[c1], X[c2], Y[c2]);
     if (o == 0) continue;
     if (cull == VM_CULL_POSITIVE && o > 0) continue;
     if (cull == VM_CULL_NEGATIVE && o < 0) continue;
+    int bx0 = min(X[a], min(X[c1], X[c2])), bx1 = max(X[a], max(X[c1], X[c2]));
+    int by0 = min(Y[a], min(Y[c1], Y[c2])), by1 = max(Y[a], max(Y[c1], Y[c2]));
+    if (bx1 <= region.x || bx0 >= region.z || by1 <= region.y || by0 >= region.w) continue;
+    if (hist) {
+      int4 r = tile_range((int4)(bx0, by0, bx1, by1), cells);
+      for (int cy = r.y; cy <= r.w; ++cy)
+        for (int cx = r.x; cx <= r.z; ++cx) atomic_inc(&hist[cy * cells.tiles_x + cx]);
+      box = (int4)(min(box.x, bx0), min(box.y, by0), max(box.z, bx1), max(box.w, by1));
+    }
     if (write) {
       if (o < 0) {
         int tmp = c1; c1 = c2; c2 = tmp;
@@ -139,26 +154,60 @@ inline uint clip_triangle(uint t, __global const uint* idx, __global const doubl
     }
     ++count;
   }
+  if (box_out)
+    box_out[t] = count ? (ushort4)((ushort)(box.x / VM_GRID_SCALE), (ushort)(box.y / VM_GRID_SCALE),
+                                   (ushort)((box.z + VM_GRID_SCALE - 1) / VM_GRID_SCALE),
+                                   (ushort)((box.w + VM_GRID_SCALE - 1) / VM_GRID_SCALE))
+                       : (ushort4)(0xffff, 0xffff, 0, 0);
   return count;
+}
+
+/* Cheap test before clipping again for a region: can triangle t's fan triangles touch the
+ * region's interior at all (boxes from clip_cells, in pixels)? */
+inline bool box_meets(__global const ushort4* boxes, int use_boxes, uint t, int4 region) {
+  if (!use_boxes) return true;
+  ushort4 b = boxes[t];
+  return (int)b.z * VM_GRID_SCALE > region.x && (int)b.x * VM_GRID_SCALE < region.z &&
+         (int)b.w * VM_GRID_SCALE > region.y && (int)b.y * VM_GRID_SCALE < region.w;
 }
 
 __kernel void clip_count(__global const uint* idx, uint ntri, __global const double4* clip,
                          __global const uint* tri_mesh, __global const uint* tri_local,
                          __global const uint* mesh_cull, uint width, uint height, int ortho,
+                         int4 region, __global const ushort4* boxes, int use_boxes,
                          __global uint* counts) {
   uint t = get_global_id(0);
   if (t >= ntri) return;
-  counts[t] = clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho, 0,
-                            0, 0, 0);
+  VmGrid none = {0, 0, 0, 0};
+  counts[t] = box_meets(boxes, use_boxes, t, region)
+                  ? clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho,
+                                  region, 0, 0, 0, 0, none, 0, 0)
+                  : 0;
 }
 
 __kernel void clip_fill(__global const uint* idx, uint ntri, __global const double4* clip,
                         __global const uint* tri_mesh, __global const uint* tri_local,
                         __global const uint* mesh_cull, uint width, uint height, int ortho,
+                        int4 region, __global const ushort4* boxes, int use_boxes,
                         __global const uint* offsets, __global VmScreenTri* out,
                         __global float* bary_out, int want_bary) {
   uint t = get_global_id(0);
   if (t >= ntri) return;
-  clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho, 1, offsets[t],
-                out, want_bary ? bary_out : 0);
+  if (!box_meets(boxes, use_boxes, t, region)) return;
+  VmGrid none = {0, 0, 0, 0};
+  clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho, region, 1,
+                offsets[t], out, want_bary ? bary_out : 0, none, 0, 0);
+}
+
+/* For planning buckets: per-cell counts of the screen triangles whose box touches each cell
+ * (a triangle over several cells counts in each, so sums over cells bound a region's count from
+ * above), and each input triangle's box in pixels. */
+__kernel void clip_cells(__global const uint* idx, uint ntri, __global const double4* clip,
+                         __global const uint* tri_mesh, __global const uint* tri_local,
+                         __global const uint* mesh_cull, uint width, uint height, int ortho,
+                         int4 region, VmGrid cells, __global uint* hist, __global ushort4* boxes) {
+  uint t = get_global_id(0);
+  if (t >= ntri) return;
+  clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho, region, 0, 0, 0,
+                0, cells, hist, boxes);
 }

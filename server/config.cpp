@@ -58,6 +58,7 @@ void apply_json(Config& cfg, const std::string& text, const std::string& origin)
         else if (lk == "max_scene_bytes") get(v, key, l.max_scene_bytes, origin);
         else if (lk == "max_triangles") get(v, key, l.max_triangles, origin);
         else if (lk == "max_session_bytes") get(v, key, l.max_session_bytes, origin);
+        else if (lk == "render_memory_bytes") get(v, key, l.render_memory_bytes, origin);
         else if (lk == "max_sessions") get(v, key, l.max_sessions, origin);
         else if (lk == "max_connections") get(v, key, l.max_connections, origin);
         else if (lk == "max_viewport") get(v, key, l.max_viewport, origin);

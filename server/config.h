@@ -13,6 +13,7 @@ struct Limits {
   uint64_t max_scene_bytes = 64ull << 20;     // one uploaded scene file
   uint64_t max_triangles = 5'000'000;         // per scene
   uint64_t max_session_bytes = 512ull << 20;  // upload + loaded scene, per session
+  uint64_t render_memory_bytes = 2ull << 30;  // device memory per frame (RenderOptions::memory_budget)
   uint32_t max_sessions = 64;
   uint32_t max_connections = 256;             // TCP connections, upgraded or not
   uint32_t max_viewport = 8192;               // width and height

@@ -466,6 +466,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       cam.validate();
       RenderOptions opts;
       opts.attributes = h.attributes && h.format == Format::Bin;
+      opts.memory_budget = srv_.cfg.limits.render_memory_bytes;
       RenderStats stats;
       PlanarMap map = renderer->render(*scene, cam, opts, &stats);
       auto t0 = Clock::now();

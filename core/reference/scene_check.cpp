@@ -23,6 +23,7 @@ SceneFigures check_scene(Renderer& renderer, const Scene& scene, const Camera& c
   ro.exact = true;
   ro.keep_screen_triangles = true;
   ro.tile_pixels = o.tile_pixels;
+  ro.memory_budget = o.memory_budget;
   RenderStats st;
   ScreenTriangles screen;
   PlanarMap map = renderer.render(scene, camera, ro, &st, &screen);

@@ -23,6 +23,7 @@ struct SceneCheckOptions {
   bool invariants = true;      // check_planar_map (overlap, coverage, outside source)
   uint32_t pixels = 1024;      // pixel_compare raster size; 0: no pixel comparison
   uint32_t tile_pixels = 0;    // RenderOptions::tile_pixels
+  uint64_t memory_budget = 0;  // RenderOptions::memory_budget
 };
 
 // Figures of one run. std::nullopt: not computed (skipped by the options).
