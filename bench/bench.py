@@ -98,17 +98,22 @@ STAT_RE = {
     "load_ms": r"time: load ([\d.]+) ms", "render_ms": r"render ([\d.]+) ms",
     "write_ms": r"write ([\d.]+) ms", "total_ms": r"total ([\d.]+) ms",
     "out_bytes": r"fragments, (\d+) bytes",
+    "device_peak_mb": r"device memory peak ([\d.]+) MB", "buckets": r"(\d+) bucket\(s\)",
 }
 
+# --memory-budget rows: (scene, resolution, budget). The issue's target: the 4.4M-triangle bunny
+# at 4096^2 within 1 GiB (peak RSS of the whole process; with PoCL device memory is host memory).
+BUDGET_ROWS = [("bunny_loop3", 4096, "700M")]
 
-def run_cli(build, path, res, camera, repeats, timeout, budget):
+
+def run_cli(build, path, res, camera, repeats, timeout, budget, extra=()):
     """Whole process, repeated: wall (median), peak RSS (max), the CLI's own load/render/write."""
     exe = os.path.join(build, "vismap")
     walls, rss, parts = [], [], {k: [] for k in STAT_RE}
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "out.svg")
         cmd = ["/usr/bin/time", "-v", exe, "render", path, "-o", out, "--stats",
-               "--width", str(res), "--height", str(res)] + (camera.split() if camera else [])
+               "--width", str(res), "--height", str(res)] + (camera.split() if camera else []) + list(extra)
         start = time.perf_counter()
         for _ in range(repeats):
             if walls and time.perf_counter() - start > budget:
@@ -189,6 +194,8 @@ def f1(v, nd=1):
 
 def write_outputs(out, rows, sweep, env, have_check):
     os.makedirs(os.path.join(out, "plots"), exist_ok=True)
+    budget_rows = [r for r in rows if r.get("kind") == "budget"]
+    rows = [r for r in rows if r.get("kind") != "budget"]
     cols = ["scene", "triangles", "width", "height", "tile_pixels_effective", "bins", "runs", "load_ms", "init_ms",
             "first_render_ms", "upload_ms", "pipeline_ms", "pipeline_min_ms", "pipeline_max_ms", "kernels_ms",
             "host_ms"] + ["stage_" + s + "_ms" for s in STAGES] + [
@@ -212,7 +219,7 @@ def write_outputs(out, rows, sweep, env, have_check):
             for r in data:
                 w.writerow(flat(r))
     with open(os.path.join(out, "raw.jsonl"), "w") as f:
-        for r in rows + sweep:
+        for r in rows + budget_rows + sweep:
             f.write(json.dumps(r) + "\n")
     with open(os.path.join(out, "env.txt"), "w") as f:
         for k, v in env.items():
@@ -281,7 +288,16 @@ def write_outputs(out, rows, sweep, env, have_check):
             md.append(f"| {r['scene']} | {r['width']} | {r['tile_pixels']:.0f}{' (auto ' + str(int(r['tile_pixels_effective'])) + ')' if r['tile_pixels'] == 0 else ''} | "
                       f"{r['bins']:.0f} | {f1(r['pipeline_ms'])} | {f1(st.get('bin'))} | {f1(st.get('candidates'))} | "
                       f"{f1(st.get('clip'))} | {f1(st.get('occlusion'))} | {r['peak_device_bytes'] / 1e6:.1f} |")
-    md += ["", "## Targets (CPU, PoCL, kernels cached)", ""] + targets(rows)
+    if budget_rows:
+        md += ["", "## Memory budget (`vismap render --memory-budget`, whole process)", "",
+               "| scene | res | budget | buckets | device peak MB | peak RSS MB | process ms (min-max, runs) |",
+               "|---|---:|---:|---:|---:|---:|---|"]
+        for r in budget_rows:
+            md.append(f"| {r['scene']} | {r['width']} | {r['memory_budget']} | {r.get('cli_buckets', 0):.0f} | "
+                      f"{f1(r.get('cli_device_peak_mb'))} | {f1(r.get('peak_rss_mb_cli'))} | "
+                      f"{f1(r.get('process_ms'))} ({f1(r.get('process_min_ms'))}-{f1(r.get('process_max_ms'))}, "
+                      f"{r.get('process_runs', '')}) {r.get('cli_note', '')} |")
+    md += ["", "## Targets (CPU, PoCL, kernels cached)", ""] + targets(rows, budget_rows)
     plots(out, rows, sweep)
     md += ["", "Plots: " + ", ".join(f"[{p}](plots/{p})" for p in sorted(os.listdir(os.path.join(out, "plots"))))]
     with open(os.path.join(out, "results.md"), "w") as f:
@@ -295,7 +311,7 @@ def find(rows, scene, res):
     return {}
 
 
-def targets(rows):
+def targets(rows, budget_rows=()):
     out = ["| target | limit | measured | met |", "|---|---:|---:|---|"]
 
     def line(what, limit, value, unit):
@@ -320,7 +336,12 @@ def targets(rows):
         out.append(f"| dragon: loading not dominating | load < 50% of process | load {f1(d.get('cli_load_ms'))} ms = "
                    f"{100 * d.get('cli_load_ms', 0) / d['process_ms']:.0f}% of {f1(d['process_ms'])} ms | "
                    f"{'met' if d.get('cli_load_ms', 0) < 0.5 * d['process_ms'] else 'MISSED'} |")
-    out.append("| `--memory-budget BYTES` | | option does not exist yet | not done |")
+    big = [r for r in budget_rows if r["scene"] == "bunny_loop3" and r["width"] == 4096]
+    if big:
+        line(f"bunny Loop x3 (4.4M) 4096^2, --memory-budget {big[0]['memory_budget']}: peak RSS", 1024,
+             big[0].get("peak_rss_mb_cli"), "MB")
+    else:
+        out.append("| bunny Loop x3 4096^2 within 1 GiB (`--memory-budget`) | 1024 MB | not run | |")
     return out
 
 
@@ -372,7 +393,7 @@ def replot(out):
     for line in open(os.path.join(out, "raw.jsonl")):
         r = json.loads(line)
         kind = r.get("kind") or ("row" if any(k in r for k in ("process_ms", "cli_note", "note")) else "sweep")
-        (rows if kind == "row" else sweep).append(r)
+        (rows if kind in ("row", "budget") else sweep).append(r)
     env = {}
     for line in open(os.path.join(out, "env.txt")):
         k, _, v = line.rstrip("\n").partition(": ")
@@ -396,6 +417,7 @@ def main():
     ap.add_argument("--no-cli", action="store_true")
     ap.add_argument("--no-check", action="store_true")
     ap.add_argument("--no-sweep", action="store_true")
+    ap.add_argument("--only-budget", action="store_true", help="only the --memory-budget rows")
     ap.add_argument("--timeout", type=int, default=900, help="seconds per tool call")
     ap.add_argument("--budget", type=float, default=20,
                     help="seconds of repeats per row and tool (at least one run each; default 20)")
@@ -415,7 +437,7 @@ def main():
     rows, sweep = [], []
     for res in resolutions:  # every scene at the first resolution first: partial runs stay useful
         for name, path, exact_ok in SCENES:
-            if name not in names:
+            if name not in names or a.only_budget:
                 continue
             if not os.path.exists(path):
                 log("missing", path)
@@ -443,6 +465,15 @@ def main():
             # keep partial results on disk as we go
             env["loadavg_end"] = open("/proc/loadavg").read().split()[:3]
             write_outputs(out, rows, sweep, env, have_check)
+    for name, res, mb in BUDGET_ROWS:
+        path = dict((s[0], s[1]) for s in SCENES).get(name)
+        if a.no_cli or name not in names or res not in resolutions or not path or not os.path.exists(path):
+            continue
+        log(f"{name} {res}^2: process with --memory-budget {mb}")
+        r = {"scene": name, "width": res, "height": res, "kind": "budget", "memory_budget": mb}
+        r.update(run_cli(a.build, path, res, "", 3, a.timeout, a.budget, ["--memory-budget", mb]))
+        rows.append(r)
+        write_outputs(out, rows, sweep, env, have_check)
     log("wrote", out)
 
 

@@ -233,9 +233,23 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   std::vector<cl_int4> regions{full};
   cl::Buffer boxes = rt.alloc(16, "triangle boxes");
   if (opts.memory_budget) regions = plan_buckets(opts.memory_budget, W, H, iortho, clip, mesh_cull, boxes, st);
-  const cl_int use_boxes = regions.size() > 1 ? 1 : 0;
+  const cl_int use_boxes = opts.memory_budget ? 1 : 0;
   const cl_int clip_region = use_boxes;
-  st.buckets = static_cast<uint32_t>(regions.size());
+  st.buckets = 0;
+  // The plan is an estimate: a bucket whose screen triangles, at the bytes per triangle seen so
+  // far, would not fit is halved again before anything of it is allocated.
+  std::vector<cl_int4> todo(regions.rbegin(), regions.rend());
+  uint64_t bytes_per_tri = kBucketBytesPerTriangle, peak = rt.peak_bytes();
+  auto halve = [](const cl_int4& r, cl_int4& a, cl_int4& b) {
+    const int unit = 16 * VM_GRID_SCALE, w = r.s[2] - r.s[0], h = r.s[3] - r.s[1];
+    const bool cut_x = w >= 2 * unit && (w >= h || h < 2 * unit);
+    if (!cut_x && h < 2 * unit) return false;
+    a = b = r;
+    const int at = cut_x ? r.s[0] + (w / 2 / unit) * unit : r.s[1] + (h / 2 / unit) * unit;
+    a.s[cut_x ? 2 : 3] = at;
+    b.s[cut_x ? 0 : 1] = at;
+    return true;
+  };
 
   std::map<std::string, std::pair<double, uint32_t>> profile;
   std::map<std::string, std::pair<uint64_t, uint64_t>> io;
@@ -251,301 +265,318 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     screen->triangle.clear();
   }
 
-  for (size_t bucket = 0; bucket < regions.size(); ++bucket) {
-  const cl_int4 region = regions[bucket];
-  // ---- clip + cull + snap, keeping the triangles that reach the region ----------------------
-  rt.launch("transform", "clip_count", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
-            iortho, region, boxes, use_boxes, counts);
-  const uint32_t S = rt.scan("transform", counts, offsets, ntri);
-  st.screen_triangles += S;
-  add_io("transform", use_boxes ? 0 : ntri, S);
-  if (S == 0) continue;
-  cl::Buffer tris = rt.alloc(size_t(S) * sizeof(VmScreenTri), "screen triangles");
-  cl::Buffer tri_bary = rt.alloc(want_bary ? size_t(S) * 9 * sizeof(float) : 16, "screen barycentrics");
-  cl_int iwant = want_bary ? 1 : 0;
-  rt.launch("transform", "clip_fill", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
-            iortho, region, boxes, use_boxes, offsets, tris, tri_bary, iwant);
+  while (!todo.empty()) {
+    const cl_int4 region = todo.back();
+    todo.pop_back();
+    peak = std::max(peak, rt.peak_bytes());
+    rt.reset_peak();
+    const uint64_t base = rt.live_bytes();
+    // ---- clip + cull + snap, keeping the triangles that reach the region ----------------------
+    rt.launch("transform", "clip_count", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
+              iortho, region, boxes, use_boxes, counts);
+    const uint32_t S = rt.scan("transform", counts, offsets, ntri);
+    add_io("transform", ntri, 0);
+    cl_int4 half_a, half_b;
+    if (use_boxes && uint64_t(S) * bytes_per_tri > st.bucket_work_bytes && halve(region, half_a, half_b)) {
+      todo.push_back(half_b);
+      todo.push_back(half_a);
+      continue;
+    }
+    ++st.buckets;
+    st.screen_triangles += S;
+    add_io("transform", 0, S);
+    if (S == 0) continue;
+    cl::Buffer tris = rt.alloc(size_t(S) * sizeof(VmScreenTri), "screen triangles");
+    cl::Buffer tri_bary = rt.alloc(want_bary ? size_t(S) * 9 * sizeof(float) : 16, "screen barycentrics");
+    cl_int iwant = want_bary ? 1 : 0;
+    rt.launch("transform", "clip_fill", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
+              iortho, region, boxes, use_boxes, offsets, tris, tri_bary, iwant);
 
-  cl::Buffer totals = rt.alloc(kSlots * 4, "totals");
-  rt.fill_u32(totals, 0, kSlots, "transform");
+    cl::Buffer totals = rt.alloc(kSlots * 4, "totals");
+    rt.fill_u32(totals, 0, kSlots, "transform");
 
-  // ---- silhouette edges (hash) --------------------------------------------------------------
-  const uint32_t nedges = 3 * S;
-  const uint32_t table_size = next_pow2(uint64_t(nedges) * 2);
-  cl::Buffer table = rt.alloc(size_t(table_size) * 4, "edge hash table");
-  cl::Buffer slot_count = rt.alloc(size_t(table_size) * 4, "edge slot counts");
-  cl::Buffer slot_min = rt.alloc(size_t(table_size) * 4, "edge slot min");
-  cl::Buffer slot_max = rt.alloc(size_t(table_size) * 4, "edge slot max");
-  cl::Buffer slot_of_edge = rt.alloc(size_t(nedges) * 4, "edge slots");
-  rt.fill_u32(table, 0, table_size, "silhouettes");
-  rt.fill_u32(slot_count, 0, table_size, "silhouettes");
-  rt.fill_u32(slot_min, 0xffffffffu, table_size, "silhouettes");
-  rt.fill_u32(slot_max, 0, table_size, "silhouettes");
-  rt.launch("silhouettes", "edge_insert", nedges, tris, nedges, table, table_size - 1, slot_of_edge,
-            slot_count, slot_min, slot_max, totals);
-  cl::Buffer eflags = rt.alloc(size_t(nedges) * 4, "edge flags");
-  cl::Buffer eoffs = rt.alloc(size_t(nedges) * 4, "edge offsets");
-  rt.launch("silhouettes", "edge_classify", nedges, tris, nedges, slot_of_edge, slot_count, slot_min,
-            slot_max, eflags);
-  const uint32_t E = rt.scan("silhouettes", eflags, eoffs, nedges);
+    // ---- silhouette edges (hash) --------------------------------------------------------------
+    const uint32_t nedges = 3 * S;
+    const uint32_t table_size = next_pow2(uint64_t(nedges) * 2);
+    cl::Buffer table = rt.alloc(size_t(table_size) * 4, "edge hash table");
+    cl::Buffer slot_count = rt.alloc(size_t(table_size) * 4, "edge slot counts");
+    cl::Buffer slot_min = rt.alloc(size_t(table_size) * 4, "edge slot min");
+    cl::Buffer slot_max = rt.alloc(size_t(table_size) * 4, "edge slot max");
+    cl::Buffer slot_of_edge = rt.alloc(size_t(nedges) * 4, "edge slots");
+    rt.fill_u32(table, 0, table_size, "silhouettes");
+    rt.fill_u32(slot_count, 0, table_size, "silhouettes");
+    rt.fill_u32(slot_min, 0xffffffffu, table_size, "silhouettes");
+    rt.fill_u32(slot_max, 0, table_size, "silhouettes");
+    rt.launch("silhouettes", "edge_insert", nedges, tris, nedges, table, table_size - 1, slot_of_edge,
+              slot_count, slot_min, slot_max, totals);
+    cl::Buffer eflags = rt.alloc(size_t(nedges) * 4, "edge flags");
+    cl::Buffer eoffs = rt.alloc(size_t(nedges) * 4, "edge offsets");
+    rt.launch("silhouettes", "edge_classify", nedges, tris, nedges, slot_of_edge, slot_count, slot_min,
+              slot_max, eflags);
+    const uint32_t E = rt.scan("silhouettes", eflags, eoffs, nedges);
 
-  // ---- bins ---------------------------------------------------------------------------------
-  auto make_grid = [&](uint32_t tile_px) {
-    VmGrid g;
-    g.tile_size = static_cast<int32_t>(tile_px * VM_GRID_SCALE);
-    g.tiles_x = static_cast<int32_t>((W + tile_px - 1) / tile_px);
-    g.tiles_y = static_cast<int32_t>((H + tile_px - 1) / tile_px);
-    g.tile_shift = 0;
-    while ((1 << g.tile_shift) < g.tile_size) ++g.tile_shift;
-    return g;
-  };
-  uint32_t tile_px = opts.tile_pixels;
-  if (tile_px == 0) {
-    double side = 2.0 * std::sqrt(double(W) * H / std::max<uint32_t>(S, 1));
-    tile_px = std::clamp<uint32_t>(next_pow2(static_cast<uint64_t>(std::ceil(side))), 8, 512);
-  }
-  const VmGrid eg = make_grid(tile_px);
-  const VmGrid og = make_grid(std::max<uint32_t>(tile_px / 2, 4));
+    // ---- bins ---------------------------------------------------------------------------------
+    auto make_grid = [&](uint32_t tile_px) {
+      VmGrid g;
+      g.tile_size = static_cast<int32_t>(tile_px * VM_GRID_SCALE);
+      g.tiles_x = static_cast<int32_t>((W + tile_px - 1) / tile_px);
+      g.tiles_y = static_cast<int32_t>((H + tile_px - 1) / tile_px);
+      g.tile_shift = 0;
+      while ((1 << g.tile_shift) < g.tile_size) ++g.tile_shift;
+      return g;
+    };
+    uint32_t tile_px = opts.tile_pixels;
+    if (tile_px == 0) {
+      double side = 2.0 * std::sqrt(double(W) * H / std::max<uint32_t>(S, 1));
+      tile_px = std::clamp<uint32_t>(next_pow2(static_cast<uint64_t>(std::ceil(side))), 8, 512);
+    }
+    const VmGrid eg = make_grid(tile_px);
+    const VmGrid og = make_grid(std::max<uint32_t>(tile_px / 2, 4));
 
 
-  struct Bins {
-    cl::Buffer count, offset, list;
-    uint32_t pairs = 0;
-  };
-  auto bin = [&](const char* stage, cl::Buffer& bb, uint32_t n, const VmGrid& g, bool sort) {
-    const uint32_t ntiles = uint32_t(g.tiles_x) * uint32_t(g.tiles_y);
-    Bins b;
-    b.count = rt.alloc(size_t(ntiles) * 4, "tile counts");
-    b.offset = rt.alloc(size_t(ntiles) * 4, "tile offsets");
-    rt.fill_u32(b.count, 0, ntiles, stage);
-    rt.launch(stage, "bin_count", n, bb, n, g, b.count);
-    b.pairs = rt.scan(stage, b.count, b.offset, ntiles);
-    b.list = rt.alloc(std::max<size_t>(b.pairs, 1) * 4, "tile lists");
-    cl::Buffer cursor = rt.alloc(size_t(ntiles) * 4, "tile cursors");
-    rt.fill_u32(cursor, 0, ntiles, stage);
-    rt.launch(stage, "bin_fill", n, bb, n, g, b.offset, cursor, b.list);
-    if (sort) rt.launch(stage, "bin_sort", ntiles, b.offset, b.count, ntiles, b.list);
-    return b;
-  };
-  // Triangles on the fine grid (crossing pairs, occlusion), sorted so that every list a kernel
-  // walks is in a fixed order.
-  cl::Buffer tri_bb = rt.alloc(size_t(S) * sizeof(cl_int4), "triangle boxes");
-  cl::Buffer tri_qr = rt.alloc(size_t(S) * sizeof(cl_double2), "triangle depth ranges");
-  rt.launch("bin", "tri_bbox", S, tris, S, tri_bb, tri_qr);
-  Bins tbins = bin("bin", tri_bb, S, og, true);
-  cl::Buffer pair_t, pair_o, pair_rel, pair_line;
+    struct Bins {
+      cl::Buffer count, offset, list;
+      uint32_t pairs = 0;
+    };
+    auto bin = [&](const char* stage, cl::Buffer& bb, uint32_t n, const VmGrid& g, bool sort) {
+      const uint32_t ntiles = uint32_t(g.tiles_x) * uint32_t(g.tiles_y);
+      Bins b;
+      b.count = rt.alloc(size_t(ntiles) * 4, "tile counts");
+      b.offset = rt.alloc(size_t(ntiles) * 4, "tile offsets");
+      rt.fill_u32(b.count, 0, ntiles, stage);
+      rt.launch(stage, "bin_count", n, bb, n, g, b.count);
+      b.pairs = rt.scan(stage, b.count, b.offset, ntiles);
+      b.list = rt.alloc(std::max<size_t>(b.pairs, 1) * 4, "tile lists");
+      cl::Buffer cursor = rt.alloc(size_t(ntiles) * 4, "tile cursors");
+      rt.fill_u32(cursor, 0, ntiles, stage);
+      rt.launch(stage, "bin_fill", n, bb, n, g, b.offset, cursor, b.list);
+      if (sort) rt.launch(stage, "bin_sort", ntiles, b.offset, b.count, ntiles, b.list);
+      return b;
+    };
+    // Triangles on the fine grid (crossing pairs, occlusion), sorted so that every list a kernel
+    // walks is in a fixed order.
+    cl::Buffer tri_bb = rt.alloc(size_t(S) * sizeof(cl_int4), "triangle boxes");
+    cl::Buffer tri_qr = rt.alloc(size_t(S) * sizeof(cl_double2), "triangle depth ranges");
+    rt.launch("bin", "tri_bbox", S, tris, S, tri_bb, tri_qr);
+    Bins tbins = bin("bin", tri_bb, S, og, true);
+    cl::Buffer pair_t, pair_o, pair_rel, pair_line;
 
-  // ---- penetrating and tying pairs ----------------------------------------------------------
-  // One traversal finds each pair once (by its lower triangle) into small inline slots; only if
-  // a triangle has more pairs than the slots hold is the traversal repeated into exact space.
-  constexpr uint32_t kInline = 4;  // VM_PAIRS_INLINE in kernels/crossing.cl
-  cl::Buffer pcount = rt.alloc(size_t(S) * 4, "pair counts");
-  cl::Buffer poffset = rt.alloc(size_t(S) * 4, "pair offsets");
-  uint32_t npairs = 0;
-  {
-    cl::Buffer scr_o = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
-    cl::Buffer scr_rel = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
-    cl::Buffer scr_line = rt.alloc(size_t(S) * kInline * sizeof(VmLine), "pair scratch");
-    rt.launch("crossings", "cross_pairs", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.count,
-              tbins.list, pcount, scr_o, scr_rel, scr_line, totals);
-    npairs = rt.scan("crossings", pcount, poffset, S);
-    uint32_t status = 0;
-    q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof status, &status);
+    // ---- penetrating and tying pairs ----------------------------------------------------------
+    // One traversal finds each pair once (by its lower triangle) into small inline slots; only if
+    // a triangle has more pairs than the slots hold is the traversal repeated into exact space.
+    constexpr uint32_t kInline = 4;  // VM_PAIRS_INLINE in kernels/crossing.cl
+    cl::Buffer pcount = rt.alloc(size_t(S) * 4, "pair counts");
+    cl::Buffer poffset = rt.alloc(size_t(S) * 4, "pair offsets");
+    uint32_t npairs = 0;
+    {
+      cl::Buffer scr_o = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
+      cl::Buffer scr_rel = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
+      cl::Buffer scr_line = rt.alloc(size_t(S) * kInline * sizeof(VmLine), "pair scratch");
+      rt.launch("crossings", "cross_pairs", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.count,
+                tbins.list, pcount, scr_o, scr_rel, scr_line, totals);
+      npairs = rt.scan("crossings", pcount, poffset, S);
+      uint32_t status = 0;
+      q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof status, &status);
+      const uint32_t P = npairs;
+      pair_t = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
+      pair_o = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
+      pair_rel = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
+      pair_line = rt.alloc(std::max<size_t>(P, 1) * sizeof(VmLine), "pairs");
+      if (status & VM_STATUS_PAIRS_OVERFLOW)
+        rt.launch("crossings", "cross_pairs_fill", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.count,
+                  tbins.list, poffset, pair_t, pair_o, pair_rel, pair_line);
+      else
+        rt.launch("crossings", "cross_compact", S, S, pcount, poffset, scr_o, scr_rel, scr_line,
+                  pair_t, pair_o, pair_rel, pair_line);
+    }
     const uint32_t P = npairs;
-    pair_t = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
-    pair_o = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
-    pair_rel = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
-    pair_line = rt.alloc(std::max<size_t>(P, 1) * sizeof(VmLine), "pairs");
-    if (status & VM_STATUS_PAIRS_OVERFLOW)
-      rt.launch("crossings", "cross_pairs_fill", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.count,
-                tbins.list, poffset, pair_t, pair_o, pair_rel, pair_line);
-    else
-      rt.launch("crossings", "cross_compact", S, S, pcount, poffset, scr_o, scr_rel, scr_line,
-                pair_t, pair_o, pair_rel, pair_line);
-  }
-  const uint32_t P = npairs;
-  cl::Buffer in_count = rt.alloc(size_t(S) * 4, "incoming pair counts");
-  cl::Buffer in_offset = rt.alloc(size_t(S) * 4, "incoming pair offsets");
-  cl::Buffer in_cursor = rt.alloc(size_t(S) * 4, "incoming pair cursors");
-  rt.fill_u32(in_count, 0, S, "crossings");
-  rt.fill_u32(in_cursor, 0, S, "crossings");
-  rt.launch("crossings", "cross_in_count", P, P, pair_o, in_count);
-  rt.scan("crossings", in_count, in_offset, S);
-  cl::Buffer in_list = rt.alloc(std::max<size_t>(P, 1) * 4, "incoming pairs");
-  rt.launch("crossings", "cross_in_fill", P, P, pair_o, in_offset, in_cursor, in_list);
-  cl::Buffer cross_count = rt.alloc(size_t(S) * 4, "crossing entry counts");
-  cl::Buffer cross_offset = rt.alloc(size_t(S) * 4, "crossing entry offsets");
-  rt.launch("crossings", "cross_entry_count", S, S, pcount, poffset, in_count, in_offset, in_list,
-            pair_rel, cross_count);
-  const uint32_t X = rt.scan("crossings", cross_count, cross_offset, S);
-  cl::Buffer edges = rt.alloc((size_t(E) + X) * sizeof(VmEdge), "clipping edges");
-  cl::Buffer partner = rt.alloc(std::max<size_t>(X, 1) * 4, "crossing partners");
-  rt.launch("silhouettes", "edge_emit", nedges, tris, nedges, eflags, eoffs, edges);
-  rt.launch("crossings", "cross_entry_fill", S, S, tris, pcount, poffset, in_count, in_offset,
-            in_list, pair_t, pair_o, pair_rel, pair_line, cross_offset, E, edges, partner);
+    cl::Buffer in_count = rt.alloc(size_t(S) * 4, "incoming pair counts");
+    cl::Buffer in_offset = rt.alloc(size_t(S) * 4, "incoming pair offsets");
+    cl::Buffer in_cursor = rt.alloc(size_t(S) * 4, "incoming pair cursors");
+    rt.fill_u32(in_count, 0, S, "crossings");
+    rt.fill_u32(in_cursor, 0, S, "crossings");
+    rt.launch("crossings", "cross_in_count", P, P, pair_o, in_count);
+    rt.scan("crossings", in_count, in_offset, S);
+    cl::Buffer in_list = rt.alloc(std::max<size_t>(P, 1) * 4, "incoming pairs");
+    rt.launch("crossings", "cross_in_fill", P, P, pair_o, in_offset, in_cursor, in_list);
+    cl::Buffer cross_count = rt.alloc(size_t(S) * 4, "crossing entry counts");
+    cl::Buffer cross_offset = rt.alloc(size_t(S) * 4, "crossing entry offsets");
+    rt.launch("crossings", "cross_entry_count", S, S, pcount, poffset, in_count, in_offset, in_list,
+              pair_rel, cross_count);
+    const uint32_t X = rt.scan("crossings", cross_count, cross_offset, S);
+    cl::Buffer edges = rt.alloc((size_t(E) + X) * sizeof(VmEdge), "clipping edges");
+    cl::Buffer partner = rt.alloc(std::max<size_t>(X, 1) * 4, "crossing partners");
+    rt.launch("silhouettes", "edge_emit", nedges, tris, nedges, eflags, eoffs, edges);
+    rt.launch("crossings", "cross_entry_fill", S, S, tris, pcount, poffset, in_count, in_offset,
+              in_list, pair_t, pair_o, pair_rel, pair_line, cross_offset, E, edges, partner);
 
-  cl::Buffer edge_bb = rt.alloc(std::max<size_t>(E, 1) * sizeof(cl_int4), "edge boxes");
-  rt.launch("bin", "edge_bbox", E, edges, E, edge_bb);
-  Bins ebins = bin("bin", edge_bb, E, eg, true);
+    cl::Buffer edge_bb = rt.alloc(std::max<size_t>(E, 1) * sizeof(cl_int4), "edge boxes");
+    rt.launch("bin", "edge_bbox", E, edges, E, edge_bb);
+    Bins ebins = bin("bin", edge_bb, E, eg, true);
 
-  // ---- candidate edges per triangle ---------------------------------------------------------
-  cl::Buffer cand_count = rt.alloc(size_t(S) * 4, "candidate counts");
-  cl::Buffer cand_offset = rt.alloc(size_t(S) * 4, "candidate offsets");
-  rt.launch("candidates", "cand_count", S, tris, S, tri_bb, edges, edge_bb, eg, ebins.offset,
-            ebins.count, ebins.list, cross_count, cand_count);
-  const uint32_t C = rt.scan("candidates", cand_count, cand_offset, S);
-  cl::Buffer cand = rt.alloc(std::max<size_t>(C, 1) * 4, "candidates");
-  rt.launch("candidates", "cand_fill", S, tris, S, tri_bb, edges, edge_bb, eg, ebins.offset,
-            ebins.count, ebins.list, cross_offset, cross_count, E, cand_offset, cand);
+    // ---- candidate edges per triangle ---------------------------------------------------------
+    cl::Buffer cand_count = rt.alloc(size_t(S) * 4, "candidate counts");
+    cl::Buffer cand_offset = rt.alloc(size_t(S) * 4, "candidate offsets");
+    rt.launch("candidates", "cand_count", S, tris, S, tri_bb, edges, edge_bb, eg, ebins.offset,
+              ebins.count, ebins.list, cross_count, cand_count);
+    const uint32_t C = rt.scan("candidates", cand_count, cand_offset, S);
+    cl::Buffer cand = rt.alloc(std::max<size_t>(C, 1) * 4, "candidates");
+    rt.launch("candidates", "cand_fill", S, tris, S, tri_bb, edges, edge_bb, eg, ebins.offset,
+              ebins.count, ebins.list, cross_offset, cross_count, E, cand_offset, cand);
 
-  // ---- clipping rounds (work queue) ---------------------------------------------------------
-  cl::Buffer done_meta, done_lines;
-  uint32_t nd = 0, rounds = 0;
-  uint64_t clipped_total = 0;
-  for (;;) {
-    const uint32_t L = rt.maxl();
-    try {
-      cl::Buffer qmeta = rt.alloc(size_t(S) * sizeof(VmFragMeta), "fragment queue");
-      cl::Buffer qlines = rt.alloc(size_t(S) * L * sizeof(VmLine), "fragment lines");
-      rt.launch("clip", "frag_init", S, tris, S, region, clip_region, qmeta, qlines);
-      uint32_t nq = S, done_cap = std::max<uint32_t>(S, 1024);
-      done_meta = rt.alloc(size_t(done_cap) * sizeof(VmFragMeta), "finished fragments");
-      done_lines = rt.alloc(size_t(done_cap) * L * sizeof(VmLine), "finished fragment lines");
-      nd = 0;
-      rounds = 0;
-      clipped_total = 0;
-      while (nq > 0) {
-        ++rounds;
-        cl::Buffer split_at = rt.alloc(size_t(nq) * 4, "split edges");
-        cl::Buffer ncount = rt.alloc(size_t(nq) * 4, "queue counts");
-        cl::Buffer dcount = rt.alloc(size_t(nq) * 4, "done counts");
-        cl::Buffer noff = rt.alloc(size_t(nq) * 4, "queue offsets");
-        cl::Buffer doff = rt.alloc(size_t(nq) * 4, "done offsets");
-        rt.launch("clip", "clip_find", nq, qmeta, qlines, nq, cand_offset, cand_count, cand, edges,
-                  split_at, ncount, dcount, totals);
-        rt.scan_to("clip", ncount, noff, nq, totals, kNextTotal);
-        rt.scan_to("clip", dcount, doff, nq, totals, kDoneTotal);
-        uint32_t tot[kSlots];
-        q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof tot, tot);
-        if (tot[kStatus] & VM_STATUS_LINES_OVERFLOW) throw LinesOverflow{};
-        if (tot[kStatus] & VM_STATUS_HASH_FULL) throw DeviceError("edge hash table full");
-        const uint32_t nn = tot[kNextTotal], dn = tot[kDoneTotal];
-        if (uint64_t(nd) + dn > done_cap) {  // grow the finished list, keeping what it holds
-          uint32_t cap = std::max<uint32_t>(done_cap * 2, nd + dn);
-          cl::Buffer m2 = rt.alloc(size_t(cap) * sizeof(VmFragMeta), "finished fragments");
-          cl::Buffer l2 = rt.alloc(size_t(cap) * L * sizeof(VmLine), "finished fragment lines");
-          if (nd) {
-            q.enqueueCopyBuffer(done_meta, m2, 0, 0, size_t(nd) * sizeof(VmFragMeta));
-            q.enqueueCopyBuffer(done_lines, l2, 0, 0, size_t(nd) * L * sizeof(VmLine));
+    // ---- clipping rounds (work queue) ---------------------------------------------------------
+    cl::Buffer done_meta, done_lines;
+    uint32_t nd = 0, rounds = 0;
+    uint64_t clipped_total = 0;
+    for (;;) {
+      const uint32_t L = rt.maxl();
+      try {
+        cl::Buffer qmeta = rt.alloc(size_t(S) * sizeof(VmFragMeta), "fragment queue");
+        cl::Buffer qlines = rt.alloc(size_t(S) * L * sizeof(VmLine), "fragment lines");
+        rt.launch("clip", "frag_init", S, tris, S, region, clip_region, qmeta, qlines);
+        uint32_t nq = S, done_cap = std::max<uint32_t>(S, 1024);
+        done_meta = rt.alloc(size_t(done_cap) * sizeof(VmFragMeta), "finished fragments");
+        done_lines = rt.alloc(size_t(done_cap) * L * sizeof(VmLine), "finished fragment lines");
+        nd = 0;
+        rounds = 0;
+        clipped_total = 0;
+        while (nq > 0) {
+          ++rounds;
+          cl::Buffer split_at = rt.alloc(size_t(nq) * 4, "split edges");
+          cl::Buffer ncount = rt.alloc(size_t(nq) * 4, "queue counts");
+          cl::Buffer dcount = rt.alloc(size_t(nq) * 4, "done counts");
+          cl::Buffer noff = rt.alloc(size_t(nq) * 4, "queue offsets");
+          cl::Buffer doff = rt.alloc(size_t(nq) * 4, "done offsets");
+          rt.launch("clip", "clip_find", nq, qmeta, qlines, nq, cand_offset, cand_count, cand, edges,
+                    split_at, ncount, dcount, totals);
+          rt.scan_to("clip", ncount, noff, nq, totals, kNextTotal);
+          rt.scan_to("clip", dcount, doff, nq, totals, kDoneTotal);
+          uint32_t tot[kSlots];
+          q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof tot, tot);
+          if (tot[kStatus] & VM_STATUS_LINES_OVERFLOW) throw LinesOverflow{};
+          if (tot[kStatus] & VM_STATUS_HASH_FULL) throw DeviceError("edge hash table full");
+          const uint32_t nn = tot[kNextTotal], dn = tot[kDoneTotal];
+          if (uint64_t(nd) + dn > done_cap) {  // grow the finished list, keeping what it holds
+            uint32_t cap = std::max<uint32_t>(done_cap * 2, nd + dn);
+            cl::Buffer m2 = rt.alloc(size_t(cap) * sizeof(VmFragMeta), "finished fragments");
+            cl::Buffer l2 = rt.alloc(size_t(cap) * L * sizeof(VmLine), "finished fragment lines");
+            if (nd) {
+              q.enqueueCopyBuffer(done_meta, m2, 0, 0, size_t(nd) * sizeof(VmFragMeta));
+              q.enqueueCopyBuffer(done_lines, l2, 0, 0, size_t(nd) * L * sizeof(VmLine));
+            }
+            done_meta = m2;
+            done_lines = l2;
+            done_cap = cap;
           }
-          done_meta = m2;
-          done_lines = l2;
-          done_cap = cap;
+          cl::Buffer nmeta = rt.alloc(std::max<size_t>(nn, 1) * sizeof(VmFragMeta), "fragment queue");
+          cl::Buffer nlines = rt.alloc(std::max<size_t>(nn, 1) * L * sizeof(VmLine), "fragment lines");
+          rt.launch("clip", "clip_apply", nq, qmeta, qlines, nq, cand_offset, cand, edges, split_at,
+                    noff, doff, nd, nmeta, nlines, done_meta, done_lines);
+          clipped_total += nn;
+          nd += dn;
+          nq = nn;
+          qmeta = nmeta;
+          qlines = nlines;
+          if (opts.progress) opts.progress(0.2 + 0.6 * (1.0 - 1.0 / (1.0 + rounds * 0.1)));
         }
-        cl::Buffer nmeta = rt.alloc(std::max<size_t>(nn, 1) * sizeof(VmFragMeta), "fragment queue");
-        cl::Buffer nlines = rt.alloc(std::max<size_t>(nn, 1) * L * sizeof(VmLine), "fragment lines");
-        rt.launch("clip", "clip_apply", nq, qmeta, qlines, nq, cand_offset, cand, edges, split_at,
-                  noff, doff, nd, nmeta, nlines, done_meta, done_lines);
-        clipped_total += nn;
-        nd += dn;
-        nq = nn;
-        qmeta = nmeta;
-        qlines = nlines;
-        if (opts.progress) opts.progress(0.2 + 0.6 * (1.0 - 1.0 / (1.0 + rounds * 0.1)));
+        break;
+      } catch (const LinesOverflow&) {
+        // A fragment needs more supporting lines than the program was built for: rebuild with
+        // twice as many and run the clipping again. Nothing is dropped.
+        if (L >= 256) throw DeviceError("a fragment needs more than 256 supporting lines");
+        rt.build(L * 2);
+        rt.fill_u32(totals, 0, kSlots, "clip");
       }
-      break;
-    } catch (const LinesOverflow&) {
-      // A fragment needs more supporting lines than the program was built for: rebuild with
-      // twice as many and run the clipping again. Nothing is dropped.
-      if (L >= 256) throw DeviceError("a fragment needs more than 256 supporting lines");
-      rt.build(L * 2);
-      rt.fill_u32(totals, 0, kSlots, "clip");
     }
-  }
-  const uint32_t L = rt.maxl();
+    const uint32_t L = rt.maxl();
 
-  // ---- occlusion ----------------------------------------------------------------------------
-  cl::Buffer visible = rt.alloc(std::max<size_t>(nd, 1) * 4, "visibility");
-  cl::Buffer voff = rt.alloc(std::max<size_t>(nd, 1) * 4, "visible offsets");
-  rt.launch("occlusion", "occlude", nd, done_meta, done_lines, nd, tris, tri_bb, og, tbins.offset,
-            tbins.count, tbins.list, edges, E, cross_offset, cross_count, partner, visible, totals);
-  const uint32_t V = rt.scan("occlusion", visible, voff, nd);
+    // ---- occlusion ----------------------------------------------------------------------------
+    cl::Buffer visible = rt.alloc(std::max<size_t>(nd, 1) * 4, "visibility");
+    cl::Buffer voff = rt.alloc(std::max<size_t>(nd, 1) * 4, "visible offsets");
+    rt.launch("occlusion", "occlude", nd, done_meta, done_lines, nd, tris, tri_bb, og, tbins.offset,
+              tbins.count, tbins.list, edges, E, cross_offset, cross_count, partner, visible, totals);
+    const uint32_t V = rt.scan("occlusion", visible, voff, nd);
 
-  // ---- planar map ---------------------------------------------------------------------------
-  VisibleFragments vf;
-  vf.maxl = L;
-  vf.meta.resize(V);
-  vf.lines.resize(size_t(V) * L);
-  std::vector<cl_uint2> src(V);
-  if (V > 0) {
-    cl::Buffer om = rt.alloc(size_t(V) * sizeof(VmFragMeta), "visible fragments");
-    cl::Buffer ol = rt.alloc(size_t(V) * L * sizeof(VmLine), "visible lines");
-    cl::Buffer os = rt.alloc(size_t(V) * sizeof(cl_uint2), "visible sources");
-    rt.launch("emit", "emit_visible", nd, done_meta, done_lines, nd, visible, voff, tris, om, ol, os);
-    q.enqueueReadBuffer(om, CL_FALSE, 0, size_t(V) * sizeof(VmFragMeta), vf.meta.data());
-    q.enqueueReadBuffer(ol, CL_FALSE, 0, size_t(V) * L * sizeof(VmLine), vf.lines.data());
-    q.enqueueReadBuffer(os, CL_TRUE, 0, size_t(V) * sizeof(cl_uint2), src.data());
-  }
-  uint32_t tot[kSlots];
-  q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof tot, tot);
-  vf.mesh.resize(V);
-  vf.triangle.resize(V);
-  for (uint32_t i = 0; i < V; ++i) {
-    vf.mesh[i] = src[i].s[0];
-    vf.triangle[i] = src[i].s[1];
-  }
-
-  std::vector<VmScreenTri> host_tris;
-  std::vector<float> host_bary;
-  if (want_bary || screen) {
-    host_tris.resize(S);
-    q.enqueueReadBuffer(tris, CL_TRUE, 0, size_t(S) * sizeof(VmScreenTri), host_tris.data());
-  }
-  if (want_bary) {
-    host_bary.resize(size_t(S) * 9);
-    q.enqueueReadBuffer(tri_bary, CL_TRUE, 0, host_bary.size() * sizeof(float), host_bary.data());
-  }
-  for (const auto& [stage, t] : rt.collect_profile()) {
-    profile[stage].first += t.first;
-    profile[stage].second += t.second;
-  }
-  auto t_emit = Clock::now();
-  build_planar_map(vf, opts.exact, ortho, want_bary ? &host_tris : nullptr,
-                   want_bary ? &host_bary : nullptr, map);
-  profile["emit"].first += ms_since(t_emit);
-
-  st.silhouette_edges += E;
-  st.entangled_pairs += P;
-  st.crossing_lines += X;
-  st.clip_rounds += rounds;
-  st.fragments += nd;
-  st.visible_fragments += V;
-  st.sliver_fragments += tot[kSlivers];
-  add_io("silhouettes", uint64_t(3) * S, E);
-  add_io("bin", uint64_t(S) + E, uint64_t(tbins.pairs) + ebins.pairs);
-  add_io("crossings", S, P);
-  add_io("candidates", S, C);
-  add_io("clip", S, nd);
-  add_io("occlusion", nd, V);
-
-  if (screen) {
-    // In buckets a triangle is seen by every bucket its box meets; it is kept once, by the
-    // bucket holding its box's low corner (buckets tile the screen, half-open).
-    for (const VmScreenTri& t : host_tris) {
-      if (use_boxes) {
-        int x0 = std::min({t.x[0], t.x[1], t.x[2]}), y0 = std::min({t.y[0], t.y[1], t.y[2]});
-        if (x0 < region.s[0] || x0 >= region.s[2] || y0 < region.s[1] || y0 >= region.s[3]) continue;
-      }
-      for (int k = 0; k < 3; ++k) {
-        screen->xy.push_back(t.x[k]);
-        screen->xy.push_back(t.y[k]);
-        screen->depth.push_back(t.q[k]);
-      }
-      screen->mesh.push_back(t.mesh);
-      screen->triangle.push_back(t.tri);
+    // ---- planar map ---------------------------------------------------------------------------
+    VisibleFragments vf;
+    vf.maxl = L;
+    vf.meta.resize(V);
+    vf.lines.resize(size_t(V) * L);
+    std::vector<cl_uint2> src(V);
+    if (V > 0) {
+      cl::Buffer om = rt.alloc(size_t(V) * sizeof(VmFragMeta), "visible fragments");
+      cl::Buffer ol = rt.alloc(size_t(V) * L * sizeof(VmLine), "visible lines");
+      cl::Buffer os = rt.alloc(size_t(V) * sizeof(cl_uint2), "visible sources");
+      rt.launch("emit", "emit_visible", nd, done_meta, done_lines, nd, visible, voff, tris, om, ol, os);
+      q.enqueueReadBuffer(om, CL_FALSE, 0, size_t(V) * sizeof(VmFragMeta), vf.meta.data());
+      q.enqueueReadBuffer(ol, CL_FALSE, 0, size_t(V) * L * sizeof(VmLine), vf.lines.data());
+      q.enqueueReadBuffer(os, CL_TRUE, 0, size_t(V) * sizeof(cl_uint2), src.data());
     }
-  }
+    uint32_t tot[kSlots];
+    q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof tot, tot);
+    vf.mesh.resize(V);
+    vf.triangle.resize(V);
+    for (uint32_t i = 0; i < V; ++i) {
+      vf.mesh[i] = src[i].s[0];
+      vf.triangle[i] = src[i].s[1];
+    }
+
+    std::vector<VmScreenTri> host_tris;
+    std::vector<float> host_bary;
+    if (want_bary || screen) {
+      host_tris.resize(S);
+      q.enqueueReadBuffer(tris, CL_TRUE, 0, size_t(S) * sizeof(VmScreenTri), host_tris.data());
+    }
+    if (want_bary) {
+      host_bary.resize(size_t(S) * 9);
+      q.enqueueReadBuffer(tri_bary, CL_TRUE, 0, host_bary.size() * sizeof(float), host_bary.data());
+    }
+    for (const auto& [stage, t] : rt.collect_profile()) {
+      profile[stage].first += t.first;
+      profile[stage].second += t.second;
+    }
+    auto t_emit = Clock::now();
+    build_planar_map(vf, opts.exact, ortho, want_bary ? &host_tris : nullptr,
+                     want_bary ? &host_bary : nullptr, map);
+    profile["emit"].first += ms_since(t_emit);
+
+    st.silhouette_edges += E;
+    st.entangled_pairs += P;
+    st.crossing_lines += X;
+    st.clip_rounds += rounds;
+    st.fragments += nd;
+    st.visible_fragments += V;
+    st.sliver_fragments += tot[kSlivers];
+    add_io("silhouettes", uint64_t(3) * S, E);
+    add_io("bin", uint64_t(S) + E, uint64_t(tbins.pairs) + ebins.pairs);
+    add_io("crossings", S, P);
+    add_io("candidates", S, C);
+    add_io("clip", S, nd);
+    add_io("occlusion", nd, V);
+
+    if (screen) {
+      // In buckets a triangle is seen by every bucket its box meets; it is kept once, by the
+      // bucket holding its box's low corner (buckets tile the screen, half-open).
+      for (const VmScreenTri& t : host_tris) {
+        if (use_boxes) {
+          int x0 = std::min({t.x[0], t.x[1], t.x[2]}), y0 = std::min({t.y[0], t.y[1], t.y[2]});
+          if (x0 < region.s[0] || x0 >= region.s[2] || y0 < region.s[1] || y0 >= region.s[3]) continue;
+        }
+        for (int k = 0; k < 3; ++k) {
+          screen->xy.push_back(t.x[k]);
+          screen->xy.push_back(t.y[k]);
+          screen->depth.push_back(t.q[k]);
+        }
+        screen->mesh.push_back(t.mesh);
+        screen->triangle.push_back(t.tri);
+      }
+    }
+    if (use_boxes) {  // what this bucket really needed per screen triangle, with a margin
+      const uint64_t held = rt.peak_bytes() > base ? rt.peak_bytes() - base : 0;
+      bytes_per_tri = std::max(bytes_per_tri, held / S + held / S / 4);
+    }
   }  // buckets
+  peak = std::max(peak, rt.peak_bytes());
   add_io("emit", st.visible_fragments, map.vertex_count());
 
   for (const char* name : {"transform", "silhouettes", "bin", "crossings", "candidates", "clip",
@@ -558,9 +589,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     s.items_out = io[name].second;
     st.stages.push_back(s);
   }
-  if (!use_boxes) st.stages[0].items_in = ntri;
-  else st.stages[0].items_in = uint64_t(ntri) * regions.size();
-  st.peak_device_bytes = rt.peak_bytes();
+  st.peak_device_bytes = peak;
   st.allocated_device_bytes = rt.allocated_bytes();
   return map;
 }
