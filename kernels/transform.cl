@@ -76,7 +76,11 @@ inline uint clip_triangle(uint t, __global const uint* idx, __global const doubl
   b[0] = (float3)(1, 0, 0);
   b[1] = (float3)(0, 1, 0);
   b[2] = (float3)(0, 0, 1);
-  for (int k = 0; k < 6 && n > 0; ++k) {
+  /* Most triangles lie wholly inside the view volume: then clipping would copy them unchanged. */
+  bool inside = true;
+  for (int k = 0; k < 6 && inside; ++k)
+    inside = plane_dist(p[0], k) >= 0 && plane_dist(p[1], k) >= 0 && plane_dist(p[2], k) >= 0;
+  for (int k = 0; k < 6 && n > 0 && !inside; ++k) {
     int m = 0;
     for (int i = 0; i < n; ++i) {
       int j = i + 1 == n ? 0 : i + 1;
