@@ -289,6 +289,35 @@ TEST_F(ServerTest, LimitOnSessionMemory) {
   expect_error(c, "too_large");
 }
 
+// limits.render_memory_bytes bounds the device memory of one frame: a scene that alone holds
+// more gets too_large for that frame and the session goes on; a small budget renders in buckets.
+TEST_F(ServerTest, LimitOnRenderMemory) {
+  cfg_.limits.render_memory_bytes = 64;
+  start();
+  WsClient c;
+  hello(c);
+  ready(c);
+  c.send_text(json{{"type", "camera"}, {"seq", 1}, {"eye", {0, 1.5, 3}}, {"target", {0.25, 0.25, 0.25}}}.dump());
+  json e = next(c, 60);
+  EXPECT_EQ(e["type"], "error") << e.dump();
+  EXPECT_EQ(e["code"], "too_large") << e.dump();
+  EXPECT_NE(e["message"].get<std::string>().find("memory budget"), std::string::npos) << e.dump();
+  c.send_text(R"({"type":"ping","seq":2})");
+  EXPECT_EQ(next(c)["type"], "pong");
+}
+
+TEST_F(ServerTest, SmallRenderMemoryRendersInBuckets) {
+  cfg_.limits.render_memory_bytes = 16 << 10;
+  start();
+  WsClient c;
+  hello(c);
+  ready(c);
+  auto [h, p] = frame(c, 1);
+  EXPECT_GT(h["buckets"].get<uint32_t>(), 1u) << h.dump();
+  EXPECT_GT(h["fragments"].get<uint64_t>(), 0u);
+  EXPECT_NE(p.data.find("<path"), std::string::npos);
+}
+
 TEST_F(ServerTest, LimitOnSessionCount) {
   cfg_.limits.max_sessions = 2;
   start();
