@@ -119,6 +119,7 @@ int usage() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  vismap::keep_freed_memory_for_reuse();
   Args a;
   for (int i = 1; i < argc; ++i) {
     std::string f = argv[i];

@@ -6,6 +6,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include "core/cl_runtime.h"
 #include "core/error.h"
@@ -592,6 +595,13 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   st.peak_device_bytes = peak;
   st.allocated_device_bytes = rt.allocated_bytes();
   return map;
+}
+
+void keep_freed_memory_for_reuse() {
+#if defined(__GLIBC__)
+  mallopt(M_MMAP_MAX, 0);
+  mallopt(M_TRIM_THRESHOLD, 512 << 20);
+#endif
 }
 
 Renderer::Renderer(const std::string& device) : impl_(std::make_unique<Impl>(device)) {}

@@ -57,6 +57,15 @@ struct DeviceInfo {
 
 std::vector<DeviceInfo> list_devices();
 
+// Tells the C allocator to keep freed memory for reuse instead of handing it back to the kernel
+// (large blocks from the heap, not fresh mmaps; the heap's top trimmed only beyond 512 MiB).
+// Every render allocates and frees its buffers, and with PoCL device buffers are host memory:
+// each fresh page costs a page fault on first touch, ~11 us per 4 KiB on the CI machine (a
+// Firecracker VM), which was a third of the bunny's pipeline time. Process-wide, so the
+// executables call it first thing in main(); a library user can do the same or set
+// GLIBC_TUNABLES=glibc.malloc.mmap_max=0. No effect where the C library is not glibc.
+void keep_freed_memory_for_reuse();
+
 class Renderer {
  public:
   // device: "" picks $VISMAP_DEVICE, else a GPU if there is one, else the first CPU device

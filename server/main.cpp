@@ -4,10 +4,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/pipeline.h"
 #include "server/server.h"
 
 int main(int argc, char** argv) {
   using namespace vismap::server;
+  vismap::keep_freed_memory_for_reuse();
   Config cfg;
   try {
     std::string usage;
