@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,27 @@
 namespace vismap {
 
 const std::map<std::string, std::string>& kernel_sources();  // generated at build time
+
+// Host memory behind the large device buffers of a CPU device (PoCL runs kernels on host
+// memory): blocks of whole 2 MiB huge pages (madvise), kept after release for the next buffer.
+// A fresh 4 KiB page costs a page fault on first touch, ~11 us on the CI machine; a huge page
+// costs about as much for 512 times the memory, and a kept block costs nothing. Thread-safe:
+// buffers give their block back from the OpenCL runtime's release callbacks.
+class HostBlockPool {
+ public:
+  ~HostBlockPool();
+  void* take(size_t& bytes);          // rounds bytes up to its block size
+  void give(void* p, size_t bytes);
+  // Most bytes of released blocks kept (the rest is unmapped): what is kept stays resident.
+  void set_keep(size_t bytes);
+  static constexpr size_t kMinBytes = 1 << 20;  // smaller buffers are left to the runtime
+
+ private:
+  void trim_locked();
+  std::mutex m_;
+  std::multimap<size_t, void*> free_;
+  size_t free_bytes_ = 0, keep_ = size_t(512) << 20;
+};
 
 class ClRuntime {
  public:
@@ -68,6 +90,10 @@ class ClRuntime {
   uint64_t live_bytes() const { return live_->load(); }
   uint64_t peak_bytes() const { return peak_; }
   void reset_peak() { peak_ = live_->load(); }
+  // How much released device memory may stay reserved for reuse (CPU devices; see HostBlockPool).
+  void set_reuse_limit(size_t bytes) {
+    if (pool_) pool_->set_keep(bytes);
+  }
 
  private:
   template <class A, class... Rest>
@@ -94,6 +120,7 @@ class ClRuntime {
   uint64_t allocated_ = 0;
   // Shared with the release callbacks, which may run after the runtime is gone.
   std::shared_ptr<std::atomic<uint64_t>> live_ = std::make_shared<std::atomic<uint64_t>>(0);
+  std::shared_ptr<HostBlockPool> pool_;  // CPU devices only ($VISMAP_HOST_POOL=0 turns it off)
   uint64_t peak_ = 0;
   cl::Buffer scratch_total_;
 };

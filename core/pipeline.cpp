@@ -95,11 +95,12 @@ std::vector<cl_int4> Renderer::Impl::plan_buckets(uint64_t budget, uint32_t W, u
   }
   // What every bucket holds besides its own work: the scene, the clip-space vertices, the
   // per-input-triangle counts, offsets and boxes (all allocated by now).
-  const uint64_t fixed = rt.live_bytes();
-  if (budget <= fixed + (fixed >> 3))
+  // Released blocks kept for reuse (an eighth of the budget, run()) count against it too.
+  const uint64_t scene_bytes = rt.live_bytes(), fixed = scene_bytes + budget / 8;
+  if (budget <= fixed + (scene_bytes >> 3))
     throw InputError(InputErrorKind::TooLarge, "", "", "", -1,
                      "memory budget of " + std::to_string(budget >> 20) + " MiB is too small: the scene alone holds " +
-                         std::to_string(fixed >> 20) + " MiB of device memory");
+                         std::to_string(scene_bytes >> 20) + " MiB of device memory");
   const uint64_t work = budget - fixed;
   st.bucket_work_bytes = work;
 
@@ -217,6 +218,9 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   rt.reset_profile();
   rt.reset_allocated();
   rt.reset_peak();
+  // Released buffers kept for reuse stay resident: under a budget keep an eighth of it while
+  // rendering, and nothing after (below).
+  rt.set_reuse_limit(opts.memory_budget ? size_t(opts.memory_budget / 8) : size_t(512) << 20);
   if (ntri == 0) return map;
   auto& q = rt.queue();
   const bool want_bary = opts.attributes;
@@ -594,6 +598,12 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   }
   st.peak_device_bytes = peak;
   st.allocated_device_bytes = rt.allocated_bytes();
+  if (opts.memory_budget) {  // a budgeted render hands back what it kept (the map stays)
+    rt.set_reuse_limit(0);
+#if defined(__GLIBC__)
+    malloc_trim(0);
+#endif
+  }
   return map;
 }
 
