@@ -49,6 +49,7 @@ struct Renderer::Impl {
   const float* key_pos = nullptr;
   cl::Buffer pos, idx, tri_mesh, tri_local;
   uint32_t nv = 0, ntri = 0;
+  uint64_t scene_bytes = 0;  // device bytes of the uploaded scene
   std::vector<int8_t> closed;  // per mesh: closed_orientation()
 
   void upload(const Scene& scene, RenderStats& st);
@@ -95,12 +96,14 @@ std::vector<cl_int4> Renderer::Impl::plan_buckets(uint64_t budget, uint32_t W, u
   }
   // What every bucket holds besides its own work: the scene, the clip-space vertices, the
   // per-input-triangle counts, offsets and boxes (all allocated by now).
+  // Counted from the sizes, not from what the runtime reports held: releases of an earlier
+  // render's buffers may still be on their way, and the plan must not depend on timing.
   // Released blocks kept for reuse (an eighth of the budget, run()) count against it too.
-  const uint64_t scene_bytes = rt.live_bytes(), fixed = scene_bytes + budget / 8;
-  if (budget <= fixed + (scene_bytes >> 3))
+  const uint64_t held = scene_bytes + rt.allocated_bytes(), fixed = held + budget / 8;
+  if (budget <= fixed + (held >> 3))
     throw InputError(InputErrorKind::TooLarge, "", "", "", -1,
                      "memory budget of " + std::to_string(budget >> 20) + " MiB is too small: the scene alone holds " +
-                         std::to_string(scene_bytes >> 20) + " MiB of device memory");
+                         std::to_string(held >> 20) + " MiB of device memory");
   const uint64_t work = budget - fixed;
   st.bucket_work_bytes = work;
 
@@ -172,6 +175,7 @@ void Renderer::Impl::upload(const Scene& scene, RenderStats& st) {
   idx = rt.upload(ix, "indices");
   tri_mesh = rt.upload(tm, "triangle mesh ids");
   tri_local = rt.upload(tl, "triangle ids");
+  scene_bytes = p.size() * sizeof(float) + (ix.size() + tm.size() + tl.size()) * sizeof(uint32_t);
   closed.clear();
   for (const Mesh& mesh : scene.meshes) closed.push_back(closed_orientation(mesh));
   scene_key = &scene;
@@ -277,7 +281,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     todo.pop_back();
     peak = std::max(peak, rt.peak_bytes());
     rt.reset_peak();
-    const uint64_t base = rt.live_bytes();
+    const uint64_t base = rt.allocated_bytes();
     // ---- clip + cull + snap, keeping the triangles that reach the region ----------------------
     rt.launch("transform", "clip_count", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
               iortho, region, boxes, use_boxes, counts);
@@ -578,9 +582,11 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
         screen->triangle.push_back(t.tri);
       }
     }
-    if (use_boxes) {  // what this bucket really needed per screen triangle, with a margin
-      const uint64_t held = rt.peak_bytes() > base ? rt.peak_bytes() - base : 0;
-      bytes_per_tri = std::max(bytes_per_tri, held / S + held / S / 4);
+    if (use_boxes) {
+      // What this bucket allocated per screen triangle: a deterministic upper bound of what it
+      // held at once (the peak itself depends on when the runtime frees), so that the same
+      // scene and budget always give the same buckets.
+      bytes_per_tri = std::max(bytes_per_tri, (rt.allocated_bytes() - base) / S);
     }
   }  // buckets
   peak = std::max(peak, rt.peak_bytes());

@@ -58,6 +58,24 @@ TEST(Buckets, RealMeshInManyBucketsMatchesReference) {
   EXPECT_EQ(*f.wrong_source, 0u);
 }
 
+// The plan depends only on the scene and the budget, never on when the runtime frees memory:
+// the same render twice gives the same buckets and the same map, bit for bit.
+TEST(Buckets, SameBucketsAndMapEveryTime) {
+  Scene scene = load_scene(std::string(VISMAP_SOURCE_DIR) + "/data/bunny.ply");
+  Camera cam = frame_scene(scene, 512, 512);
+  RenderOptions ro;
+  ro.memory_budget = 8 << 20;
+  RenderStats a_st, b_st;
+  PlanarMap a = renderer().render(scene, cam, ro, &a_st);
+  renderer().render(scene, cam, {}, nullptr);  // leaves releases behind for the next render
+  PlanarMap b = renderer().render(scene, cam, ro, &b_st);
+  EXPECT_GT(a_st.buckets, 4u);
+  EXPECT_EQ(a_st.buckets, b_st.buckets);
+  EXPECT_EQ(a.offsets, b.offsets);
+  EXPECT_EQ(a.xy, b.xy);
+  EXPECT_EQ(a.triangle, b.triangle);
+}
+
 // Random scenes (overlapping, penetrating, coplanar, clustered) in buckets a few triangles each.
 TEST(Buckets, RandomScenesInBucketsMatchReference) {
   int bucketed = 0;
