@@ -37,7 +37,7 @@ class HostBlockPool {
   void trim_locked();
   std::mutex m_;
   std::multimap<size_t, void*> free_;
-  size_t free_bytes_ = 0, keep_ = size_t(512) << 20;
+  size_t free_bytes_ = 0, keep_ = size_t(256) << 20;
 };
 
 class ClRuntime {
