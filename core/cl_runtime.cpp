@@ -109,9 +109,8 @@ ClRuntime::ClRuntime(const std::string& device_spec) {
   info_ = f.info;
   ctx_ = cl::Context(device_);
   queue_ = cl::CommandQueue(ctx_, device_, CL_QUEUE_PROFILING_ENABLE);
-  const char* pool = std::getenv("VISMAP_HOST_POOL");
-  if (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU && !(pool && std::string(pool) == "0"))
-    pool_ = std::make_shared<HostBlockPool>();
+  const char* blocks = std::getenv("VISMAP_HOST_BLOCKS");
+  host_blocks_ = (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) && !(blocks && std::string(blocks) == "0");
   scratch_total_ = cl::Buffer(ctx_, CL_MEM_READ_WRITE, sizeof(uint32_t));
 }
 
@@ -201,71 +200,25 @@ namespace {
 constexpr size_t kHugePage = size_t(2) << 20;
 }  // namespace
 
-HostBlockPool::~HostBlockPool() {
-  for (auto& [bytes, p] : free_) ::munmap(p, bytes);
-}
-
-void* HostBlockPool::take(size_t& bytes) {
+void* take_host_block(size_t& bytes) {
   bytes = (bytes + kHugePage - 1) / kHugePage * kHugePage;
-  {
-    std::lock_guard<std::mutex> lock(m_);
-    // Best fit, but not a block more than twice too big (it would sit idle).
-    auto it = free_.lower_bound(bytes);
-    if (it != free_.end() && it->first <= 2 * bytes) {
-      bytes = it->first;
-      void* p = it->second;
-      free_bytes_ -= it->first;
-      free_.erase(it);
-      return p;
-    }
-  }
-  // A fresh mapping aligned to a huge page, so that the kernel can back it with huge pages.
-  const size_t span = bytes + kHugePage;
-  void* raw = ::mmap(nullptr, span, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-  if (raw == MAP_FAILED) return nullptr;
-  const uintptr_t start = reinterpret_cast<uintptr_t>(raw);
-  const uintptr_t aligned = (start + kHugePage - 1) / kHugePage * kHugePage;
-  if (aligned > start) ::munmap(raw, aligned - start);
-  const uintptr_t end = aligned + bytes;
-  if (start + span > end) ::munmap(reinterpret_cast<void*>(end), start + span - end);
-  ::madvise(reinterpret_cast<void*>(aligned), bytes, MADV_HUGEPAGE);  // advice only
-  return reinterpret_cast<void*>(aligned);
+  void* p = std::aligned_alloc(kHugePage, bytes);
+  if (p) ::madvise(p, bytes, MADV_HUGEPAGE);  // advice only: fine if the kernel says no
+  return p;
 }
 
-void HostBlockPool::give(void* p, size_t bytes) {
-  std::lock_guard<std::mutex> lock(m_);
-  free_.emplace(bytes, p);
-  free_bytes_ += bytes;
-  trim_locked();
-}
-
-void HostBlockPool::set_keep(size_t bytes) {
-  std::lock_guard<std::mutex> lock(m_);
-  keep_ = bytes;
-  trim_locked();
-}
-
-void HostBlockPool::trim_locked() {
-  while (free_bytes_ > keep_ && !free_.empty()) {  // the biggest blocks go first
-    auto last = std::prev(free_.end());
-    ::munmap(last->second, last->first);
-    free_bytes_ -= last->first;
-    free_.erase(last);
-  }
-}
+void give_host_block(void* p) { std::free(p); }
 
 namespace {
 struct LiveRecord {
   std::shared_ptr<std::atomic<uint64_t>> live;
   uint64_t bytes;
-  std::shared_ptr<HostBlockPool> pool;  // set when the buffer's memory is a pool block
-  void* block = nullptr;
-  size_t block_bytes = 0;
+  void* block = nullptr;  // the host block behind the buffer, if any
 };
 void CL_CALLBACK on_release(cl_mem, void* user) {
   auto* r = static_cast<LiveRecord*>(user);
   r->live->fetch_sub(r->bytes);
-  if (r->pool) r->pool->give(r->block, r->block_bytes);
+  if (r->block) give_host_block(r->block);
   delete r;
 }
 }  // namespace
@@ -274,22 +227,22 @@ cl::Buffer ClRuntime::alloc(size_t bytes, const char* what) {
   bytes = std::max<size_t>(bytes, 16);
   void* block = nullptr;
   size_t block_bytes = bytes;
-  if (pool_ && bytes >= HostBlockPool::kMinBytes) block = pool_->take(block_bytes);
+  if (host_blocks_ && bytes >= kHostBlockMinBytes) block = take_host_block(block_bytes);
   try {
     cl::Buffer b = block ? cl::Buffer(ctx_, CL_MEM_READ_WRITE | CL_MEM_USE_HOST_PTR, bytes, block)
                          : cl::Buffer(ctx_, CL_MEM_READ_WRITE, bytes);
     allocated_ += bytes;
-    auto* rec = new LiveRecord{live_, bytes, block ? pool_ : nullptr, block, block_bytes};
+    auto* rec = new LiveRecord{live_, bytes, block};
     if (clSetMemObjectDestructorCallback(b(), on_release, rec) == CL_SUCCESS) {
       peak_ = std::max<uint64_t>(peak_, live_->fetch_add(bytes) + bytes);
     } else {
-      // Without the callback a pool block could not come back: leak it rather than reuse it
+      // Without the callback the block could not be freed safely: leak it rather than free it
       // while the buffer may still be in use.
       delete rec;
     }
     return b;
   } catch (const cl::Error& e) {
-    if (block) pool_->give(block, block_bytes);
+    if (block) give_host_block(block);
     throw DeviceError(std::string("allocating ") + std::to_string(bytes) + " bytes for " + what +
                       " failed: " + e.what() + " (" + std::to_string(e.err()) + ")");
   }

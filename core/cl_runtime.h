@@ -9,7 +9,6 @@
 #include <cstdint>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <vector>
 
@@ -20,25 +19,13 @@ namespace vismap {
 const std::map<std::string, std::string>& kernel_sources();  // generated at build time
 
 // Host memory behind the large device buffers of a CPU device (PoCL runs kernels on host
-// memory): blocks of whole 2 MiB huge pages (madvise), kept after release for the next buffer.
-// A fresh 4 KiB page costs a page fault on first touch, ~11 us on the CI machine; a huge page
-// costs about as much for 512 times the memory, and a kept block costs nothing. Thread-safe:
-// buffers give their block back from the OpenCL runtime's release callbacks.
-class HostBlockPool {
- public:
-  ~HostBlockPool();
-  void* take(size_t& bytes);          // rounds bytes up to its block size
-  void give(void* p, size_t bytes);
-  // Most bytes of released blocks kept (the rest is unmapped): what is kept stays resident.
-  void set_keep(size_t bytes);
-  static constexpr size_t kMinBytes = 1 << 20;  // smaller buffers are left to the runtime
-
- private:
-  void trim_locked();
-  std::mutex m_;
-  std::multimap<size_t, void*> free_;
-  size_t free_bytes_ = 0, keep_ = size_t(256) << 20;
-};
+// memory; the buffers are created with CL_MEM_USE_HOST_PTR): from the C allocator, aligned to
+// 2 MiB huge pages and advised to use them (madvise). A fresh 4 KiB page costs a page fault on
+// first touch, ~11 us on the CI machine (256 MB: 740 ms); a huge page costs about as much for
+// 512 times the memory (256 MB: 23 ms), and freed blocks are reused by the allocator.
+void* take_host_block(size_t& bytes);  // rounds bytes up to whole huge pages; nullptr on failure
+void give_host_block(void* p);
+constexpr size_t kHostBlockMinBytes = 1 << 20;  // smaller buffers are left to the runtime
 
 class ClRuntime {
  public:
@@ -90,10 +77,6 @@ class ClRuntime {
   uint64_t live_bytes() const { return live_->load(); }
   uint64_t peak_bytes() const { return peak_; }
   void reset_peak() { peak_ = live_->load(); }
-  // How much released device memory may stay reserved for reuse (CPU devices; see HostBlockPool).
-  void set_reuse_limit(size_t bytes) {
-    if (pool_) pool_->set_keep(bytes);
-  }
 
  private:
   template <class A, class... Rest>
@@ -120,7 +103,7 @@ class ClRuntime {
   uint64_t allocated_ = 0;
   // Shared with the release callbacks, which may run after the runtime is gone.
   std::shared_ptr<std::atomic<uint64_t>> live_ = std::make_shared<std::atomic<uint64_t>>(0);
-  std::shared_ptr<HostBlockPool> pool_;  // CPU devices only ($VISMAP_HOST_POOL=0 turns it off)
+  bool host_blocks_ = false;  // CPU devices ($VISMAP_HOST_BLOCKS=0 turns it off)
   uint64_t peak_ = 0;
   cl::Buffer scratch_total_;
 };

@@ -98,7 +98,8 @@ std::vector<cl_int4> Renderer::Impl::plan_buckets(uint64_t budget, uint32_t W, u
   // per-input-triangle counts, offsets and boxes (all allocated by now).
   // Counted from the sizes, not from what the runtime reports held: releases of an earlier
   // render's buffers may still be on their way, and the plan must not depend on timing.
-  // Released blocks kept for reuse (an eighth of the budget, run()) count against it too.
+  // An eighth of the budget is left for what the allocator holds beyond the live buffers
+  // (rounding to huge pages, freed blocks kept for reuse).
   const uint64_t held = scene_bytes + rt.allocated_bytes(), fixed = held + budget / 8;
   if (budget <= fixed + (held >> 3))
     throw InputError(InputErrorKind::TooLarge, "", "", "", -1,
@@ -222,10 +223,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   rt.reset_profile();
   rt.reset_allocated();
   rt.reset_peak();
-  // Released buffers kept for reuse stay resident: 256 MiB (dragon, warm: 1.03 s and 1.03 GB
-  // RSS keeping 512 MiB, 1.25 s and 0.80 GB keeping 64); under a budget an eighth of it while
-  // rendering, and nothing after (below).
-  rt.set_reuse_limit(opts.memory_budget ? size_t(opts.memory_budget / 8) : size_t(256) << 20);
   if (ntri == 0) return map;
   auto& q = rt.queue();
   const bool want_bary = opts.attributes;
@@ -605,12 +602,9 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   }
   st.peak_device_bytes = peak;
   st.allocated_device_bytes = rt.allocated_bytes();
-  if (opts.memory_budget) {  // a budgeted render hands back what it kept (the map stays)
-    rt.set_reuse_limit(0);
 #if defined(__GLIBC__)
-    malloc_trim(0);
+  if (opts.memory_budget) malloc_trim(0);  // a budgeted render hands back what it freed
 #endif
-  }
   return map;
 }
 
