@@ -53,7 +53,8 @@ inline bool covers(__global const VmScreenTri* o, long px, long py) {
  * Crossing pairs: by the side of their snapped intersection line (t's copy is directed so that
  * t is in front on its positive side). Other pairs: by the depth difference where it is clear
  * of the tie band, else by the relation of the pair over its whole overlap, so that all points
- * of the overlap get the same answer. */
+ * of the overlap get the same answer. Antisymmetric at every point: exactly one of
+ * hides(t, o) and hides(o, t) holds, so the covering triangles form a tournament there. */
 inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, long px, long py,
                   __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
                   __global const uint* cross_count, __global const uint* partner) {
@@ -61,7 +62,13 @@ inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, lo
   for (uint k = 0; k < cn; ++k)
     if (partner[co + k] == o) {
       VmEdge e = edges[nsil + co + k];
-      if (isinf(e.q0)) return line_side_fine(line_of(e.x0, e.y0, e.x1, e.y1), px, py) < 0;
+      if (isinf(e.q0)) {
+        /* The point lies on the line only when neither t's nor o's fragment is clipped by it
+         * (a tournament among other triangles): the lower index is in front there. */
+        int s = line_side_fine(line_of(e.x0, e.y0, e.x1, e.y1), px, py);
+        return s < 0 || (s == 0 && o < t);
+      }
+      break; /* a tying pair: its entries are the partner's edges */
     }
   const double inv = 1.0 / (double)((long)1 << VM_POINT_BITS);
   double fx = (double)px * inv, fy = (double)py * inv;
@@ -76,6 +83,138 @@ inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, lo
   if ((rel & 3) == VM_REL_B_FRONT) return t_is_a;
   /* No overlap of positive area found (or a crossing too short to snap): the tie rule. */
   return in_front(qo, qt, O->mesh, O->tri, T->mesh, T->tri);
+}
+
+/* Is screen triangle o one of those competing at the fine point: does it cover the point, and
+ * is it no piece of the source of triangle t (pieces of one source never overlap)? */
+inline bool competes(__global const VmScreenTri* tris, __global const int4* tri_bb, uint o,
+                     const VmScreenTri* t, long px, long py) {
+  int gx = (int)(px >> VM_POINT_BITS), gy = (int)(py >> VM_POINT_BITS);
+  int4 ob = tri_bb[o];
+  if (gx < ob.x || gx > ob.z || gy < ob.y || gy > ob.w) return false;
+  if (!covers(&tris[o], px, py)) return false;
+  VmScreenTri ot = tris[o];
+  return !(ot.mesh == t->mesh && ot.tri == t->tri);
+}
+
+/* The crossing line of the pair (a, b) from a's entries (directed so that a is in front on its
+ * positive side); false when the pair does not cross. */
+inline bool pair_line_of(uint a, uint b, __global const VmEdge* edges, uint nsil,
+                         __global const uint* cross_offset, __global const uint* cross_count,
+                         __global const uint* partner, Line3* L) {
+  uint co = cross_offset[a], cn = cross_count[a];
+  for (uint k = 0; k < cn; ++k)
+    if (partner[co + k] == b) {
+      VmEdge e = edges[nsil + co + k];
+      if (!isinf(e.q0)) return false;
+      Line3 l = line_of(e.x0, e.y0, e.x1, e.y1);
+      /* canonical direction: as the lower member stores it, so both members get one line */
+      *L = a < b ? l : line_reversed(l);
+      return true;
+    }
+  return false;
+}
+
+/* Triangles a tournament at one point can hold (bit masks of a ulong). */
+#define VM_TOUR_MAX 64
+
+/* Triangle t (which has crossing entries) is hidden at the point. Near a triple point the
+ * independently snapped crossing lines can order the covering triangles cyclically (a over b
+ * over c over a), so that none is unhidden: a hole. Visibility is then decided by the whole
+ * tournament of the covering triangles at the point: its top strongly connected component (the
+ * triangles that reach every other one through "hides") is a single triangle where one is
+ * unhidden, else a cycle, of which the lowest screen-triangle index is visible. Every triangle
+ * at the point computes the same tournament, so exactly one is visible there; the triple-point
+ * entries (crossing.cl) make the answer the same over each fragment. Returns whether t is the
+ * visible one. */
+inline bool wins_cycle(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
+                       uint off, uint cnt, __global const uint* tile_list, long px, long py,
+                       __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
+                       __global const uint* cross_count, __global const uint* partner) {
+  VmScreenTri T = tris[t];
+  uint ids[VM_TOUR_MAX];
+  uint n = 0;
+  ids[n++] = t;
+  for (uint k = 0; k < cnt; ++k) {
+    uint o = tile_list[off + k];
+    if (o == t || !competes(tris, tri_bb, o, &T, px, py)) continue;
+    if (n == VM_TOUR_MAX) return false; /* beyond what this can decide: stays hidden */
+    ids[n++] = o;
+  }
+  ulong beats[VM_TOUR_MAX];
+  for (uint i = 0; i < n; ++i) beats[i] = 0;
+  for (uint i = 0; i < n; ++i) {
+    VmScreenTri A = tris[ids[i]];
+    for (uint j = i + 1; j < n; ++j) {
+      VmScreenTri B = tris[ids[j]];
+      if (A.mesh == B.mesh && A.tri == B.tri) {
+        /* pieces of one source: they only meet on a shared edge; the lower index is in front */
+        if (ids[i] < ids[j]) beats[i] |= (ulong)1 << j; else beats[j] |= (ulong)1 << i;
+        continue;
+      }
+      if (hides(ids[i], ids[j], &A, &B, px, py, edges, nsil, cross_offset, cross_count, partner))
+        beats[j] |= (ulong)1 << i;
+      else
+        beats[i] |= (ulong)1 << j;
+    }
+  }
+  ulong all = n == 64 ? ~(ulong)0 : (((ulong)1 << n) - 1);
+  /* The top component: the triangles that reach every other one. t (slot 0) must be in it. */
+  ulong top = 0;
+  for (uint v = 0; v < n; ++v) {
+    ulong r = beats[v] | ((ulong)1 << v), prev = 0;
+    while (r != prev) {
+      prev = r;
+      ulong add = 0;
+      for (uint u = 0; u < n; ++u)
+        if (r & ((ulong)1 << u)) add |= beats[u];
+      r |= add;
+    }
+    if (r == all) top |= (ulong)1 << v;
+  }
+  if (!(top & 1)) return false;
+  if (top == 1) return true; /* t is hidden by nobody (not reached here, but exact) */
+  /* A cycle. Its members, by screen-triangle index, so that every member sees the same list. */
+  uint mem[VM_TOUR_MAX];
+  uint k = 0;
+  for (uint v = 0; v < n; ++v)
+    if (top & ((ulong)1 << v)) {
+      uint j = k++;
+      while (j > 0 && mem[j - 1] > ids[v]) { mem[j] = mem[j - 1]; --j; }
+      mem[j] = ids[v];
+    }
+  /* The cycle lies near the triple points of its members: c = the mean of the intersections
+   * of any two crossing lines of its pairs that share a member. The visible one is the member in
+   * front at c (true depth planes), ties to the lower index: a function of the cycle only, so
+   * the same over the whole cell and for every member. */
+  double2 c = (double2)(0, 0);
+  uint nc = 0;
+  for (uint a = 0; a < k; ++a)
+    for (uint b = 0; b < k; ++b) {
+      if (b == a) continue;
+      Line3 L1;
+      if (!pair_line_of(mem[a], mem[b], edges, nsil, cross_offset, cross_count, partner, &L1)) continue;
+      for (uint d = b + 1; d < k; ++d) {
+        if (d == a) continue;
+        Line3 L2;
+        if (!pair_line_of(mem[a], mem[d], edges, nsil, cross_offset, cross_count, partner, &L2)) continue;
+        if (L1.a * L2.b - L2.a * L1.b == 0) continue;
+        c += vertex_approx(L1, L2);
+        ++nc;
+      }
+    }
+  uint best = mem[0];
+  if (nc > 0) {
+    c /= (double)nc;
+    VmScreenTri B = tris[best];
+    double qb = tri_depth_at(&B, c.x, c.y);
+    for (uint a = 1; a < k; ++a) {
+      VmScreenTri A = tris[mem[a]];
+      double qa = tri_depth_at(&A, c.x, c.y);
+      if (qa > qb) { best = mem[a]; qb = qa; }
+    }
+  }
+  return best == t;
 }
 
 /* visible[i] = 1 when no screen triangle covers fragment i's interior point in front of it;
@@ -102,14 +241,14 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
   uint off = tile_offset[tile], cnt = tile_count[tile];
   for (uint k = 0; k < cnt; ++k) {
     uint o = tile_list[off + k];
-    if (o == m.tri) continue;
-    int4 ob = tri_bb[o];
-    if (gx < ob.x || gx > ob.z || gy < ob.y || gy > ob.w) continue;
-    if (!covers(&tris[o], px, py)) continue;
+    if (o == m.tri || !competes(tris, tri_bb, o, &t, px, py)) continue;
     VmScreenTri ot = tris[o];
-    if (ot.mesh == t.mesh && ot.tri == t.tri) continue; /* pieces of one source never overlap */
     if (hides(m.tri, o, &t, &ot, px, py, edges, nsil, cross_offset, cross_count, partner)) {
-      visible[i] = 0;
+      /* Hidden: final unless t has crossing or triple-point entries (then it may be part of a
+       * cycle, and the whole tournament at the point decides). */
+      visible[i] = cross_count[m.tri] > 0 &&
+                   wins_cycle(m.tri, tris, tri_bb, off, cnt, tile_list, px, py, edges, nsil,
+                              cross_offset, cross_count, partner);
       return;
     }
   }
