@@ -14,6 +14,9 @@
 #define VM_REL_CROSS 3
 #define VM_REL_TIE 4      /* or'ed in: decided by the tie rule (the planes agree within the band) */
 
+/* Columns searched on either side for the grid points of a snapped crossing line. */
+#define VM_SNAP_SEARCH 256
+
 /* The overlap of two screen triangles' footprints, in doubles (grid units): a clipped by b's
  * three edge lines. Returns the vertex count (0 when empty). */
 inline int tri_overlap(const VmScreenTri* a, const VmScreenTri* b, double2* out) {
@@ -83,22 +86,29 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
                              ? VM_REL_A_FRONT
                              : VM_REL_B_FRONT);
   }
-  /* d(x, y) = A x + B y + C, zero on the intersection line. Two grid points on it, one grid
-   * unit beyond the overlap's box on either side. */
+  /* d(x, y) = A x + B y + C, zero on the intersection line. Two grid points near it, beyond
+   * the overlap's box on either side: along the axis on which the line's slope is <= 1, at the
+   * first VM_SNAP_SEARCH columns from one grid unit beyond the box, the column where the line
+   * passes closest to a grid point (rounding the other coordinate). Between the two points
+   * the snapped line is then within max(|r0|, |r1|) of the true one, where r is that rounding,
+   * typically ~1/(4 VM_SNAP_SEARCH) grid units instead of up to 1/2 for the first column. */
   double A = pa.gx - pb.gx, B = pa.gy - pb.gy;
   double C = (pa.q0 - pa.gx * pa.x0 - pa.gy * pa.y0) - (pb.q0 - pb.gx * pb.x0 - pb.gy * pb.y0);
-  long x0, y0, x1, y1;
-  if (fabs(B) >= fabs(A)) {
-    x0 = (long)floor(lo.x) - 1;
-    x1 = (long)ceil(hi.x) + 1;
-    y0 = (long)rint(-(A * (double)x0 + C) / B);
-    y1 = (long)rint(-(A * (double)x1 + C) / B);
-  } else {
-    y0 = (long)floor(lo.y) - 1;
-    y1 = (long)ceil(hi.y) + 1;
-    x0 = (long)rint(-(B * (double)y0 + C) / A);
-    x1 = (long)rint(-(B * (double)y1 + C) / A);
+  bool along_x = fabs(B) >= fabs(A);
+  double P = along_x ? A : B, Q = along_x ? B : A; /* other = -(P * axis + C) / Q */
+  long u0 = along_x ? (long)floor(lo.x) - 1 : (long)floor(lo.y) - 1;
+  long u1 = along_x ? (long)ceil(hi.x) + 1 : (long)ceil(hi.y) + 1;
+  long v0 = 0, v1 = 0;
+  double r0 = INFINITY, r1 = INFINITY;
+  long best0 = u0, best1 = u1;
+  for (int k = 0; k < VM_SNAP_SEARCH; ++k) {
+    double w0 = -(P * (double)(u0 - k) + C) / Q, w1 = -(P * (double)(u1 + k) + C) / Q;
+    double e0 = fabs(w0 - rint(w0)), e1 = fabs(w1 - rint(w1));
+    if (e0 < r0) { r0 = e0; best0 = u0 - k; v0 = (long)rint(w0); }
+    if (e1 < r1) { r1 = e1; best1 = u1 + k; v1 = (long)rint(w1); }
   }
+  long x0 = along_x ? best0 : v0, y0 = along_x ? v0 : best0;
+  long x1 = along_x ? best1 : v1, y1 = along_x ? v1 : best1;
   /* Keep the points inside the grid's range: slide along the line if needed is not worth it;
    * the overlap lies inside the viewport, so clamping moves them only for near-vertical lines
    * that already leave it. */
