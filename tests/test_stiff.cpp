@@ -37,10 +37,10 @@ bool has_ties(const std::string& name) {
 
 std::string describe(const check::SceneFigures& f) { return check::to_json(f).dump(); }
 
-// coverage_error of a hole-free map: only the rounding of the exact area sums (the "exact"
-// tolerance of check::Tolerances). Holes at triple points were 4e-11 to 6e-10 before the
-// tournament rule (docs/NUMERICS.md §2).
-constexpr double kHoleFree = 1e-12;
+// coverage_error of a hole-free map: only the 2^-96 fixed-point area sums, ~1e-37 (far below
+// the 1e-12 "exact" tolerance of check::Tolerances, which a 1e-13 hole would pass). Holes at
+// triple points were 4e-11 to 6e-10 before the tournament rule (docs/NUMERICS.md §2).
+constexpr double kHoleFree = 1e-20;
 
 class Stiff : public ::testing::TestWithParam<std::string> {};
 
