@@ -247,6 +247,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
                 pair_t, pair_o, pair_rel, pair_line);
   }
   const uint32_t P = static_cast<uint32_t>(st.entangled_pairs);
+  rt.launch("crossings", "cross_refine", P, P, tris, pair_t, pair_o, pair_rel, pair_line);
   cl::Buffer in_count = rt.alloc(size_t(S) * 4, "incoming pair counts");
   cl::Buffer in_offset = rt.alloc(size_t(S) * 4, "incoming pair offsets");
   cl::Buffer in_cursor = rt.alloc(size_t(S) * 4, "incoming pair cursors");

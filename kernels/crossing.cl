@@ -15,7 +15,9 @@
 #define VM_REL_TIE 4      /* or'ed in: decided by the tie rule (the planes agree within the band) */
 
 /* Columns searched on either side for the grid points of a snapped crossing line. */
+#ifndef VM_SNAP_SEARCH
 #define VM_SNAP_SEARCH 256
+#endif
 
 /* The overlap of two screen triangles' footprints, in doubles (grid units): a clipped by b's
  * three edge lines. Returns the vertex count (0 when empty). */
@@ -44,7 +46,7 @@ inline int tri_overlap(const VmScreenTri* a, const VmScreenTri* b, double2* out)
 /* How a (lower index) and b relate over their overlap; for crossing pairs also the snapped
  * line, directed so that a is in front on its positive side. Pure function of the two
  * triangles: both members of a pair compute the same answer. */
-inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* line) {
+inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* line, int search) {
   /* Exact separating axes on the grid first: most pairs that get here are mesh neighbours whose
    * footprints only touch (an edge or a corner in common). */
   for (int side = 0; side < 2; ++side) {
@@ -87,28 +89,45 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
                              : VM_REL_B_FRONT);
   }
   /* d(x, y) = A x + B y + C, zero on the intersection line. Two grid points near it, beyond
-   * the overlap's box on either side: along the axis on which the line's slope is <= 1, at the
-   * first VM_SNAP_SEARCH columns from one grid unit beyond the box, the column where the line
-   * passes closest to a grid point (rounding the other coordinate). Between the two points
-   * the snapped line is then within max(|r0|, |r1|) of the true one, where r is that rounding,
-   * typically ~1/(4 VM_SNAP_SEARCH) grid units instead of up to 1/2 for the first column. */
+   * the overlap's box on either side: along the axis on which the line's slope is <= 1, among
+   * the first `search` columns from one grid unit beyond the box, the column where the line
+   * passes closest to a grid point (rounding the other coordinate). Between the two points the
+   * snapped line is within max(r0, r1) of the true one, r being those roundings (docs/NUMERICS.md
+   * §2). The pair traversal, which needs only the relation, takes the first column (search =
+   * 1: its hot loop stays as small as it was); cross_refine redoes the line of every crossing
+   * pair with VM_SNAP_SEARCH before anything uses it. */
   double A = pa.gx - pb.gx, B = pa.gy - pb.gy;
   double C = (pa.q0 - pa.gx * pa.x0 - pa.gy * pa.y0) - (pb.q0 - pb.gx * pb.x0 - pb.gy * pb.y0);
-  bool along_x = fabs(B) >= fabs(A);
-  double P = along_x ? A : B, Q = along_x ? B : A; /* other = -(P * axis + C) / Q */
-  long u0 = along_x ? (long)floor(lo.x) - 1 : (long)floor(lo.y) - 1;
-  long u1 = along_x ? (long)ceil(hi.x) + 1 : (long)ceil(hi.y) + 1;
-  long v0 = 0, v1 = 0;
-  double r0 = INFINITY, r1 = INFINITY;
-  long best0 = u0, best1 = u1;
-  for (int k = 0; k < VM_SNAP_SEARCH; ++k) {
-    double w0 = -(P * (double)(u0 - k) + C) / Q, w1 = -(P * (double)(u1 + k) + C) / Q;
-    double e0 = fabs(w0 - rint(w0)), e1 = fabs(w1 - rint(w1));
-    if (e0 < r0) { r0 = e0; best0 = u0 - k; v0 = (long)rint(w0); }
-    if (e1 < r1) { r1 = e1; best1 = u1 + k; v1 = (long)rint(w1); }
+  long x0, y0, x1, y1;
+  if (search <= 1) { /* the first column (pair traversal: the relation is what it needs) */
+    if (fabs(B) >= fabs(A)) {
+      x0 = (long)floor(lo.x) - 1;
+      x1 = (long)ceil(hi.x) + 1;
+      y0 = (long)rint(-(A * (double)x0 + C) / B);
+      y1 = (long)rint(-(A * (double)x1 + C) / B);
+    } else {
+      y0 = (long)floor(lo.y) - 1;
+      y1 = (long)ceil(hi.y) + 1;
+      x0 = (long)rint(-(B * (double)y0 + C) / A);
+      x1 = (long)rint(-(B * (double)y1 + C) / A);
+    }
+  } else {
+    bool along_x = fabs(B) >= fabs(A);
+    double P = along_x ? A : B, Q = along_x ? B : A; /* other = -(P * axis + C) / Q */
+    long u0 = along_x ? (long)floor(lo.x) - 1 : (long)floor(lo.y) - 1;
+    long u1 = along_x ? (long)ceil(hi.x) + 1 : (long)ceil(hi.y) + 1;
+    long v0 = 0, v1 = 0;
+    double r0 = INFINITY, r1 = INFINITY;
+    long best0 = u0, best1 = u1;
+    for (int k = 0; k < search; ++k) {
+      double w0 = -(P * (double)(u0 - k) + C) / Q, w1 = -(P * (double)(u1 + k) + C) / Q;
+      double e0 = fabs(w0 - rint(w0)), e1 = fabs(w1 - rint(w1));
+      if (e0 < r0) { r0 = e0; best0 = u0 - k; v0 = (long)rint(w0); }
+      if (e1 < r1) { r1 = e1; best1 = u1 + k; v1 = (long)rint(w1); }
+    }
+    x0 = along_x ? best0 : v0; y0 = along_x ? v0 : best0;
+    x1 = along_x ? best1 : v1; y1 = along_x ? v1 : best1;
   }
-  long x0 = along_x ? best0 : v0, y0 = along_x ? v0 : best0;
-  long x1 = along_x ? best1 : v1, y1 = along_x ? v1 : best1;
   /* Keep the points inside the grid's range: slide along the line if needed is not worth it;
    * the overlap lies inside the viewport, so clamping moves them only for near-vertical lines
    * that already leave it. */
@@ -157,7 +176,7 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
         VmScreenTri other = tris[o];
         if (other.mesh == me.mesh && other.tri == me.tri) continue;
         VmLine line;
-        int rel = pair_relation(&me, &other, &line);
+        int rel = pair_relation(&me, &other, &line, 1);
         if (rel != VM_REL_CROSS && !(rel & VM_REL_TIE)) continue;
         if (count < cap) {
           out_o[count] = o;
@@ -214,6 +233,18 @@ __kernel void cross_compact(uint ntris, __global const uint* counts, __global co
     pair_rel[o + k] = scr_rel[s + k];
     pair_line[o + k] = scr_line[s + k];
   }
+}
+
+/* The crossing lines of the compacted pairs, snapped through the best of VM_SNAP_SEARCH
+ * columns on either side (kept out of the pair traversal, whose hot loop it would slow down). */
+__kernel void cross_refine(uint npairs, __global const VmScreenTri* tris, __global const uint* pair_t,
+                           __global const uint* pair_o, __global const uint* pair_rel,
+                           __global VmLine* pair_line) {
+  uint p = get_global_id(0);
+  if (p >= npairs || pair_rel[p] != VM_REL_CROSS) return;
+  VmScreenTri a = tris[pair_t[p]], b = tris[pair_o[p]];
+  VmLine line;
+  if (pair_relation(&a, &b, &line, VM_SNAP_SEARCH) == VM_REL_CROSS) pair_line[p] = line;
 }
 
 /* The pairs where a triangle is the higher member ("incoming"), as per-triangle lists. */
@@ -387,7 +418,7 @@ inline uint triple_lines(uint x, __global const VmScreenTri* tris, __global cons
       VmScreenTri tx = tris[x], tc = tris[c];
       if (tx.mesh == tc.mesh && tx.tri == tc.tri) continue;
       VmLine l_xc;
-      uint r_xc = (uint)(x < c ? pair_relation(&tx, &tc, &l_xc) : pair_relation(&tc, &tx, &l_xc));
+      uint r_xc = (uint)(x < c ? pair_relation(&tx, &tc, &l_xc, 1) : pair_relation(&tc, &tx, &l_xc, 1));
       if (r_xc == VM_REL_NONE || r_xc == VM_REL_CROSS) continue;
       if (!cycle_possible(x, b, c, tris, pair_rel[pi], pair_line[pi], r_xc, l_xc, VM_REL_CROSS,
                           pair_line[pbc]))

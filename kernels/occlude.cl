@@ -77,7 +77,7 @@ inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, lo
   if (qo - qt > band) return true;
   if (qt - qo > band) return false;
   VmLine unused;
-  int rel = t < o ? pair_relation(T, O, &unused) : pair_relation(O, T, &unused);
+  int rel = t < o ? pair_relation(T, O, &unused, 1) : pair_relation(O, T, &unused, 1);
   bool t_is_a = t < o;
   if ((rel & 3) == VM_REL_A_FRONT) return !t_is_a;
   if ((rel & 3) == VM_REL_B_FRONT) return t_is_a;
@@ -116,31 +116,25 @@ inline bool pair_line_of(uint a, uint b, __global const VmEdge* edges, uint nsil
 }
 
 /* Triangles a tournament at one point can hold (bit masks of a ulong). */
+#ifndef VM_TOUR_MAX
 #define VM_TOUR_MAX 64
+#endif
 
-/* Triangle t (which has crossing entries) is hidden at the point. Near a triple point the
+/* Triangle t = ids[0] (which has crossing entries) is hidden at the point; ids[0..n) are the
+ * triangles covering the point (competes()), in tile order after t. Near a triple point the
  * independently snapped crossing lines can order the covering triangles cyclically (a over b
  * over c over a), so that none is unhidden: a hole. Visibility is then decided by the whole
  * tournament of the covering triangles at the point: its top strongly connected component (the
  * triangles that reach every other one through "hides") is a single triangle where one is
- * unhidden, else a cycle, of which the lowest screen-triangle index is visible. Every triangle
- * at the point computes the same tournament, so exactly one is visible there; the triple-point
- * entries (crossing.cl) make the answer the same over each fragment. Returns whether t is the
- * visible one. */
-inline bool wins_cycle(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
-                       uint off, uint cnt, __global const uint* tile_list, long px, long py,
-                       __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
-                       __global const uint* cross_count, __global const uint* partner) {
-  VmScreenTri T = tris[t];
-  uint ids[VM_TOUR_MAX];
-  uint n = 0;
-  ids[n++] = t;
-  for (uint k = 0; k < cnt; ++k) {
-    uint o = tile_list[off + k];
-    if (o == t || !competes(tris, tri_bb, o, &T, px, py)) continue;
-    if (n == VM_TOUR_MAX) return false; /* beyond what this can decide: stays hidden */
-    ids[n++] = o;
-  }
+ * unhidden, else a cycle, of which the member in front at the cycle's centre (below) is
+ * visible. Every triangle at the point computes the same tournament, so exactly one is visible
+ * there; the triple-point entries (crossing.cl) make the answer the same over each fragment.
+ * Returns whether t is the visible one. */
+inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris, long px,
+                       long py, __global const VmEdge* edges, uint nsil,
+                       __global const uint* cross_offset, __global const uint* cross_count,
+                       __global const uint* partner) {
+  uint t = ids[0];
   ulong beats[VM_TOUR_MAX];
   for (uint i = 0; i < n; ++i) beats[i] = 0;
   for (uint i = 0; i < n; ++i) {
@@ -239,18 +233,56 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
   int gx = (int)(px >> VM_POINT_BITS), gy = (int)(py >> VM_POINT_BITS);
   uint tile = tile_coord(gy, g.tile_shift, g.tiles_y) * g.tiles_x + tile_coord(gx, g.tile_shift, g.tiles_x);
   uint off = tile_offset[tile], cnt = tile_count[tile];
+  /* A cycle through t needs one of its entangled partners at the point (a crossing line
+   * misplaced by snapping, or a tie): without one, hidden is final. */
+  bool partnered = false;
+  {
+    uint co = cross_offset[m.tri], cn = cross_count[m.tri], last = VM_NONE;
+    for (uint k = 0; k < cn && !partnered; ++k) {
+      uint o = partner[co + k];
+      if (o == last || o == VM_NONE) continue;
+      last = o;
+      partnered = competes(tris, tri_bb, o, &t, px, py);
+    }
+  }
+  if (!partnered) {
+    /* (Written out rather than through competes(): PoCL compiles this hot loop 3x slower
+     * that way.) */
+    for (uint k = 0; k < cnt; ++k) {
+      uint o = tile_list[off + k];
+      if (o == m.tri) continue;
+      int4 ob = tri_bb[o];
+      if (gx < ob.x || gx > ob.z || gy < ob.y || gy > ob.w) continue;
+      if (!covers(&tris[o], px, py)) continue;
+      VmScreenTri ot = tris[o];
+      if (ot.mesh == t.mesh && ot.tri == t.tri) continue; /* pieces of one source never overlap */
+      if (hides(m.tri, o, &t, &ot, px, py, edges, nsil, cross_offset, cross_count, partner)) {
+        visible[i] = 0;
+        return;
+      }
+    }
+    visible[i] = 1;
+    return;
+  }
+  /* An entangled partner of t covers the point: hidden may still mean visible when the
+   * covering triangles form a cycle, so collect them all in the same pass. */
+  uint ids[VM_TOUR_MAX];
+  uint nc = 0;
+  ids[nc++] = m.tri;
+  bool hidden = false, over = false;
   for (uint k = 0; k < cnt; ++k) {
     uint o = tile_list[off + k];
     if (o == m.tri || !competes(tris, tri_bb, o, &t, px, py)) continue;
-    VmScreenTri ot = tris[o];
-    if (hides(m.tri, o, &t, &ot, px, py, edges, nsil, cross_offset, cross_count, partner)) {
-      /* Hidden: final unless t has crossing or triple-point entries (then it may be part of a
-       * cycle, and the whole tournament at the point decides). */
-      visible[i] = cross_count[m.tri] > 0 &&
-                   wins_cycle(m.tri, tris, tri_bb, off, cnt, tile_list, px, py, edges, nsil,
-                              cross_offset, cross_count, partner);
-      return;
+    if (nc < VM_TOUR_MAX)
+      ids[nc++] = o;
+    else
+      over = true;
+    if (!hidden) {
+      VmScreenTri ot = tris[o];
+      hidden = hides(m.tri, o, &t, &ot, px, py, edges, nsil, cross_offset, cross_count, partner);
     }
   }
-  visible[i] = 1;
+  /* More than VM_TOUR_MAX covering triangles: beyond what the tournament holds; stays hidden. */
+  visible[i] = !hidden || (!over && wins_cycle(ids, nc, tris, px, py, edges, nsil, cross_offset,
+                                               cross_count, partner));
 }
