@@ -402,6 +402,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
                   pair_t, pair_o, pair_rel, pair_line);
     }
     const uint32_t P = npairs;
+    rt.launch("crossings", "cross_refine", P, P, tris, pair_t, pair_o, pair_rel, pair_line);
     cl::Buffer in_count = rt.alloc(size_t(S) * 4, "incoming pair counts");
     cl::Buffer in_offset = rt.alloc(size_t(S) * 4, "incoming pair offsets");
     cl::Buffer in_cursor = rt.alloc(size_t(S) * 4, "incoming pair cursors");
@@ -413,8 +414,9 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     rt.launch("crossings", "cross_in_fill", P, P, pair_o, in_offset, in_cursor, in_list);
     cl::Buffer cross_count = rt.alloc(size_t(S) * 4, "crossing entry counts");
     cl::Buffer cross_offset = rt.alloc(size_t(S) * 4, "crossing entry offsets");
-    rt.launch("crossings", "cross_entry_count", S, S, pcount, poffset, in_count, in_offset, in_list,
-              pair_rel, cross_count);
+    rt.launch("crossings", "cross_in_sort", S, S, in_count, in_offset, in_list);
+    rt.launch("crossings", "cross_entry_count", S, S, tris, pcount, poffset, in_count, in_offset,
+              in_list, pair_t, pair_o, pair_rel, pair_line, cross_count);
     const uint32_t X = rt.scan("crossings", cross_count, cross_offset, S);
     cl::Buffer edges = rt.alloc((size_t(E) + X) * sizeof(VmEdge), "clipping edges");
     cl::Buffer partner = rt.alloc(std::max<size_t>(X, 1) * 4, "crossing partners");

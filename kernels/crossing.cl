@@ -14,6 +14,11 @@
 #define VM_REL_CROSS 3
 #define VM_REL_TIE 4      /* or'ed in: decided by the tie rule (the planes agree within the band) */
 
+/* Columns searched on either side for the grid points of a snapped crossing line. */
+#ifndef VM_SNAP_SEARCH
+#define VM_SNAP_SEARCH 256
+#endif
+
 /* The overlap of two screen triangles' footprints, in doubles (grid units): a clipped by b's
  * three edge lines. Returns the vertex count (0 when empty). */
 inline int tri_overlap(const VmScreenTri* a, const VmScreenTri* b, double2* out) {
@@ -41,7 +46,7 @@ inline int tri_overlap(const VmScreenTri* a, const VmScreenTri* b, double2* out)
 /* How a (lower index) and b relate over their overlap; for crossing pairs also the snapped
  * line, directed so that a is in front on its positive side. Pure function of the two
  * triangles: both members of a pair compute the same answer. */
-inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* line) {
+inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* line, int search) {
   /* Exact separating axes on the grid first: most pairs that get here are mesh neighbours whose
    * footprints only touch (an edge or a corner in common). */
   for (int side = 0; side < 2; ++side) {
@@ -83,21 +88,45 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
                              ? VM_REL_A_FRONT
                              : VM_REL_B_FRONT);
   }
-  /* d(x, y) = A x + B y + C, zero on the intersection line. Two grid points on it, one grid
-   * unit beyond the overlap's box on either side. */
+  /* d(x, y) = A x + B y + C, zero on the intersection line. Two grid points near it, beyond
+   * the overlap's box on either side: along the axis on which the line's slope is <= 1, among
+   * the first `search` columns from one grid unit beyond the box, the column where the line
+   * passes closest to a grid point (rounding the other coordinate). Between the two points the
+   * snapped line is within max(r0, r1) of the true one, r being those roundings (docs/NUMERICS.md
+   * §2). The pair traversal, which needs only the relation, takes the first column (search =
+   * 1: its hot loop stays as small as it was); cross_refine redoes the line of every crossing
+   * pair with VM_SNAP_SEARCH before anything uses it. */
   double A = pa.gx - pb.gx, B = pa.gy - pb.gy;
   double C = (pa.q0 - pa.gx * pa.x0 - pa.gy * pa.y0) - (pb.q0 - pb.gx * pb.x0 - pb.gy * pb.y0);
   long x0, y0, x1, y1;
-  if (fabs(B) >= fabs(A)) {
-    x0 = (long)floor(lo.x) - 1;
-    x1 = (long)ceil(hi.x) + 1;
-    y0 = (long)rint(-(A * (double)x0 + C) / B);
-    y1 = (long)rint(-(A * (double)x1 + C) / B);
+  if (search <= 1) { /* the first column (pair traversal: the relation is what it needs) */
+    if (fabs(B) >= fabs(A)) {
+      x0 = (long)floor(lo.x) - 1;
+      x1 = (long)ceil(hi.x) + 1;
+      y0 = (long)rint(-(A * (double)x0 + C) / B);
+      y1 = (long)rint(-(A * (double)x1 + C) / B);
+    } else {
+      y0 = (long)floor(lo.y) - 1;
+      y1 = (long)ceil(hi.y) + 1;
+      x0 = (long)rint(-(B * (double)y0 + C) / A);
+      x1 = (long)rint(-(B * (double)y1 + C) / A);
+    }
   } else {
-    y0 = (long)floor(lo.y) - 1;
-    y1 = (long)ceil(hi.y) + 1;
-    x0 = (long)rint(-(B * (double)y0 + C) / A);
-    x1 = (long)rint(-(B * (double)y1 + C) / A);
+    bool along_x = fabs(B) >= fabs(A);
+    double P = along_x ? A : B, Q = along_x ? B : A; /* other = -(P * axis + C) / Q */
+    long u0 = along_x ? (long)floor(lo.x) - 1 : (long)floor(lo.y) - 1;
+    long u1 = along_x ? (long)ceil(hi.x) + 1 : (long)ceil(hi.y) + 1;
+    long v0 = 0, v1 = 0;
+    double r0 = INFINITY, r1 = INFINITY;
+    long best0 = u0, best1 = u1;
+    for (int k = 0; k < search; ++k) {
+      double w0 = -(P * (double)(u0 - k) + C) / Q, w1 = -(P * (double)(u1 + k) + C) / Q;
+      double e0 = fabs(w0 - rint(w0)), e1 = fabs(w1 - rint(w1));
+      if (e0 < r0) { r0 = e0; best0 = u0 - k; v0 = (long)rint(w0); }
+      if (e1 < r1) { r1 = e1; best1 = u1 + k; v1 = (long)rint(w1); }
+    }
+    x0 = along_x ? best0 : v0; y0 = along_x ? v0 : best0;
+    x1 = along_x ? best1 : v1; y1 = along_x ? v1 : best1;
   }
   /* Keep the points inside the grid's range: slide along the line if needed is not worth it;
    * the overlap lies inside the viewport, so clamping moves them only for near-vertical lines
@@ -147,7 +176,7 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
         VmScreenTri other = tris[o];
         if (other.mesh == me.mesh && other.tri == me.tri) continue;
         VmLine line;
-        int rel = pair_relation(&me, &other, &line);
+        int rel = pair_relation(&me, &other, &line, 1);
         if (rel != VM_REL_CROSS && !(rel & VM_REL_TIE)) continue;
         if (count < cap) {
           out_o[count] = o;
@@ -206,6 +235,18 @@ __kernel void cross_compact(uint ntris, __global const uint* counts, __global co
   }
 }
 
+/* The crossing lines of the compacted pairs, snapped through the best of VM_SNAP_SEARCH
+ * columns on either side (kept out of the pair traversal, whose hot loop it would slow down). */
+__kernel void cross_refine(uint npairs, __global const VmScreenTri* tris, __global const uint* pair_t,
+                           __global const uint* pair_o, __global const uint* pair_rel,
+                           __global VmLine* pair_line) {
+  uint p = get_global_id(0);
+  if (p >= npairs || pair_rel[p] != VM_REL_CROSS) return;
+  VmScreenTri a = tris[pair_t[p]], b = tris[pair_o[p]];
+  VmLine line;
+  if (pair_relation(&a, &b, &line, VM_SNAP_SEARCH) == VM_REL_CROSS) pair_line[p] = line;
+}
+
 /* The pairs where a triangle is the higher member ("incoming"), as per-triangle lists. */
 __kernel void cross_in_count(uint npairs, __global const uint* pair_o, __global uint* in_count) {
   uint p = get_global_id(0);
@@ -223,20 +264,204 @@ __kernel void cross_in_fill(uint npairs, __global const uint* pair_o, __global c
 
 inline uint pair_entries(uint rel) { return rel == VM_REL_CROSS ? 4 : 3; }
 
-/* Per triangle: sorts its incoming list (pair order, so the result is deterministic) and
- * counts its clipping entries. */
-__kernel void cross_entry_count(uint ntris, __global const uint* out_count,
-                                __global const uint* out_offset, __global const uint* in_count,
-                                __global const uint* in_offset, __global uint* in_list,
-                                __global const uint* pair_rel, __global uint* ent_count) {
+/* ---- Triple points ---------------------------------------------------------------------------
+ * Three mutually entangled triangles x, b, c get three independently snapped lines that need not
+ * meet in one point. Where they do not, the small cell between them can order the three
+ * cyclically (x over b over c over x): occlusion then picks one winner there (occlude.cl,
+ * `visible_at`), and for that choice to be the same over a whole fragment every member must be
+ * clipped by all three lines, not only its own two. So x also gets the line of the pair (b, c)
+ * when b and c are both entangled with x, (b, c) crosses, and a cyclic order of the three is
+ * possible somewhere in their common footprint (tested below in doubles, with a margin, so the
+ * test only ever adds lines: an extra line splits a fragment and changes no visibility). */
+
+/* The pair (lo, hi) with lo < hi, or VM_NONE_PAIR. Pairs are listed under their lower member. */
+#define VM_NONE_PAIR 0xffffffffu
+inline uint find_pair(uint lo, uint hi, __global const uint* out_count,
+                      __global const uint* out_offset, __global const uint* pair_o) {
+  uint o = out_offset[lo], n = out_count[lo];
+  for (uint k = 0; k < n; ++k)
+    if (pair_o[o + k] == hi) return o + k;
+  return VM_NONE_PAIR;
+}
+
+/* Keeps the part of convex polygon p (n vertices) where a*x + b*y + c >= -slack; returns the
+ * new count (at most n + 1). */
+inline int clip_half(double2* p, int n, double a, double b, double c, double slack) {
+  double2 q[20];
+  int m = 0;
+  for (int i = 0; i < n && m < 19; ++i) {
+    double2 u = p[i], v = p[i + 1 == n ? 0 : i + 1];
+    double su = a * u.x + b * u.y + c + slack, sv = a * v.x + b * v.y + c + slack;
+    if (su >= 0) q[m++] = u;
+    if ((su >= 0) != (sv >= 0)) q[m++] = u + (v - u) * (su / (su - sv));
+  }
+  for (int i = 0; i < m; ++i) p[i] = q[i];
+  return m;
+}
+
+/* Margin of the cycle test, in grid units of distance: far above the rounding of the doubles
+ * (coordinates < 2^24, 53-bit mantissas), so a cycle cell that exists is never missed. */
+#define VM_TRIPLE_SLACK 0.5
+
+/* Restricts p to where u is in front of v, for the relation (rel, line) of u and v as
+ * pair_relation gives it (u_lo: u is the lower member). Returns the new count, 0 when nowhere. */
+inline int clip_front(double2* p, int n, uint rel, VmLine l, bool u_lo) {
+  if (rel == VM_REL_CROSS) {
+    Line3 L = line_of_vm(l); /* the lower member is in front on the positive side */
+    double a = (double)L.a, b = (double)L.b, c = (double)L.c;
+    if (!u_lo) { a = -a; b = -b; c = -c; }
+    return clip_half(p, n, a, b, c, VM_TRIPLE_SLACK * sqrt(a * a + b * b));
+  }
+  bool lo_front = (rel & 3) == VM_REL_A_FRONT;
+  return lo_front == u_lo ? n : 0;
+}
+
+/* Can x, b, c be ordered cyclically at some point of their common footprint, given the
+ * relations of their three pairs (rel, line as from pair_relation, lower member first)? */
+inline bool cycle_possible(uint x, uint b, uint c, __global const VmScreenTri* tris, uint r_xb,
+                           VmLine l_xb, uint r_xc, VmLine l_xc, uint r_bc, VmLine l_bc) {
+  uint id[3] = {x, b, c};
+  double2 box[20];
+  int n0 = 4;
+  {
+    VmScreenTri t = tris[x];
+    double lx = (double)min(min(t.x[0], t.x[1]), t.x[2]) - 2, hx = (double)max(max(t.x[0], t.x[1]), t.x[2]) + 2;
+    double ly = (double)min(min(t.y[0], t.y[1]), t.y[2]) - 2, hy = (double)max(max(t.y[0], t.y[1]), t.y[2]) + 2;
+    box[0] = (double2)(lx, ly); box[1] = (double2)(hx, ly);
+    box[2] = (double2)(hx, hy); box[3] = (double2)(lx, hy);
+  }
+  for (int m = 0; m < 3 && n0 > 0; ++m) {
+    VmScreenTri t = tris[id[m]];
+    for (int i = 0; i < 3 && n0 > 0; ++i) {
+      int j = i == 2 ? 0 : i + 1;
+      Line3 L = line_of(t.x[i], t.y[i], t.x[j], t.y[j]);
+      double a = (double)L.a, bb = (double)L.b;
+      n0 = clip_half(box, n0, a, bb, (double)L.c, VM_TRIPLE_SLACK * sqrt(a * a + bb * bb));
+    }
+  }
+  if (n0 == 0) return false;
+  /* The two cyclic orders: x > b > c > x and x > c > b > x (">" = in front). */
+  for (int dir = 0; dir < 2; ++dir) {
+    double2 p[20];
+    for (int i = 0; i < n0; ++i) p[i] = box[i];
+    int n = n0;
+    uint u0 = dir ? c : b, u1 = dir ? b : c;
+    /* x in front of u0, u0 in front of u1, u1 in front of x */
+    n = clip_front(p, n, dir ? r_xc : r_xb, dir ? l_xc : l_xb, x < u0);
+    if (n > 0) n = clip_front(p, n, r_bc, l_bc, u0 < u1);
+    if (n > 0) n = clip_front(p, n, dir ? r_xb : r_xc, dir ? l_xb : l_xc, u1 < x);
+    if (n > 0) return true;
+  }
+  return false;
+}
+
+/* The partner of x in the k-th of its pairs (its own pairs first, then the incoming ones) and
+ * that pair's record. */
+inline uint partner_at(uint x, uint k, __global const uint* out_count, __global const uint* out_offset,
+                       __global const uint* in_offset, __global const uint* in_list,
+                       __global const uint* pair_t, __global const uint* pair_o, uint* pr) {
+  uint no = out_count[x];
+  if (k < no) {
+    *pr = out_offset[x] + k;
+    return pair_o[*pr];
+  }
+  *pr = in_list[in_offset[x] + (k - no)];
+  return pair_t[*pr];
+}
+
+inline void put_line(__global VmEdge* out, __global uint* partner, uint m, VmLine l, double q) {
+  VmEdge e;
+  e.x0 = l.x0; e.y0 = l.y0; e.x1 = l.x1; e.y1 = l.y1;
+  e.q0 = q;
+  e.q1 = q;
+  out[m] = e;
+  partner[m] = VM_NONE_PAIR;
+}
+
+/* x's triple-point entries: counts them, and writes them when out is not null. Partner
+ * VM_NONE_PAIR, so that occlusion never takes one for an entry of x's own pairs.
+ * 1. b, c both entangled with x, (b, c) crossing: the line of (b, c).
+ * 2. b entangled with x, (b, c) crossing, c not entangled with x but overlapping it (a fold of
+ *    one surface in front of or behind x, ordered with x by depth over their whole overlap):
+ *    the line of (b, c) and c's three edges, since x is not clipped by c's edges otherwise. */
+inline uint triple_lines(uint x, __global const VmScreenTri* tris, __global const uint* out_count,
+                         __global const uint* out_offset, __global const uint* in_count,
+                         __global const uint* in_offset, __global const uint* in_list,
+                         __global const uint* pair_t, __global const uint* pair_o,
+                         __global const uint* pair_rel, __global const VmLine* pair_line,
+                         __global VmEdge* out, __global uint* partner) {
+  uint np = out_count[x] + in_count[x];
+  uint m = 0;
+  for (uint i = 0; i < np; ++i) {
+    uint pi;
+    uint b = partner_at(x, i, out_count, out_offset, in_offset, in_list, pair_t, pair_o, &pi);
+    for (uint j = i + 1; j < np; ++j) {
+      uint pj;
+      uint c = partner_at(x, j, out_count, out_offset, in_offset, in_list, pair_t, pair_o, &pj);
+      uint pbc = b < c ? find_pair(b, c, out_count, out_offset, pair_o)
+                       : find_pair(c, b, out_count, out_offset, pair_o);
+      if (pbc == VM_NONE_PAIR || pair_rel[pbc] != VM_REL_CROSS) continue;
+      if (!cycle_possible(x, b, c, tris, pair_rel[pi], pair_line[pi], pair_rel[pj], pair_line[pj],
+                          VM_REL_CROSS, pair_line[pbc]))
+        continue;
+      if (out) put_line(out, partner, m, pair_line[pbc], INFINITY);
+      ++m;
+    }
+    uint nb = out_count[b] + in_count[b];
+    for (uint j = 0; j < nb; ++j) {
+      uint pbc;
+      uint c = partner_at(b, j, out_count, out_offset, in_offset, in_list, pair_t, pair_o, &pbc);
+      if (c == x || pair_rel[pbc] != VM_REL_CROSS) continue;
+      if ((x < c ? find_pair(x, c, out_count, out_offset, pair_o)
+                 : find_pair(c, x, out_count, out_offset, pair_o)) != VM_NONE_PAIR)
+        continue; /* entangled with x: case 1 */
+      VmScreenTri tx = tris[x], tc = tris[c];
+      if (tx.mesh == tc.mesh && tx.tri == tc.tri) continue;
+      VmLine l_xc;
+      uint r_xc = (uint)(x < c ? pair_relation(&tx, &tc, &l_xc, 1) : pair_relation(&tc, &tx, &l_xc, 1));
+      if (r_xc == VM_REL_NONE || r_xc == VM_REL_CROSS) continue;
+      if (!cycle_possible(x, b, c, tris, pair_rel[pi], pair_line[pi], r_xc, l_xc, VM_REL_CROSS,
+                          pair_line[pbc]))
+        continue;
+      if (out) {
+        put_line(out, partner, m, pair_line[pbc], INFINITY);
+        for (int k = 0; k < 3; ++k) {
+          int k1 = k == 2 ? 0 : k + 1;
+          VmLine e = {tc.x[k], tc.y[k], tc.x[k1], tc.y[k1]};
+          put_line(out, partner, m + 1 + k, e, DBL_MAX);
+        }
+      }
+      m += 4;
+    }
+  }
+  return m;
+}
+
+/* Sorts each triangle's incoming list (pair order), so that every later traversal of it, its
+ * own or a neighbour's, sees the same order. */
+__kernel void cross_in_sort(uint ntris, __global const uint* in_count, __global const uint* in_offset,
+                            __global uint* in_list) {
   uint x = get_global_id(0);
   if (x >= ntris) return;
-  __global uint* a = in_list + in_offset[x];
+  sort_ids(in_list + in_offset[x], (int)in_count[x]);
+}
+
+/* Per triangle: counts its clipping entries (its pairs' and its triple-point entries). */
+__kernel void cross_entry_count(uint ntris, __global const VmScreenTri* tris,
+                                __global const uint* out_count, __global const uint* out_offset,
+                                __global const uint* in_count, __global const uint* in_offset,
+                                __global const uint* in_list, __global const uint* pair_t,
+                                __global const uint* pair_o, __global const uint* pair_rel,
+                                __global const VmLine* pair_line, __global uint* ent_count) {
+  uint x = get_global_id(0);
+  if (x >= ntris) return;
+  __global const uint* a = in_list + in_offset[x];
   int n = (int)in_count[x];
-  sort_ids(a, n);
   uint c = 0;
   for (uint k = 0; k < out_count[x]; ++k) c += pair_entries(pair_rel[out_offset[x] + k]);
   for (int k = 0; k < n; ++k) c += pair_entries(pair_rel[a[k]]);
+  c += triple_lines(x, tris, out_count, out_offset, in_count, in_offset, in_list, pair_t, pair_o,
+                    pair_rel, pair_line, 0, 0);
   ent_count[x] = c;
 }
 
@@ -295,4 +520,6 @@ __kernel void cross_entry_fill(uint ntris, __global const VmScreenTri* tris,
   for (uint k = 0; k < in_count[x]; ++k)
     w += write_entries(x, in_list[in_offset[x] + k], false, tris, pair_t, pair_o, pair_rel,
                        pair_line, edges + nsil + w, partner + w);
+  triple_lines(x, tris, out_count, out_offset, in_count, in_offset, in_list, pair_t, pair_o,
+               pair_rel, pair_line, edges + nsil + w, partner + w);
 }

@@ -53,7 +53,8 @@ inline bool covers(__global const VmScreenTri* o, long px, long py) {
  * Crossing pairs: by the side of their snapped intersection line (t's copy is directed so that
  * t is in front on its positive side). Other pairs: by the depth difference where it is clear
  * of the tie band, else by the relation of the pair over its whole overlap, so that all points
- * of the overlap get the same answer. */
+ * of the overlap get the same answer. Antisymmetric at every point: exactly one of
+ * hides(t, o) and hides(o, t) holds, so the covering triangles form a tournament there. */
 inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, long px, long py,
                   __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
                   __global const uint* cross_count, __global const uint* partner) {
@@ -61,7 +62,13 @@ inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, lo
   for (uint k = 0; k < cn; ++k)
     if (partner[co + k] == o) {
       VmEdge e = edges[nsil + co + k];
-      if (isinf(e.q0)) return line_side_fine(line_of(e.x0, e.y0, e.x1, e.y1), px, py) < 0;
+      if (isinf(e.q0)) {
+        /* The point lies on the line only when neither t's nor o's fragment is clipped by it
+         * (a tournament among other triangles): the lower index is in front there. */
+        int s = line_side_fine(line_of(e.x0, e.y0, e.x1, e.y1), px, py);
+        return s < 0 || (s == 0 && o < t);
+      }
+      break; /* a tying pair: its entries are the partner's edges */
     }
   const double inv = 1.0 / (double)((long)1 << VM_POINT_BITS);
   double fx = (double)px * inv, fy = (double)py * inv;
@@ -70,12 +77,138 @@ inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, lo
   if (qo - qt > band) return true;
   if (qt - qo > band) return false;
   VmLine unused;
-  int rel = t < o ? pair_relation(T, O, &unused) : pair_relation(O, T, &unused);
+  int rel = t < o ? pair_relation(T, O, &unused, 1) : pair_relation(O, T, &unused, 1);
   bool t_is_a = t < o;
   if ((rel & 3) == VM_REL_A_FRONT) return !t_is_a;
   if ((rel & 3) == VM_REL_B_FRONT) return t_is_a;
   /* No overlap of positive area found (or a crossing too short to snap): the tie rule. */
   return in_front(qo, qt, O->mesh, O->tri, T->mesh, T->tri);
+}
+
+/* Is screen triangle o one of those competing at the fine point: does it cover the point, and
+ * is it no piece of the source of triangle t (pieces of one source never overlap)? */
+inline bool competes(__global const VmScreenTri* tris, __global const int4* tri_bb, uint o,
+                     const VmScreenTri* t, long px, long py) {
+  int gx = (int)(px >> VM_POINT_BITS), gy = (int)(py >> VM_POINT_BITS);
+  int4 ob = tri_bb[o];
+  if (gx < ob.x || gx > ob.z || gy < ob.y || gy > ob.w) return false;
+  if (!covers(&tris[o], px, py)) return false;
+  VmScreenTri ot = tris[o];
+  return !(ot.mesh == t->mesh && ot.tri == t->tri);
+}
+
+/* The crossing line of the pair (a, b) from a's entries (directed so that a is in front on its
+ * positive side); false when the pair does not cross. */
+inline bool pair_line_of(uint a, uint b, __global const VmEdge* edges, uint nsil,
+                         __global const uint* cross_offset, __global const uint* cross_count,
+                         __global const uint* partner, Line3* L) {
+  uint co = cross_offset[a], cn = cross_count[a];
+  for (uint k = 0; k < cn; ++k)
+    if (partner[co + k] == b) {
+      VmEdge e = edges[nsil + co + k];
+      if (!isinf(e.q0)) return false;
+      Line3 l = line_of(e.x0, e.y0, e.x1, e.y1);
+      /* canonical direction: as the lower member stores it, so both members get one line */
+      *L = a < b ? l : line_reversed(l);
+      return true;
+    }
+  return false;
+}
+
+/* Triangles a tournament at one point can hold (bit masks of a ulong). */
+#ifndef VM_TOUR_MAX
+#define VM_TOUR_MAX 64
+#endif
+
+/* Triangle t = ids[0] (which has crossing entries) is hidden at the point; ids[0..n) are the
+ * triangles covering the point (competes()), in tile order after t. Near a triple point the
+ * independently snapped crossing lines can order the covering triangles cyclically (a over b
+ * over c over a), so that none is unhidden: a hole. Visibility is then decided by the whole
+ * tournament of the covering triangles at the point: its top strongly connected component (the
+ * triangles that reach every other one through "hides") is a single triangle where one is
+ * unhidden, else a cycle, of which the member in front at the cycle's centre (below) is
+ * visible. Every triangle at the point computes the same tournament, so exactly one is visible
+ * there; the triple-point entries (crossing.cl) make the answer the same over each fragment.
+ * Returns whether t is the visible one. */
+inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris, long px,
+                       long py, __global const VmEdge* edges, uint nsil,
+                       __global const uint* cross_offset, __global const uint* cross_count,
+                       __global const uint* partner) {
+  uint t = ids[0];
+  ulong beats[VM_TOUR_MAX];
+  for (uint i = 0; i < n; ++i) beats[i] = 0;
+  for (uint i = 0; i < n; ++i) {
+    VmScreenTri A = tris[ids[i]];
+    for (uint j = i + 1; j < n; ++j) {
+      VmScreenTri B = tris[ids[j]];
+      if (A.mesh == B.mesh && A.tri == B.tri) {
+        /* pieces of one source: they only meet on a shared edge; the lower index is in front */
+        if (ids[i] < ids[j]) beats[i] |= (ulong)1 << j; else beats[j] |= (ulong)1 << i;
+        continue;
+      }
+      if (hides(ids[i], ids[j], &A, &B, px, py, edges, nsil, cross_offset, cross_count, partner))
+        beats[j] |= (ulong)1 << i;
+      else
+        beats[i] |= (ulong)1 << j;
+    }
+  }
+  ulong all = n == 64 ? ~(ulong)0 : (((ulong)1 << n) - 1);
+  /* The top component: the triangles that reach every other one. t (slot 0) must be in it. */
+  ulong top = 0;
+  for (uint v = 0; v < n; ++v) {
+    ulong r = beats[v] | ((ulong)1 << v), prev = 0;
+    while (r != prev) {
+      prev = r;
+      ulong add = 0;
+      for (uint u = 0; u < n; ++u)
+        if (r & ((ulong)1 << u)) add |= beats[u];
+      r |= add;
+    }
+    if (r == all) top |= (ulong)1 << v;
+  }
+  if (!(top & 1)) return false;
+  if (top == 1) return true; /* t is hidden by nobody (not reached here, but exact) */
+  /* A cycle. Its members, by screen-triangle index, so that every member sees the same list. */
+  uint mem[VM_TOUR_MAX];
+  uint k = 0;
+  for (uint v = 0; v < n; ++v)
+    if (top & ((ulong)1 << v)) {
+      uint j = k++;
+      while (j > 0 && mem[j - 1] > ids[v]) { mem[j] = mem[j - 1]; --j; }
+      mem[j] = ids[v];
+    }
+  /* The cycle lies near the triple points of its members: c = the mean of the intersections
+   * of any two crossing lines of its pairs that share a member. The visible one is the member in
+   * front at c (true depth planes), ties to the lower index: a function of the cycle only, so
+   * the same over the whole cell and for every member. */
+  double2 c = (double2)(0, 0);
+  uint nc = 0;
+  for (uint a = 0; a < k; ++a)
+    for (uint b = 0; b < k; ++b) {
+      if (b == a) continue;
+      Line3 L1;
+      if (!pair_line_of(mem[a], mem[b], edges, nsil, cross_offset, cross_count, partner, &L1)) continue;
+      for (uint d = b + 1; d < k; ++d) {
+        if (d == a) continue;
+        Line3 L2;
+        if (!pair_line_of(mem[a], mem[d], edges, nsil, cross_offset, cross_count, partner, &L2)) continue;
+        if (L1.a * L2.b - L2.a * L1.b == 0) continue;
+        c += vertex_approx(L1, L2);
+        ++nc;
+      }
+    }
+  uint best = mem[0];
+  if (nc > 0) {
+    c /= (double)nc;
+    VmScreenTri B = tris[best];
+    double qb = tri_depth_at(&B, c.x, c.y);
+    for (uint a = 1; a < k; ++a) {
+      VmScreenTri A = tris[mem[a]];
+      double qa = tri_depth_at(&A, c.x, c.y);
+      if (qa > qb) { best = mem[a]; qb = qa; }
+    }
+  }
+  return best == t;
 }
 
 /* visible[i] = 1 when no screen triangle covers fragment i's interior point in front of it;
@@ -100,18 +233,56 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
   int gx = (int)(px >> VM_POINT_BITS), gy = (int)(py >> VM_POINT_BITS);
   uint tile = tile_coord(gy, g.tile_shift, g.tiles_y) * g.tiles_x + tile_coord(gx, g.tile_shift, g.tiles_x);
   uint off = tile_offset[tile], cnt = tile_count[tile];
-  for (uint k = 0; k < cnt; ++k) {
-    uint o = tile_list[off + k];
-    if (o == m.tri) continue;
-    int4 ob = tri_bb[o];
-    if (gx < ob.x || gx > ob.z || gy < ob.y || gy > ob.w) continue;
-    if (!covers(&tris[o], px, py)) continue;
-    VmScreenTri ot = tris[o];
-    if (ot.mesh == t.mesh && ot.tri == t.tri) continue; /* pieces of one source never overlap */
-    if (hides(m.tri, o, &t, &ot, px, py, edges, nsil, cross_offset, cross_count, partner)) {
-      visible[i] = 0;
-      return;
+  /* A cycle through t needs one of its entangled partners at the point (a crossing line
+   * misplaced by snapping, or a tie): without one, hidden is final. */
+  bool partnered = false;
+  {
+    uint co = cross_offset[m.tri], cn = cross_count[m.tri], last = VM_NONE;
+    for (uint k = 0; k < cn && !partnered; ++k) {
+      uint o = partner[co + k];
+      if (o == last || o == VM_NONE) continue;
+      last = o;
+      partnered = competes(tris, tri_bb, o, &t, px, py);
     }
   }
-  visible[i] = 1;
+  if (!partnered) {
+    /* (Written out rather than through competes(): PoCL compiles this hot loop 3x slower
+     * that way.) */
+    for (uint k = 0; k < cnt; ++k) {
+      uint o = tile_list[off + k];
+      if (o == m.tri) continue;
+      int4 ob = tri_bb[o];
+      if (gx < ob.x || gx > ob.z || gy < ob.y || gy > ob.w) continue;
+      if (!covers(&tris[o], px, py)) continue;
+      VmScreenTri ot = tris[o];
+      if (ot.mesh == t.mesh && ot.tri == t.tri) continue; /* pieces of one source never overlap */
+      if (hides(m.tri, o, &t, &ot, px, py, edges, nsil, cross_offset, cross_count, partner)) {
+        visible[i] = 0;
+        return;
+      }
+    }
+    visible[i] = 1;
+    return;
+  }
+  /* An entangled partner of t covers the point: hidden may still mean visible when the
+   * covering triangles form a cycle, so collect them all in the same pass. */
+  uint ids[VM_TOUR_MAX];
+  uint nc = 0;
+  ids[nc++] = m.tri;
+  bool hidden = false, over = false;
+  for (uint k = 0; k < cnt; ++k) {
+    uint o = tile_list[off + k];
+    if (o == m.tri || !competes(tris, tri_bb, o, &t, px, py)) continue;
+    if (nc < VM_TOUR_MAX)
+      ids[nc++] = o;
+    else
+      over = true;
+    if (!hidden) {
+      VmScreenTri ot = tris[o];
+      hidden = hides(m.tri, o, &t, &ot, px, py, edges, nsil, cross_offset, cross_count, partner);
+    }
+  }
+  /* More than VM_TOUR_MAX covering triangles: beyond what the tournament holds; stays hidden. */
+  visible[i] = !hidden || (!over && wins_cycle(ids, nc, tris, px, py, edges, nsil, cross_offset,
+                                               cross_count, partner));
 }

@@ -189,6 +189,39 @@ def main():
         cyc.append(("blade%d" % k, [[p0, p1, p2]]))
     write("cyclic_overlap", [bg] + cyc, ORTHO, "three blades overlapping cyclically (no depth order)")
 
+    # Triple points: large triangles over the middle of the view on random planes near z = 20,
+    # so that they all penetrate one another and most triples meet at a point inside all three;
+    # there the three independently snapped crossing lines bound a snap-sized cell, which the
+    # three can order cyclically (docs/NUMERICS.md §2).
+    rt = random.Random(31337)
+    trip = []
+    for k in range(9):
+        z0, gx, gy = rt.uniform(16, 24), rt.uniform(-0.3, 0.3), rt.uniform(-0.3, 0.3)
+        b = rt.uniform(0, 2 * math.pi)
+        pts = []
+        for j in range(3):
+            t = b + 2 * math.pi * j / 3
+            x, y = 128 + 115 * math.cos(t), 128 + 115 * math.sin(t)
+            pts.append((x, y, z0 + gx * (x - 128) + gy * (y - 128)))
+        trip.append(("t%d" % k, [pts]))
+    write("triple_points", [bg] + trip, ORTHO, "nine large mutually penetrating triangles (many triple points)")
+
+    # Concurrent planes: six triangles whose planes all pass through one point (128.3, 127.6, 20),
+    # so that all their triple points coincide before snapping: a cluster of cycle cells.
+    conc = []
+    cx, cy, cz = 128.3, 127.6, 20.0
+    for k in range(6):
+        a = math.pi * k / 6 + 0.1
+        gx, gy = 0.3 * math.cos(a), 0.3 * math.sin(a)  # depth slope of plane k
+        b = 2 * math.pi * k / 6
+        pts = []
+        for j in range(3):
+            t = b + 2 * math.pi * j / 3
+            x, y = cx + 110 * math.cos(t), cy + 110 * math.sin(t)
+            pts.append((x, y, cz + gx * (x - cx) + gy * (y - cy)))
+        conc.append(("p%d" % k, [pts]))
+    write("concurrent_planes", [bg] + conc, ORTHO, "six triangles whose planes share one point")
+
     # Vertex exactly on another triangle's edge, on screen.
     ve = [("base", [[(40, 40, 10), (220, 40, 10), (130, 220, 10)]]),
           ("touch", [[(130, 40, 20), (220, 130, 20), (240, 20, 20)], [(85, 130, 5), (20, 200, 5), (60, 240, 5)]])]
