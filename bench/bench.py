@@ -201,6 +201,7 @@ def write_outputs(out, rows, sweep, env, have_check):
             "host_ms"] + ["stage_" + s + "_ms" for s in STAGES] + [
             "triangles_per_s", "screen_triangles", "silhouette_edges", "crossing_lines", "fragments",
             "visible_fragments", "output_fragments", "output_triangles", "clip_rounds", "peak_device_bytes",
+            "zbuffer_ms", "zbuffer_kernels_ms", "zbuffer_ratio",
             "svg_bytes", "svg_ms", "bin_bytes", "bin_ms", "peak_rss_mb", "process_ms", "process_min_ms",
             "process_max_ms", "process_runs", "peak_rss_mb_cli", "cli_load_ms", "cli_render_ms", "cli_write_ms",
             "cli_total_ms", "check_area_error", "check_overlap_area", "check_wrong_source", "check_pixel_error",
@@ -336,6 +337,10 @@ def targets(rows, budget_rows=()):
         out.append(f"| dragon: loading not dominating | load < 50% of process | load {f1(d.get('cli_load_ms'))} ms = "
                    f"{100 * d.get('cli_load_ms', 0) / d['process_ms']:.0f}% of {f1(d['process_ms'])} ms | "
                    f"{'met' if d.get('cli_load_ms', 0) < 0.5 * d['process_ms'] else 'MISSED'} |")
+    for r in rows:
+        if r.get("zbuffer_ratio") and r.get("kind") == "row":
+            line(f"{r['scene']} {r['width']}^2 pipeline / z-buffer id raster (same device; the "
+                 f"issue's 10x is for the GPU)", 10, r["zbuffer_ratio"], "x")
     big = [r for r in budget_rows if r["scene"] == "bunny_loop3" and r["width"] == 4096]
     if big:
         line(f"bunny Loop x3 (4.4M) 4096^2, --memory-budget {big[0]['memory_budget']}: peak RSS", 1024,

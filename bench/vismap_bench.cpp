@@ -228,6 +228,15 @@ int main(int argc, char** argv) {
           bin_bytes = bin.size();
         }
       }
+      // The floor (issue 5): a plain z-buffer id raster of the same scene on the same device, as
+      // many runs as the pipeline had (its first run pays the raster kernels' JIT: not counted).
+      std::vector<double> zb_ms, zb_kernels;
+      renderer.raster_ids(scene, cam);
+      for (size_t r = 0; r < pipe.size(); ++r) {
+        RasterStats rs = renderer.raster_ids(scene, cam);
+        zb_ms.push_back(rs.ms);
+        zb_kernels.push_back(rs.kernels_ms);
+      }
       uint64_t out_tris = 0;
       for (size_t f = 0; f < map.fragment_count(); ++f) out_tris += map.offsets[f + 1] - map.offsets[f] - 2;
       // The pipeline's own choice when tile_pixels = 0 (mirrors core/pipeline.cpp; reported only).
@@ -283,6 +292,9 @@ int main(int argc, char** argv) {
       num("output_fragments", double(map.fragment_count()));
       num("output_triangles", double(out_tris));
       num("peak_device_bytes", double(st.peak_device_bytes));
+      num("zbuffer_ms", median(zb_ms));
+      num("zbuffer_kernels_ms", median(zb_kernels));
+      num("zbuffer_ratio", median(pipe) / std::max(median(zb_ms), 1e-9));
       num("svg_bytes", double(svg_bytes));
       num("svg_ms", median(svg_ms));
       if (!bin_ms.empty()) {

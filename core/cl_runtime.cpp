@@ -20,7 +20,7 @@ const char* const kProgramFiles[] = {
     "kernels/layout.h",  "kernels/int128.cl",     "kernels/geometry.cl",
     "kernels/scan.cl",   "kernels/bin.cl",  "kernels/transform.cl", "kernels/crossing.cl",
     "kernels/silhouette.cl", "kernels/clip.cl",   "kernels/occlude.cl",
-    "kernels/emit.cl",
+    "kernels/emit.cl",   "kernels/zbuffer.cl",
 };
 
 constexpr size_t kScanWg = 256, kScanBlock = 256 * 8, kLocal = 64;

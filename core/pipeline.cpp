@@ -56,6 +56,7 @@ struct Renderer::Impl {
   std::vector<uint32_t> cull_modes(const Scene& scene, const Camera& cam) const;
   PlanarMap run(const Scene& scene, const Camera& cam, const RenderOptions& opts, RenderStats& st,
                 ScreenTriangles* screen);
+  RasterStats raster(const Scene& scene, const Camera& cam, std::vector<uint32_t>* ids);
   std::vector<cl_int4> plan_buckets(uint64_t budget, uint32_t W, uint32_t H, cl_int ortho,
                                     cl::Buffer& clip, cl::Buffer& mesh_cull, cl::Buffer& boxes,
                                     RenderStats& st);
@@ -615,6 +616,56 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   return map;
 }
 
+RasterStats Renderer::Impl::raster(const Scene& scene, const Camera& cam, std::vector<uint32_t>* ids) {
+  cam.validate();
+  RenderStats ust;
+  upload(scene, ust);
+  RasterStats rs;
+  const uint32_t W = cam.width, H = cam.height;
+  if (ids) ids->assign(size_t(W) * H, 0xffffffffu);
+  if (ntri == 0) return rs;
+  auto t0 = Clock::now();
+  rt.reset_profile();
+  // The same transform, clipping, culling and snapping as run(), over the whole screen.
+  Mat4 vp = cam.view_projection();
+  cl::Buffer mat = rt.upload(std::vector<double>(vp.begin(), vp.end()), "view-projection");
+  cl::Buffer mesh_cull = rt.upload(cull_modes(scene, cam), "cull modes");
+  cl::Buffer clip = rt.alloc(size_t(nv) * sizeof(cl_double4), "clip-space vertices");
+  rt.launch("raster", "transform_vertices", nv, pos, nv, mat, clip);
+  cl::Buffer counts = rt.alloc(size_t(ntri) * 4, "clip counts");
+  cl::Buffer offsets = rt.alloc(size_t(ntri) * 4, "clip offsets");
+  const cl_int iortho = cam.projection == Camera::Projection::Orthographic ? 1 : 0, off = 0;
+  const cl_int4 full = {{0, 0, cl_int(W * VM_GRID_SCALE), cl_int(H * VM_GRID_SCALE)}};
+  cl::Buffer none = rt.alloc(16, "triangle boxes");
+  rt.launch("raster", "clip_count", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H, iortho,
+            full, none, off, counts);
+  const uint32_t S = rt.scan("raster", counts, offsets, ntri);
+  rs.screen_triangles = S;
+  cl::Buffer tris = rt.alloc(std::max<size_t>(S, 1) * sizeof(VmScreenTri), "screen triangles");
+  cl::Buffer nobary = rt.alloc(16, "screen barycentrics");
+  rt.launch("raster", "clip_fill", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H, iortho,
+            full, none, off, offsets, tris, nobary, off);
+  const uint32_t npix = W * H;
+  cl::Buffer depth = rt.alloc(size_t(npix) * 4, "z-buffer depth");
+  cl::Buffer pix = rt.alloc(size_t(npix) * 4, "z-buffer ids");
+  rt.launch("raster", "zb_clear", npix, depth, pix, npix);
+  rt.launch("raster", "zb_depth", S, tris, S, W, H, depth);
+  rt.launch("raster", "zb_ids", S, tris, S, W, H, depth, pix);
+  std::vector<uint32_t> local;
+  std::vector<uint32_t>& out = ids ? *ids : local;
+  out.resize(npix);
+  rt.queue().enqueueReadBuffer(pix, CL_TRUE, 0, size_t(npix) * 4, out.data());
+  rs.ms = ms_since(t0);
+  for (const auto& [stage, t] : rt.collect_profile()) rs.kernels_ms += t.first;
+  if (ids && S) {  // screen-triangle index -> input triangle index
+    std::vector<VmScreenTri> host(S);
+    rt.queue().enqueueReadBuffer(tris, CL_TRUE, 0, size_t(S) * sizeof(VmScreenTri), host.data());
+    for (uint32_t& v : out)
+      if (v != 0xffffffffu) v = host[v].src;
+  }
+  return rs;
+}
+
 void keep_freed_memory_for_reuse() {
 #if defined(__GLIBC__)
   mallopt(M_MMAP_MAX, 0);
@@ -626,6 +677,15 @@ Renderer::Renderer(const std::string& device) : impl_(std::make_unique<Impl>(dev
 Renderer::~Renderer() = default;
 
 const DeviceInfo& Renderer::device() const { return impl_->rt.info(); }
+
+RasterStats Renderer::raster_ids(const Scene& scene, const Camera& camera, std::vector<uint32_t>* ids) {
+  try {
+    return impl_->raster(scene, camera, ids);
+  } catch (const cl::Error& e) {
+    throw DeviceError(std::string("OpenCL error in ") + e.what() + " (" + std::to_string(e.err()) +
+                      ") on " + impl_->rt.info().name);
+  }
+}
 
 PlanarMap Renderer::render(const Scene& scene, const Camera& camera, const RenderOptions& opts,
                            RenderStats* stats, ScreenTriangles* screen) {

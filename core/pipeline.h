@@ -49,6 +49,13 @@ struct RenderStats {
   uint64_t bucket_work_bytes = 0;   // the estimate each bucket was planned to stay under
 };
 
+// The floor of issue 5: a plain z-buffer id raster of the same scene on the same device.
+struct RasterStats {
+  double ms = 0;                    // host wall time (scene upload excluded)
+  double kernels_ms = 0;            // OpenCL event time: transform, clip, snap, clear, 2 passes
+  uint64_t screen_triangles = 0;
+};
+
 struct DeviceInfo {
   std::string platform, name, version;
   bool is_gpu = false;
@@ -78,6 +85,10 @@ class Renderer {
   const DeviceInfo& device() const;
   PlanarMap render(const Scene& scene, const Camera& camera, const RenderOptions& opts = {},
                    RenderStats* stats = nullptr, ScreenTriangles* screen = nullptr);
+  // One sample per pixel centre (row-major, y down): the global input triangle index
+  // (Renderer's upload order: meshes in scene order) of the nearest triangle, or 0xffffffff.
+  // Not exact: it is the time to beat, not a reference.
+  RasterStats raster_ids(const Scene& scene, const Camera& camera, std::vector<uint32_t>* ids = nullptr);
 
  private:
   struct Impl;
