@@ -57,6 +57,15 @@ struct Renderer::Impl {
   PlanarMap run(const Scene& scene, const Camera& cam, const RenderOptions& opts, RenderStats& st,
                 ScreenTriangles* screen);
   RasterStats raster(const Scene& scene, const Camera& cam, std::vector<uint32_t>* ids);
+
+  // Per frame, before clipping: the camera's matrix and cull modes, the clip-space vertices, the
+  // per-input-triangle count and offset buffers, and the whole screen as a region.
+  struct Frame {
+    cl::Buffer mat, mesh_cull, clip, counts, offsets;
+    cl_int ortho = 0;
+    cl_int4 full{};
+  };
+  Frame begin_frame(const Scene& scene, const Camera& cam, const char* stage);
   std::vector<cl_int4> plan_buckets(uint64_t budget, uint32_t W, uint32_t H, cl_int ortho,
                                     cl::Buffer& clip, cl::Buffer& mesh_cull, cl::Buffer& boxes,
                                     RenderStats& st);
@@ -229,15 +238,10 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   const bool want_bary = opts.attributes;
 
   // ---- transform (once per frame) ----------------------------------------------------------
-  Mat4 vp = cam.view_projection();
-  cl::Buffer mat = rt.upload(std::vector<double>(vp.begin(), vp.end()), "view-projection");
-  cl::Buffer mesh_cull = rt.upload(cull_modes(scene, cam), "cull modes");
-  cl::Buffer clip = rt.alloc(size_t(nv) * sizeof(cl_double4), "clip-space vertices");
-  rt.launch("transform", "transform_vertices", nv, pos, nv, mat, clip);
-  cl::Buffer counts = rt.alloc(size_t(ntri) * 4, "clip counts");
-  cl::Buffer offsets = rt.alloc(size_t(ntri) * 4, "clip offsets");
-  const cl_int iortho = ortho ? 1 : 0;
-  const cl_int4 full = {{0, 0, cl_int(W * VM_GRID_SCALE), cl_int(H * VM_GRID_SCALE)}};
+  Frame fr = begin_frame(scene, cam, "transform");
+  cl::Buffer &mesh_cull = fr.mesh_cull, &clip = fr.clip, &counts = fr.counts, &offsets = fr.offsets;
+  const cl_int iortho = fr.ortho;
+  const cl_int4 full = fr.full;
 
   // ---- buckets (--memory-budget): parts of the screen rendered one after another ------------
   std::vector<cl_int4> regions{full};
@@ -616,6 +620,21 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   return map;
 }
 
+Renderer::Impl::Frame Renderer::Impl::begin_frame(const Scene& scene, const Camera& cam,
+                                                  const char* stage) {
+  Frame f;
+  Mat4 vp = cam.view_projection();
+  f.mat = rt.upload(std::vector<double>(vp.begin(), vp.end()), "view-projection");
+  f.mesh_cull = rt.upload(cull_modes(scene, cam), "cull modes");
+  f.clip = rt.alloc(size_t(nv) * sizeof(cl_double4), "clip-space vertices");
+  rt.launch(stage, "transform_vertices", nv, pos, nv, f.mat, f.clip);
+  f.counts = rt.alloc(size_t(ntri) * 4, "clip counts");
+  f.offsets = rt.alloc(size_t(ntri) * 4, "clip offsets");
+  f.ortho = cam.projection == Camera::Projection::Orthographic ? 1 : 0;
+  f.full = {{0, 0, cl_int(cam.width * VM_GRID_SCALE), cl_int(cam.height * VM_GRID_SCALE)}};
+  return f;
+}
+
 RasterStats Renderer::Impl::raster(const Scene& scene, const Camera& cam, std::vector<uint32_t>* ids) {
   cam.validate();
   RenderStats ust;
@@ -627,15 +646,10 @@ RasterStats Renderer::Impl::raster(const Scene& scene, const Camera& cam, std::v
   auto t0 = Clock::now();
   rt.reset_profile();
   // The same transform, clipping, culling and snapping as run(), over the whole screen.
-  Mat4 vp = cam.view_projection();
-  cl::Buffer mat = rt.upload(std::vector<double>(vp.begin(), vp.end()), "view-projection");
-  cl::Buffer mesh_cull = rt.upload(cull_modes(scene, cam), "cull modes");
-  cl::Buffer clip = rt.alloc(size_t(nv) * sizeof(cl_double4), "clip-space vertices");
-  rt.launch("raster", "transform_vertices", nv, pos, nv, mat, clip);
-  cl::Buffer counts = rt.alloc(size_t(ntri) * 4, "clip counts");
-  cl::Buffer offsets = rt.alloc(size_t(ntri) * 4, "clip offsets");
-  const cl_int iortho = cam.projection == Camera::Projection::Orthographic ? 1 : 0, off = 0;
-  const cl_int4 full = {{0, 0, cl_int(W * VM_GRID_SCALE), cl_int(H * VM_GRID_SCALE)}};
+  Frame fr = begin_frame(scene, cam, "raster");
+  cl::Buffer &mesh_cull = fr.mesh_cull, &clip = fr.clip, &counts = fr.counts, &offsets = fr.offsets;
+  const cl_int iortho = fr.ortho, off = 0;
+  const cl_int4 full = fr.full;
   cl::Buffer none = rt.alloc(16, "triangle boxes");
   rt.launch("raster", "clip_count", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H, iortho,
             full, none, off, counts);
