@@ -31,6 +31,17 @@ uint32_t next_pow2(uint64_t v) {
   return static_cast<uint32_t>(p);
 }
 
+// A uniform grid of square tiles of tile_px pixels over a W x H screen (bins, bucket cells).
+VmGrid make_grid(uint32_t tile_px, uint32_t W, uint32_t H) {
+  VmGrid g;
+  g.tile_size = static_cast<int32_t>(tile_px * VM_GRID_SCALE);
+  g.tiles_x = static_cast<int32_t>((W + tile_px - 1) / tile_px);
+  g.tiles_y = static_cast<int32_t>((H + tile_px - 1) / tile_px);
+  g.tile_shift = 0;
+  while ((1 << g.tile_shift) < g.tile_size) ++g.tile_shift;
+  return g;
+}
+
 // Totals buffer slots: one small read per clip round brings back all of them.
 enum Slot : uint32_t { kStatus = 0, kSlivers = 1, kNextTotal = 2, kDoneTotal = 3, kSlots = 4 };
 
@@ -86,12 +97,7 @@ std::vector<cl_int4> Renderer::Impl::plan_buckets(uint64_t budget, uint32_t W, u
                                                   cl::Buffer& mesh_cull, cl::Buffer& boxes,
                                                   RenderStats& st) {
   const uint32_t cell_px = std::max<uint32_t>(16, next_pow2((std::max(W, H) + 63) / 64));
-  VmGrid cells;
-  cells.tile_size = static_cast<int32_t>(cell_px * VM_GRID_SCALE);
-  cells.tiles_x = static_cast<int32_t>((W + cell_px - 1) / cell_px);
-  cells.tiles_y = static_cast<int32_t>((H + cell_px - 1) / cell_px);
-  cells.tile_shift = 0;
-  while ((1 << cells.tile_shift) < cells.tile_size) ++cells.tile_shift;
+  const VmGrid cells = make_grid(cell_px, W, H);
   const uint32_t cx = uint32_t(cells.tiles_x), cy = uint32_t(cells.tiles_y);
   const cl_int4 full = {{0, 0, cl_int(W * VM_GRID_SCALE), cl_int(H * VM_GRID_SCALE)}};
 
@@ -333,22 +339,13 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     }
 
     // ---- bins ---------------------------------------------------------------------------------
-    auto make_grid = [&](uint32_t tile_px) {
-      VmGrid g;
-      g.tile_size = static_cast<int32_t>(tile_px * VM_GRID_SCALE);
-      g.tiles_x = static_cast<int32_t>((W + tile_px - 1) / tile_px);
-      g.tiles_y = static_cast<int32_t>((H + tile_px - 1) / tile_px);
-      g.tile_shift = 0;
-      while ((1 << g.tile_shift) < g.tile_size) ++g.tile_shift;
-      return g;
-    };
     uint32_t tile_px = opts.tile_pixels;
     if (tile_px == 0) {
       double side = 2.0 * std::sqrt(double(W) * H / std::max<uint32_t>(S, 1));
       tile_px = std::clamp<uint32_t>(next_pow2(static_cast<uint64_t>(std::ceil(side))), 8, 512);
     }
-    const VmGrid eg = make_grid(tile_px);
-    const VmGrid og = make_grid(std::max<uint32_t>(tile_px / 2, 4));
+    const VmGrid eg = make_grid(tile_px, W, H);
+    const VmGrid og = make_grid(std::max<uint32_t>(tile_px / 2, 4), W, H);
 
 
     struct Bins {
