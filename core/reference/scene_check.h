@@ -50,8 +50,8 @@ struct SceneFigures {
 // then area_error and coverage_error may reach the snap level (snap_area_bound) and wrong_source
 // counts snap-sized fragments on the wrong side of a crossing line (their area is in area_error).
 struct Tolerances {
-  double exact = 1e-12;         // area_error, coverage_error without crossing lines (rounding of
-                                // the final quotient and the 2^-96 fixed-point sums only)
+  double exact = 1e-12;         // coverage_error always, area_error without crossing lines
+                                // (rounding of the final quotient and the 2^-96 fixed-point sums)
   double snap_factor = 1.0;     // with crossing lines: <= snap_factor * snap_area_bound
   double overlap_area = 0;
   size_t wrong_source = 0;      // without crossing lines
