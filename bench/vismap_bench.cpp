@@ -239,15 +239,7 @@ int main(int argc, char** argv) {
       }
       uint64_t out_tris = 0;
       for (size_t f = 0; f < map.fragment_count(); ++f) out_tris += map.offsets[f + 1] - map.offsets[f] - 2;
-      // The pipeline's own choice when tile_pixels = 0 (mirrors core/pipeline.cpp; reported only).
-      uint32_t auto_tile = 0;
-      {
-        double side = 2.0 * std::sqrt(double(cam.width) * cam.height / std::max<uint64_t>(st.screen_triangles, 1));
-        uint32_t p = 1;
-        while (p < std::ceil(side)) p <<= 1;
-        auto_tile = std::clamp<uint32_t>(p, 8, 512);
-      }
-      const uint32_t eff_tile = tile ? tile : auto_tile;
+      const uint32_t eff_tile = std::max<uint32_t>(st.tile_pixels, 1);  // the pipeline's choice when tile is 0
       const uint64_t bins = uint64_t((cam.width + eff_tile - 1) / eff_tile) * ((cam.height + eff_tile - 1) / eff_tile);
 
       std::string o = "{";

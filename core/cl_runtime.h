@@ -18,15 +18,6 @@ namespace vismap {
 
 const std::map<std::string, std::string>& kernel_sources();  // generated at build time
 
-// Host memory behind the large device buffers of a CPU device (PoCL runs kernels on host
-// memory; the buffers are created with CL_MEM_USE_HOST_PTR): from the C allocator, aligned to
-// 2 MiB huge pages and advised to use them (madvise). A fresh 4 KiB page costs a page fault on
-// first touch, ~11 us on the CI machine (256 MB: 740 ms); a huge page costs about as much for
-// 512 times the memory (256 MB: 23 ms), and freed blocks are reused by the allocator.
-void* take_host_block(size_t& bytes);  // rounds bytes up to whole huge pages; nullptr on failure
-void give_host_block(void* p);
-constexpr size_t kHostBlockMinBytes = 1 << 20;  // smaller buffers are left to the runtime
-
 class ClRuntime {
  public:
   explicit ClRuntime(const std::string& device_spec);
@@ -69,12 +60,11 @@ class ClRuntime {
   // Profiling: per-stage event times since the last reset (waits for the queue).
   void reset_profile();
   std::map<std::string, std::pair<double, uint32_t>> collect_profile();
-  // Device memory: the sum of every allocation since reset_allocated() (an upper bound), the
-  // bytes held now (buffers release theirs when their last handle goes), and the most held at
-  // once since reset_peak().
+  // Device memory: the sum of every allocation since reset_allocated() (an upper bound), and
+  // the most held at once since reset_peak() (a buffer's bytes count until the runtime releases
+  // it, which may be after its last handle goes).
   uint64_t allocated_bytes() const { return allocated_; }
   void reset_allocated() { allocated_ = 0; }
-  uint64_t live_bytes() const { return live_->load(); }
   uint64_t peak_bytes() const { return peak_; }
   void reset_peak() { peak_ = live_->load(); }
 
@@ -103,7 +93,7 @@ class ClRuntime {
   uint64_t allocated_ = 0;
   // Shared with the release callbacks, which may run after the runtime is gone.
   std::shared_ptr<std::atomic<uint64_t>> live_ = std::make_shared<std::atomic<uint64_t>>(0);
-  bool host_blocks_ = false;  // CPU devices ($VISMAP_HOST_BLOCKS=0 turns it off)
+  bool host_blocks_ = false;  // large buffers on host blocks: CPU devices, unless $VISMAP_HOST_BLOCKS=0
   uint64_t peak_ = 0;
   cl::Buffer scratch_total_;
 };

@@ -70,16 +70,21 @@ struct Renderer::Impl {
   RasterStats raster(const Scene& scene, const Camera& cam, std::vector<uint32_t>* ids);
 
   // Per frame, before clipping: the camera's matrix and cull modes, the clip-space vertices, the
-  // per-input-triangle count and offset buffers, and the whole screen as a region.
+  // per-input-triangle count and offset buffers, the whole screen as a region, and (buckets
+  // only) each input triangle's box in pixels.
   struct Frame {
-    cl::Buffer mat, mesh_cull, clip, counts, offsets;
-    cl_int ortho = 0;
+    uint32_t W = 0, H = 0;
+    cl::Buffer mat, mesh_cull, clip, counts, offsets, boxes;
+    cl_int ortho = 0, use_boxes = 0;
     cl_int4 full{};
   };
   Frame begin_frame(const Scene& scene, const Camera& cam, const char* stage);
-  std::vector<cl_int4> plan_buckets(uint64_t budget, uint32_t W, uint32_t H, cl_int ortho,
-                                    cl::Buffer& clip, cl::Buffer& mesh_cull, cl::Buffer& boxes,
-                                    RenderStats& st);
+  // The S screen triangles of a region: count_screen sizes them (the frame's counts and
+  // offsets, S returned), then fill_screen writes them, with barycentrics when bary is given.
+  uint32_t count_screen(Frame& fr, const cl_int4& region, const char* stage);
+  void fill_screen(Frame& fr, const cl_int4& region, const char* stage, uint32_t S, cl::Buffer& tris,
+                   cl::Buffer* bary);
+  std::vector<cl_int4> plan_buckets(uint64_t budget, Frame& fr, RenderStats& st);
 };
 
 // Device bytes a bucket needs per screen triangle in it, all stages together (measured peak
@@ -92,22 +97,20 @@ constexpr uint64_t kBucketBytesPerTriangle = 1400;
 // rectangles are halved at their count median, longer side first, until each fits or is one
 // cell. Also fills `boxes` (each input triangle's box in pixels) so that buckets skip the
 // triangles that cannot reach them without clipping them again.
-std::vector<cl_int4> Renderer::Impl::plan_buckets(uint64_t budget, uint32_t W, uint32_t H,
-                                                  cl_int ortho, cl::Buffer& clip,
-                                                  cl::Buffer& mesh_cull, cl::Buffer& boxes,
-                                                  RenderStats& st) {
+std::vector<cl_int4> Renderer::Impl::plan_buckets(uint64_t budget, Frame& fr, RenderStats& st) {
+  const uint32_t W = fr.W, H = fr.H;
   const uint32_t cell_px = std::max<uint32_t>(16, next_pow2((std::max(W, H) + 63) / 64));
   const VmGrid cells = make_grid(cell_px, W, H);
   const uint32_t cx = uint32_t(cells.tiles_x), cy = uint32_t(cells.tiles_y);
-  const cl_int4 full = {{0, 0, cl_int(W * VM_GRID_SCALE), cl_int(H * VM_GRID_SCALE)}};
 
-  boxes = rt.alloc(size_t(ntri) * sizeof(cl_ushort4), "triangle boxes");
+  fr.boxes = rt.alloc(size_t(ntri) * sizeof(cl_ushort4), "triangle boxes");
+  fr.use_boxes = 1;
   std::vector<uint32_t> hist(size_t(cx) * cy);
   {
     cl::Buffer h = rt.alloc(hist.size() * 4, "bucket cell counts");
     rt.fill_u32(h, 0, hist.size(), "transform");
-    rt.launch("transform", "clip_cells", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
-              ortho, full, cells, h, boxes);
+    rt.launch("transform", "clip_cells", ntri, idx, ntri, fr.clip, tri_mesh, tri_local, fr.mesh_cull,
+              W, H, fr.ortho, fr.full, cells, h, fr.boxes);
     rt.queue().enqueueReadBuffer(h, CL_TRUE, 0, hist.size() * 4, hist.data());
   }
   // What every bucket holds besides its own work: the scene, the clip-space vertices, the
@@ -162,7 +165,7 @@ std::vector<cl_int4> Renderer::Impl::plan_buckets(uint64_t budget, uint32_t W, u
     }
   };
   split(split, 0, 0, cx, cy);
-  if (out.empty()) out.push_back(full);  // nothing on screen: one (empty) bucket
+  if (out.empty()) out.push_back(fr.full);  // nothing on screen: one (empty) bucket
   return out;
 }
 
@@ -245,21 +248,16 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
 
   // ---- transform (once per frame) ----------------------------------------------------------
   Frame fr = begin_frame(scene, cam, "transform");
-  cl::Buffer &mesh_cull = fr.mesh_cull, &clip = fr.clip, &counts = fr.counts, &offsets = fr.offsets;
-  const cl_int iortho = fr.ortho;
-  const cl_int4 full = fr.full;
 
   // ---- buckets (--memory-budget): parts of the screen rendered one after another ------------
-  std::vector<cl_int4> regions{full};
-  cl::Buffer boxes = rt.alloc(16, "triangle boxes");
-  if (opts.memory_budget) regions = plan_buckets(opts.memory_budget, W, H, iortho, clip, mesh_cull, boxes, st);
-  const cl_int use_boxes = opts.memory_budget ? 1 : 0;
-  const cl_int clip_region = use_boxes;
+  std::vector<cl_int4> regions{fr.full};
+  if (opts.memory_budget) regions = plan_buckets(opts.memory_budget, fr, st);
+  const cl_int use_boxes = fr.use_boxes;  // in buckets, root fragments are clipped to theirs
   st.buckets = 0;
   // The plan is an estimate: a bucket whose screen triangles, at the bytes per triangle seen so
   // far, would not fit is halved again before anything of it is allocated.
   std::vector<cl_int4> todo(regions.rbegin(), regions.rend());
-  uint64_t bytes_per_tri = kBucketBytesPerTriangle, peak = rt.peak_bytes();
+  uint64_t bytes_per_tri = kBucketBytesPerTriangle;
   auto halve = [](const cl_int4& r, cl_int4& a, cl_int4& b) {
     const int unit = 16 * VM_GRID_SCALE, w = r.s[2] - r.s[0], h = r.s[3] - r.s[1];
     const bool cut_x = w >= 2 * unit && (w >= h || h < 2 * unit);
@@ -288,13 +286,9 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   while (!todo.empty()) {
     const cl_int4 region = todo.back();
     todo.pop_back();
-    peak = std::max(peak, rt.peak_bytes());
-    rt.reset_peak();
     const uint64_t base = rt.allocated_bytes();
     // ---- clip + cull + snap, keeping the triangles that reach the region ----------------------
-    rt.launch("transform", "clip_count", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
-              iortho, region, boxes, use_boxes, counts);
-    const uint32_t S = rt.scan("transform", counts, offsets, ntri);
+    const uint32_t S = count_screen(fr, region, "transform");
     add_io("transform", ntri, 0);
     cl_int4 half_a, half_b;
     if (use_boxes && uint64_t(S) * bytes_per_tri > st.bucket_work_bytes && halve(region, half_a, half_b)) {
@@ -306,11 +300,8 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     st.screen_triangles += S;
     add_io("transform", 0, S);
     if (S == 0) continue;
-    cl::Buffer tris = rt.alloc(size_t(S) * sizeof(VmScreenTri), "screen triangles");
-    cl::Buffer tri_bary = rt.alloc(want_bary ? size_t(S) * 9 * sizeof(float) : 16, "screen barycentrics");
-    cl_int iwant = want_bary ? 1 : 0;
-    rt.launch("transform", "clip_fill", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H,
-              iortho, region, boxes, use_boxes, offsets, tris, tri_bary, iwant);
+    cl::Buffer tris, tri_bary;
+    fill_screen(fr, region, "transform", S, tris, want_bary ? &tri_bary : nullptr);
 
     cl::Buffer totals = rt.alloc(kSlots * 4, "totals");
     rt.fill_u32(totals, 0, kSlots, "transform");
@@ -344,6 +335,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       double side = 2.0 * std::sqrt(double(W) * H / std::max<uint32_t>(S, 1));
       tile_px = std::clamp<uint32_t>(next_pow2(static_cast<uint64_t>(std::ceil(side))), 8, 512);
     }
+    st.tile_pixels = tile_px;
     const VmGrid eg = make_grid(tile_px, W, H);
     const VmGrid og = make_grid(std::max<uint32_t>(tile_px / 2, 4), W, H);
 
@@ -381,17 +373,16 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     constexpr uint32_t kInline = 4;  // VM_PAIRS_INLINE in kernels/crossing.cl
     cl::Buffer pcount = rt.alloc(size_t(S) * 4, "pair counts");
     cl::Buffer poffset = rt.alloc(size_t(S) * 4, "pair offsets");
-    uint32_t npairs = 0;
+    uint32_t P = 0;
     {
       cl::Buffer scr_o = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
       cl::Buffer scr_rel = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
       cl::Buffer scr_line = rt.alloc(size_t(S) * kInline * sizeof(VmLine), "pair scratch");
       rt.launch("crossings", "cross_pairs", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.count,
                 tbins.list, pcount, scr_o, scr_rel, scr_line, totals);
-      npairs = rt.scan("crossings", pcount, poffset, S);
+      P = rt.scan("crossings", pcount, poffset, S);
       uint32_t status = 0;
       q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof status, &status);
-      const uint32_t P = npairs;
       pair_t = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
       pair_o = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
       pair_rel = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
@@ -403,7 +394,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
         rt.launch("crossings", "cross_compact", S, S, pcount, poffset, scr_o, scr_rel, scr_line,
                   pair_t, pair_o, pair_rel, pair_line);
     }
-    const uint32_t P = npairs;
     rt.launch("crossings", "cross_refine", P, P, tris, pair_t, pair_o, pair_rel, pair_line);
     cl::Buffer in_count = rt.alloc(size_t(S) * 4, "incoming pair counts");
     cl::Buffer in_offset = rt.alloc(size_t(S) * 4, "incoming pair offsets");
@@ -443,13 +433,12 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     // ---- clipping rounds (work queue) ---------------------------------------------------------
     cl::Buffer done_meta, done_lines;
     uint32_t nd = 0, rounds = 0;
-    uint64_t clipped_total = 0;
     for (;;) {
       const uint32_t L = rt.maxl();
       try {
         cl::Buffer qmeta = rt.alloc(size_t(S) * sizeof(VmFragMeta), "fragment queue");
         cl::Buffer qlines = rt.alloc(size_t(S) * L * sizeof(VmLine), "fragment lines");
-        rt.launch("clip", "frag_init", S, tris, S, region, clip_region, qmeta, qlines);
+        rt.launch("clip", "frag_init", S, tris, S, region, use_boxes, qmeta, qlines);
         // Finished fragments are ~1.2 per screen triangle on the bench scenes (bunny 1.17,
         // dragon 1.23): room for 1.25 avoids growing (a copy, and old and new held at once).
         uint32_t nq = S, done_cap = std::max<uint32_t>(S + S / 4, 1024);
@@ -457,7 +446,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
         done_lines = rt.alloc(size_t(done_cap) * L * sizeof(VmLine), "finished fragment lines");
         nd = 0;
         rounds = 0;
-        clipped_total = 0;
         while (nq > 0) {
           ++rounds;
           cl::Buffer split_at = rt.alloc(size_t(nq) * 4, "split edges");
@@ -490,7 +478,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
           cl::Buffer nlines = rt.alloc(std::max<size_t>(nn, 1) * L * sizeof(VmLine), "fragment lines");
           rt.launch("clip", "clip_apply", nq, qmeta, qlines, nq, cand_offset, cand, edges, split_at,
                     noff, doff, nd, nmeta, nlines, done_meta, done_lines);
-          clipped_total += nn;
           nd += dn;
           nq = nn;
           qmeta = nmeta;
@@ -596,7 +583,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       bytes_per_tri = std::max(bytes_per_tri, (rt.allocated_bytes() - base) / S);
     }
   }  // buckets
-  peak = std::max(peak, rt.peak_bytes());
   add_io("emit", st.visible_fragments, map.vertex_count());
 
   for (const char* name : {"transform", "silhouettes", "bin", "crossings", "candidates", "clip",
@@ -609,7 +595,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     s.items_out = io[name].second;
     st.stages.push_back(s);
   }
-  st.peak_device_bytes = peak;
+  st.peak_device_bytes = rt.peak_bytes();
   st.allocated_device_bytes = rt.allocated_bytes();
 #if defined(__GLIBC__)
   if (opts.memory_budget) malloc_trim(0);  // a budgeted render hands back what it freed
@@ -620,6 +606,8 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
 Renderer::Impl::Frame Renderer::Impl::begin_frame(const Scene& scene, const Camera& cam,
                                                   const char* stage) {
   Frame f;
+  f.W = cam.width;
+  f.H = cam.height;
   Mat4 vp = cam.view_projection();
   f.mat = rt.upload(std::vector<double>(vp.begin(), vp.end()), "view-projection");
   f.mesh_cull = rt.upload(cull_modes(scene, cam), "cull modes");
@@ -629,7 +617,25 @@ Renderer::Impl::Frame Renderer::Impl::begin_frame(const Scene& scene, const Came
   f.offsets = rt.alloc(size_t(ntri) * 4, "clip offsets");
   f.ortho = cam.projection == Camera::Projection::Orthographic ? 1 : 0;
   f.full = {{0, 0, cl_int(cam.width * VM_GRID_SCALE), cl_int(cam.height * VM_GRID_SCALE)}};
+  f.boxes = rt.alloc(16, "triangle boxes");  // plan_buckets fills it for buckets
   return f;
+}
+
+uint32_t Renderer::Impl::count_screen(Frame& fr, const cl_int4& region, const char* stage) {
+  rt.launch(stage, "clip_count", ntri, idx, ntri, fr.clip, tri_mesh, tri_local, fr.mesh_cull, fr.W, fr.H,
+            fr.ortho, region, fr.boxes, fr.use_boxes, fr.counts);
+  return rt.scan(stage, fr.counts, fr.offsets, ntri);
+}
+
+void Renderer::Impl::fill_screen(Frame& fr, const cl_int4& region, const char* stage, uint32_t S,
+                                 cl::Buffer& tris, cl::Buffer* bary) {
+  tris = rt.alloc(std::max<size_t>(S, 1) * sizeof(VmScreenTri), "screen triangles");
+  cl::Buffer none;
+  cl::Buffer& b = bary ? *bary : none;
+  b = rt.alloc(bary ? std::max<size_t>(S, 1) * 9 * sizeof(float) : 16, "screen barycentrics");
+  const cl_int want = bary ? 1 : 0;
+  rt.launch(stage, "clip_fill", ntri, idx, ntri, fr.clip, tri_mesh, tri_local, fr.mesh_cull, fr.W, fr.H,
+            fr.ortho, region, fr.boxes, fr.use_boxes, fr.offsets, tris, b, want);
 }
 
 RasterStats Renderer::Impl::raster(const Scene& scene, const Camera& cam, std::vector<uint32_t>* ids) {
@@ -644,22 +650,15 @@ RasterStats Renderer::Impl::raster(const Scene& scene, const Camera& cam, std::v
   rt.reset_profile();
   // The same transform, clipping, culling and snapping as run(), over the whole screen.
   Frame fr = begin_frame(scene, cam, "raster");
-  cl::Buffer &mesh_cull = fr.mesh_cull, &clip = fr.clip, &counts = fr.counts, &offsets = fr.offsets;
-  const cl_int iortho = fr.ortho, off = 0;
-  const cl_int4 full = fr.full;
-  cl::Buffer none = rt.alloc(16, "triangle boxes");
-  rt.launch("raster", "clip_count", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H, iortho,
-            full, none, off, counts);
-  const uint32_t S = rt.scan("raster", counts, offsets, ntri);
+  const uint32_t S = count_screen(fr, fr.full, "raster");
   rs.screen_triangles = S;
-  cl::Buffer tris = rt.alloc(std::max<size_t>(S, 1) * sizeof(VmScreenTri), "screen triangles");
-  cl::Buffer nobary = rt.alloc(16, "screen barycentrics");
-  rt.launch("raster", "clip_fill", ntri, idx, ntri, clip, tri_mesh, tri_local, mesh_cull, W, H, iortho,
-            full, none, off, offsets, tris, nobary, off);
+  cl::Buffer tris;
+  fill_screen(fr, fr.full, "raster", S, tris, nullptr);
   const uint32_t npix = W * H;
   cl::Buffer depth = rt.alloc(size_t(npix) * 4, "z-buffer depth");
   cl::Buffer pix = rt.alloc(size_t(npix) * 4, "z-buffer ids");
-  rt.launch("raster", "zb_clear", npix, depth, pix, npix);
+  rt.fill_u32(depth, 0, npix, "raster");
+  rt.fill_u32(pix, 0xffffffffu, npix, "raster");
   rt.launch("raster", "zb_depth", S, tris, S, W, H, depth);
   rt.launch("raster", "zb_ids", S, tris, S, W, H, depth, pix);
   std::vector<uint32_t> local;

@@ -46,6 +46,7 @@ struct RenderStats {
   uint64_t allocated_device_bytes = 0;  // sum of every allocation during the render
   uint32_t clip_rounds = 0;         // summed over buckets
   uint32_t buckets = 1;             // screen rectangles rendered one after another
+  uint32_t tile_pixels = 0;         // bin tile side used (the last bucket's when there are several)
   uint64_t bucket_work_bytes = 0;   // the estimate each bucket was planned to stay under
 };
 

@@ -39,6 +39,15 @@ struct PlanarMap {
   uint32_t grid_scale = 0;
 
   size_t fragment_count() const { return offsets.size() - 1; }
+  // Area of fragment f in pixels^2 (shoelace over the rounded vertices).
+  double fragment_area(size_t f) const {
+    double a = 0;
+    for (uint32_t v = offsets[f], n = offsets[f + 1]; v < n; ++v) {
+      const uint32_t w = v + 1 < n ? v + 1 : offsets[f];
+      a += xy[2 * v] * xy[2 * w + 1] - xy[2 * w] * xy[2 * v + 1];
+    }
+    return a / 2;
+  }
   size_t vertex_count() const { return xy.size() / 2; }
 };
 

@@ -56,11 +56,11 @@ inline void clip_edge(double4 a, float3 ba, double4 b, float3 bb, int k, double4
 #define VM_CLIP_MAXV 9
 
 /* Clips input triangle t and emits its snapped, non-degenerate, non-culled fan triangles.
- * Returns how many; writes them at out[base...] when write is set. */
-/* The region (grid units, x0 y0 x1 y1) is the part of the screen being rendered: fan
- * triangles whose box misses its interior are left out (DESIGN: buckets, --memory-budget). When
- * cells is given, each kept fan triangle adds one to every cell of that grid its box touches, and
- * box_out (pixels) receives the union of their boxes. */
+ * Returns how many; writes them at out[base...] when write is set. The region (grid units,
+ * x0 y0 x1 y1) is the part of the screen being rendered: fan triangles whose box misses its
+ * interior are left out (buckets, --memory-budget). When hist is given, each kept fan triangle
+ * adds one to every cell of the grid `cells` its box touches, and box_out (pixels) receives the
+ * union of their boxes. */
 inline uint clip_triangle(uint t, __global const uint* idx, __global const double4* clip,
                           __global const uint* tri_mesh, __global const uint* tri_local,
                           __global const uint* mesh_cull, uint width, uint height, int ortho,

@@ -11,14 +11,9 @@ inline uint zb_key(double q) {
   return (b & 0x80000000u) ? ~b : (b | 0x80000000u);
 }
 
-__kernel void zb_clear(__global uint* depth, __global uint* ids, uint n) {
-  uint i = get_global_id(0);
-  if (i >= n) return;
-  depth[i] = 0;
-  ids[i] = 0xffffffffu;
-}
-
-/* Pixel centres (px + 1/2, py + 1/2) inside or on the edge of triangle t: calls back per pixel. */
+/* Runs BODY for every pixel centre (px + 1/2, py + 1/2) inside or on the edge of triangle T,
+ * with pix (the pixel's index) and key (T's depth key there) set. Depth starts at 0 and ids at
+ * 0xffffffff (the host fills them). */
 #define ZB_FOR_PIXELS(T, W, H, BODY)                                                              \
   {                                                                                               \
     int x0 = min(T.x[0], min(T.x[1], T.x[2])), x1 = max(T.x[0], max(T.x[1], T.x[2]));             \

@@ -482,7 +482,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
                 {"queue_ms", queue_ms},
                 {"triangles", stats.input_triangles},
                 {"fragments", map.fragment_count()},
-                {"buckets", std::max<uint32_t>(stats.buckets, 1)},
+                {"buckets", stats.buckets},
                 {"skipped", skipped}};
       srv_.metrics.render_ms(stats.pipeline_ms + encode_ms);
     } catch (const InputError& e) {

@@ -22,11 +22,7 @@ Renderer& renderer() {
 
 double map_area(const PlanarMap& m) {
   double a = 0;
-  for (size_t f = 0; f < m.fragment_count(); ++f)
-    for (uint32_t v = m.offsets[f], n = m.offsets[f + 1]; v < n; ++v) {
-      uint32_t w = v + 1 < n ? v + 1 : m.offsets[f];
-      a += (m.xy[2 * v] * m.xy[2 * w + 1] - m.xy[2 * w] * m.xy[2 * v + 1]) / 2;
-    }
+  for (size_t f = 0; f < m.fragment_count(); ++f) a += m.fragment_area(f);
   return a;
 }
 

@@ -74,14 +74,7 @@ SceneFigures check_scene(Renderer& renderer, const Scene& scene, const Camera& c
   const double gs = screen.grid_scale ? screen.grid_scale : 1;
   double visible = f.visible_area.value_or(0);
   if (visible <= 0) {  // no reference: the union of the triangles bounds the visible area
-    for (size_t f2 = 0; f2 < map.fragment_count(); ++f2) {
-      double a = 0;
-      for (uint32_t v = map.offsets[f2], n = map.offsets[f2 + 1]; v < n; ++v) {
-        uint32_t w = v + 1 < n ? v + 1 : map.offsets[f2];
-        a += map.xy[2 * v] * map.xy[2 * w + 1] - map.xy[2 * w] * map.xy[2 * v + 1];
-      }
-      visible += a / 2;
-    }
+    for (size_t f2 = 0; f2 < map.fragment_count(); ++f2) visible += map.fragment_area(f2);
   }
   f.snap_area_bound = visible > 0 ? perimeter * (std::sqrt(2.0) / 2) / (gs * gs) / visible : 0;
   if (map_out) *map_out = std::move(map);

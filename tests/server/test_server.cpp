@@ -105,6 +105,11 @@ class ServerTest : public ::testing::Test {
     ASSERT_EQ(r["type"], "scene_ready") << r.dump();
     EXPECT_EQ(r["triangles"], 4);
   }
+  // Waits (up to `tries` x 10 ms) until the server counts at most n active sessions.
+  void wait_sessions_at_most(int64_t n, int tries = 200) {
+    for (int i = 0; i < tries && server_->metrics().sessions_active > n; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
   // Sends a camera and returns {header, payload}.
   std::pair<json, Message> frame(WsClient& c, uint64_t seq, double angle = 0) {
     c.send_text(json{{"type", "camera"}, {"seq", seq}, {"eye", {3 * std::sin(angle), 1.5, 3 * std::cos(angle)}},
@@ -328,8 +333,7 @@ TEST_F(ServerTest, LimitOnSessionCount) {
   expect_error(c, "busy", true);
   EXPECT_EQ(close_code(c), 1013);
   a.close();
-  for (int i = 0; i < 200 && server_->metrics().sessions_active > 1; ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  wait_sessions_at_most(1);
   WsClient d;
   hello(d);
 }
@@ -346,8 +350,7 @@ TEST_F(ServerTest, LimitOnConnections) {
   EXPECT_GE(wait_for_server_close("127.0.0.1", port_, "", 5), 0);  // fourth: closed at once
   EXPECT_LT(wait_for_server_close("127.0.0.1", port_, "", 5), 1.0);
   c.close();
-  for (int i = 0; i < 200 && server_->metrics().sessions_active > 2; ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  wait_sessions_at_most(2);
   WsClient d;
   hello(d);
 }
@@ -496,8 +499,7 @@ TEST_F(ServerTest, DisconnectMidFrameLeavesOthersServing) {
     gone.drop();
   }
   frame(keep, 1);
-  for (int i = 0; i < 500 && server_->metrics().sessions_active > 1; ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  wait_sessions_at_most(1, 500);
   EXPECT_EQ(server_->metrics().sessions_active, 1);
   frame(keep, 2);
 }
