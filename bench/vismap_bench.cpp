@@ -185,7 +185,7 @@ int main(int argc, char** argv) {
       RenderOptions opts;
       opts.tile_pixels = tile;
       std::vector<double> pipe, kernels, host;
-      std::map<std::string, std::vector<double>> stage_ms;
+      std::map<std::string, std::vector<double>> stage_ms, kernel_ms;
       std::vector<std::string> stage_order;
       RenderStats st;
       PlanarMap map;
@@ -199,6 +199,7 @@ int main(int argc, char** argv) {
           stage_ms[s.name].push_back(s.ms);
           sum += s.ms;
         }
+        for (const StageStat& k : st.kernels) kernel_ms[k.name].push_back(k.ms);
         pipe.push_back(st.pipeline_ms);
         kernels.push_back(sum);
         host.push_back(st.pipeline_ms - sum);
@@ -273,6 +274,13 @@ int main(int argc, char** argv) {
         stages += json_string(n) + ":" + fmt(median(stage_ms[n]));
       }
       kv("stages", stages + "}");
+      std::string ks = "{";  // per kernel, medians (a kernel missing from a run counts 0 there)
+      for (auto& [n, v] : kernel_ms) {
+        v.resize(pipe.size(), 0.0);
+        if (ks.size() > 1) ks += ",";
+        ks += json_string(n) + ":" + fmt(median(v));
+      }
+      kv("kernels", ks + "}");
       num("triangles_per_s", st.input_triangles / (median(pipe) / 1000.0));
       num("screen_triangles", double(st.screen_triangles));
       num("silhouette_edges", double(st.silhouette_edges));

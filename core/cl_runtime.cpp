@@ -193,7 +193,7 @@ void ClRuntime::enqueue(const char* stage, const char* name, cl::Kernel& k, size
   if (err != CL_SUCCESS)
     throw DeviceError(std::string("launch of ") + name + " (stage " + stage + ", " +
                       std::to_string(n) + " items) failed: error " + std::to_string(err));
-  launches_.push_back({stage, ev});
+  launches_.push_back({stage, name, ev});
 }
 
 namespace {
@@ -257,7 +257,7 @@ void ClRuntime::fill_u32(cl::Buffer& b, uint32_t value, size_t count, const char
   if (count == 0) return;
   cl::Event ev;
   queue_.enqueueFillBuffer(b, value, 0, count * sizeof(uint32_t), nullptr, &ev);
-  launches_.push_back({stage, ev});
+  launches_.push_back({stage, "fill", ev});
 }
 
 void ClRuntime::scan_level(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
@@ -278,7 +278,7 @@ void ClRuntime::scan_to(const char* stage, cl::Buffer& counts, cl::Buffer& offse
   if (n == 0) {
     cl::Event ev;
     queue_.enqueueFillBuffer(totals, uint32_t(0), slot * sizeof(uint32_t), sizeof(uint32_t), nullptr, &ev);
-    launches_.push_back({stage, ev});
+    launches_.push_back({stage, "fill", ev});
     return;
   }
   scan_level(stage, counts, offsets, n);
@@ -294,7 +294,10 @@ uint32_t ClRuntime::scan(const char* stage, cl::Buffer& counts, cl::Buffer& offs
   return total;
 }
 
-void ClRuntime::reset_profile() { launches_.clear(); }
+void ClRuntime::reset_profile() {
+  launches_.clear();
+  kernel_profile_.clear();
+}
 
 std::map<std::string, std::pair<double, uint32_t>> ClRuntime::collect_profile() {
   queue_.finish();
@@ -302,9 +305,10 @@ std::map<std::string, std::pair<double, uint32_t>> ClRuntime::collect_profile() 
   for (Launch& l : launches_) {
     cl_ulong s = l.event.getProfilingInfo<CL_PROFILING_COMMAND_START>();
     cl_ulong e = l.event.getProfilingInfo<CL_PROFILING_COMMAND_END>();
-    auto& slot = out[l.stage];
-    slot.first += (e - s) * 1e-6;
-    slot.second += 1;
+    for (auto* slot : {&out[l.stage], &kernel_profile_[l.stage + "/" + l.name]}) {
+      slot->first += (e - s) * 1e-6;
+      slot->second += 1;
+    }
   }
   launches_.clear();
   return out;

@@ -60,6 +60,9 @@ class ClRuntime {
   // Profiling: per-stage event times since the last reset (waits for the queue).
   void reset_profile();
   std::map<std::string, std::pair<double, uint32_t>> collect_profile();
+  // The same event times per "stage/kernel" (fills are "stage/fill"), summed over every
+  // collect_profile() since reset_profile().
+  const std::map<std::string, std::pair<double, uint32_t>>& kernel_profile() const { return kernel_profile_; }
   // Device memory: the sum of every allocation since reset_allocated() (an upper bound), and
   // the most held at once since reset_peak() (a buffer's bytes count until the runtime releases
   // it, which may be after its last handle goes).
@@ -87,9 +90,11 @@ class ClRuntime {
   std::map<std::string, cl::Kernel> kernels_;
   struct Launch {
     std::string stage;
+    const char* name;  // kernel name, or "fill" (string literals only)
     cl::Event event;
   };
   std::vector<Launch> launches_;
+  std::map<std::string, std::pair<double, uint32_t>> kernel_profile_;
   uint64_t allocated_ = 0;
   // Shared with the release callbacks, which may run after the runtime is gone.
   std::shared_ptr<std::atomic<uint64_t>> live_ = std::make_shared<std::atomic<uint64_t>>(0);

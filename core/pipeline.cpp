@@ -314,18 +314,18 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     {  // the hash table only lives to classify (memory freed early is memory reused later)
       const uint32_t table_size = next_pow2(uint64_t(nedges) * 2);
       cl::Buffer table = rt.alloc(size_t(table_size) * 4, "edge hash table");
-      cl::Buffer slot_count = rt.alloc(size_t(table_size) * 4, "edge slot counts");
+      cl::Buffer second = rt.alloc(size_t(table_size) * 4, "edge hash second ids");
+      cl::Buffer many = rt.alloc(size_t(table_size) * 4, "edge hash shared flags");
       cl::Buffer slot_min = rt.alloc(size_t(table_size) * 4, "edge slot min");
-      cl::Buffer slot_max = rt.alloc(size_t(table_size) * 4, "edge slot max");
       cl::Buffer slot_of_edge = rt.alloc(size_t(nedges) * 4, "edge slots");
       rt.fill_u32(table, 0, table_size, "silhouettes");
-      rt.fill_u32(slot_count, 0, table_size, "silhouettes");
+      rt.fill_u32(second, 0, table_size, "silhouettes");
+      rt.fill_u32(many, 0, table_size, "silhouettes");
       rt.fill_u32(slot_min, 0xffffffffu, table_size, "silhouettes");
-      rt.fill_u32(slot_max, 0, table_size, "silhouettes");
       rt.launch("silhouettes", "edge_insert", nedges, tris, nedges, table, table_size - 1, slot_of_edge,
-                slot_count, slot_min, slot_max, totals);
-      rt.launch("silhouettes", "edge_classify", nedges, tris, nedges, slot_of_edge, slot_count, slot_min,
-                slot_max, eflags);
+                second, many, slot_min, totals);
+      rt.launch("silhouettes", "edge_classify", nedges, tris, nedges, slot_of_edge, table, second, many,
+                slot_min, eflags);
       E = rt.scan("silhouettes", eflags, eoffs, nedges);
     }
 
@@ -341,10 +341,13 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
 
 
     struct Bins {
-      cl::Buffer count, offset, list;
+      cl::Buffer count, offset, list, class_start;
       uint32_t pairs = 0;
     };
-    auto bin = [&](const char* stage, cl::Buffer& bb, uint32_t n, const VmGrid& g, bool sort) {
+    // sort: each tile's list by id; classes: by (class, id) instead, with where each class starts
+    // (bin_sort_classes in kernels/bin.cl; pair traversals then skip what the tile does not own).
+    auto bin = [&](const char* stage, cl::Buffer& bb, uint32_t n, const VmGrid& g, bool sort,
+                   bool classes = false) {
       const uint32_t ntiles = uint32_t(g.tiles_x) * uint32_t(g.tiles_y);
       Bins b;
       b.count = rt.alloc(size_t(ntiles) * 4, "tile counts");
@@ -356,7 +359,12 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       cl::Buffer cursor = rt.alloc(size_t(ntiles) * 4, "tile cursors");
       rt.fill_u32(cursor, 0, ntiles, stage);
       rt.launch(stage, "bin_fill", n, bb, n, g, b.offset, cursor, b.list);
-      if (sort) rt.launch(stage, "bin_sort", ntiles, b.offset, b.count, ntiles, b.list);
+      if (classes) {
+        b.class_start = rt.alloc(size_t(ntiles) * sizeof(cl_uint4), "tile class starts");
+        rt.launch(stage, "bin_sort_classes", ntiles, b.offset, b.count, ntiles, bb, g, b.list, b.class_start);
+      } else if (sort) {
+        rt.launch(stage, "bin_sort", ntiles, b.offset, b.count, ntiles, b.list);
+      }
       return b;
     };
     // Triangles on the fine grid (crossing pairs, occlusion), sorted so that every list a kernel
@@ -364,7 +372,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     cl::Buffer tri_bb = rt.alloc(size_t(S) * sizeof(cl_int4), "triangle boxes");
     cl::Buffer tri_qr = rt.alloc(size_t(S) * sizeof(cl_double2), "triangle depth ranges");
     rt.launch("bin", "tri_bbox", S, tris, S, tri_bb, tri_qr);
-    Bins tbins = bin("bin", tri_bb, S, og, true);
+    Bins tbins = bin("bin", tri_bb, S, og, true, true);
     cl::Buffer pair_t, pair_o, pair_rel, pair_line;
 
     // ---- penetrating and tying pairs ----------------------------------------------------------
@@ -378,7 +386,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       cl::Buffer scr_o = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
       cl::Buffer scr_rel = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
       cl::Buffer scr_line = rt.alloc(size_t(S) * kInline * sizeof(VmLine), "pair scratch");
-      rt.launch("crossings", "cross_pairs", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.count,
+      rt.launch("crossings", "cross_pairs", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.class_start,
                 tbins.list, pcount, scr_o, scr_rel, scr_line, totals);
       P = rt.scan("crossings", pcount, poffset, S);
       uint32_t status = 0;
@@ -388,8 +396,8 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       pair_rel = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
       pair_line = rt.alloc(std::max<size_t>(P, 1) * sizeof(VmLine), "pairs");
       if (status & VM_STATUS_PAIRS_OVERFLOW)
-        rt.launch("crossings", "cross_pairs_fill", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.count,
-                  tbins.list, poffset, pair_t, pair_o, pair_rel, pair_line);
+        rt.launch("crossings", "cross_pairs_fill", S, tris, S, tri_bb, tri_qr, og, tbins.offset,
+                  tbins.class_start, tbins.list, poffset, pair_t, pair_o, pair_rel, pair_line);
       else
         rt.launch("crossings", "cross_compact", S, S, pcount, poffset, scr_o, scr_rel, scr_line,
                   pair_t, pair_o, pair_rel, pair_line);
@@ -594,6 +602,13 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     s.items_in = io[name].first;
     s.items_out = io[name].second;
     st.stages.push_back(s);
+  }
+  for (const auto& [name, t] : rt.kernel_profile()) {
+    StageStat k;
+    k.name = name;
+    k.ms = t.first;
+    k.launches = t.second;
+    st.kernels.push_back(k);
   }
   st.peak_device_bytes = rt.peak_bytes();
   st.allocated_device_bytes = rt.allocated_bytes();

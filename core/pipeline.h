@@ -34,6 +34,7 @@ struct StageStat {
 
 struct RenderStats {
   std::vector<StageStat> stages;
+  std::vector<StageStat> kernels;   // the same times per "stage/kernel" ("stage/fill": fills)
   double pipeline_ms = 0;           // host wall time of render(), upload included
   double upload_ms = 0;
   // Counts are summed over buckets: a triangle over several buckets counts in each.

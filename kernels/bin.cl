@@ -77,13 +77,8 @@ __kernel void bin_fill(__global const int4* bb, uint n, VmGrid g, __global const
     }
 }
 
-/* One work-item per tile: insertion sort for short lists, heap sort for long ones. */
-__kernel void bin_sort(__global const uint* tile_offset, __global const uint* tile_count,
-                       uint ntiles, __global uint* list) {
-  uint t = get_global_id(0);
-  if (t >= ntiles) return;
-  __global uint* a = list + tile_offset[t];
-  int n = (int)tile_count[t];
+/* Sorts n ids (or keys) ascending: insertion sort for short lists, heap sort for long ones. */
+inline void sort_list(__global uint* a, int n) {
   if (n <= 32) {
     sort_ids(a, n);
     return;
@@ -110,4 +105,66 @@ __kernel void bin_sort(__global const uint* tile_offset, __global const uint* ti
       root = child;
     }
   }
+}
+
+/* One work-item per tile. */
+__kernel void bin_sort(__global const uint* tile_offset, __global const uint* tile_count,
+                       uint ntiles, __global uint* list) {
+  uint t = get_global_id(0);
+  if (t >= ntiles) return;
+  sort_list(list + tile_offset[t], (int)tile_count[t]);
+}
+
+/* Where an item's box starts relative to a tile it is listed in: class 0 starts in the tile in
+ * both x and y (the item's home tile), 1 in x only, 2 in y only, 3 in neither. The pair of boxes
+ * a, b is owned by the tile holding the low corner of their overlap (pair_here), which is tile
+ * (tx, ty) exactly when a or b starts there in x and a or b starts there in y (tile coordinates
+ * are monotone and both boxes reach the tile). So an item of class c in a tile only needs the
+ * entries of some classes (partner_classes): all for class 0; classes 0 and 2 for class 1;
+ * 0 and 1 for class 2; 0 for class 3. */
+inline uint box_class(int4 b, VmGrid g, int tx, int ty) {
+  return (tile_coord(b.x, g.tile_shift, g.tiles_x) == tx ? 0u : 1u) |
+         (tile_coord(b.y, g.tile_shift, g.tiles_y) == ty ? 0u : 2u);
+}
+
+/* Like bin_sort, ordering each tile's list by (class, id) and writing where classes 1, 2 and 3
+ * begin (x, y, z; w = the count). Ids are below 2^30 (the host checks), so the class fits in the
+ * top two bits of the sort key. */
+__kernel void bin_sort_classes(__global const uint* tile_offset, __global const uint* tile_count,
+                               uint ntiles, __global const int4* bb, VmGrid g, __global uint* list,
+                               __global uint4* class_start) {
+  uint t = get_global_id(0);
+  if (t >= ntiles) return;
+  int tx = (int)(t % (uint)g.tiles_x), ty = (int)(t / (uint)g.tiles_x);
+  __global uint* a = list + tile_offset[t];
+  int n = (int)tile_count[t];
+  for (int k = 0; k < n; ++k) a[k] |= box_class(bb[a[k]], g, tx, ty) << 30;
+  sort_list(a, n);
+  uint4 cs = (uint4)(n, n, n, n);
+  for (int k = n - 1; k >= 0; --k) {
+    uint c = a[k] >> 30;
+    if (c >= 1) cs.x = k;
+    if (c >= 2) cs.y = k;
+    if (c == 3) cs.z = k;
+    a[k] &= 0x3fffffffu;
+  }
+  /* cs.x: first entry of class >= 1, cs.y: of class >= 2, cs.z: of class 3 */
+  class_start[t] = cs;
+}
+
+/* The classes (bit mask) whose entries an item of class c must pair with in a tile. */
+inline uint partner_classes(uint c) { return c == 0 ? 15u : c == 1 ? 5u : c == 2 ? 3u : 1u; }
+
+/* Where class c begins in a tile's list, from its class starts (class 4: the end). */
+inline uint class_begin(uint4 cs, uint c) {
+  return c == 0 ? 0u : c == 1 ? cs.x : c == 2 ? cs.y : c == 3 ? cs.z : cs.w;
+}
+
+/* First index in the ascending ids a[lo, hi) holding an id above t. */
+inline uint first_above(__global const uint* a, uint lo, uint hi, uint t) {
+  while (lo < hi) {
+    uint mid = (lo + hi) >> 1;
+    if (a[mid] <= t) lo = mid + 1; else hi = mid;
+  }
+  return lo;
 }

@@ -47,11 +47,14 @@ inline uint key_hash(EdgeKey k) {
   return (uint)(h ^ (h >> 29));
 }
 
-/* table: 0 = empty, else edge id + 1. slot_min/slot_max start at 0xffffffff / 0. */
+/* table: 0 = empty, else the id + 1 of the edge that claimed the slot; second: the same for the
+ * second edge with that key; many: 1 once a third comes, and then slot_min the lowest id of all
+ * (every edge from the third on folds in itself and the first two). Usual edges (two triangles)
+ * cost one or two compare-and-swaps, not one per counter. All start at 0 but slot_min
+ * (0xffffffff). */
 __kernel void edge_insert(__global const VmScreenTri* tris, uint nedges, __global uint* table,
-                          uint mask, __global uint* slot_of_edge, __global uint* slot_count,
-                          __global uint* slot_min, __global uint* slot_max,
-                          __global uint* status) {
+                          uint mask, __global uint* slot_of_edge, __global uint* second,
+                          __global uint* many, __global uint* slot_min, __global uint* status) {
   uint e = get_global_id(0);
   if (e >= nedges) return;
   EdgeKey key = edge_key(tris, e);
@@ -60,9 +63,13 @@ __kernel void edge_insert(__global const VmScreenTri* tris, uint nedges, __globa
     uint old = atomic_cmpxchg(&table[h], 0u, e + 1);
     if (old == 0 || key_equal(edge_key(tris, old - 1), key)) {
       slot_of_edge[e] = h;
-      atomic_inc(&slot_count[h]);
-      atomic_min(&slot_min[h], e);
-      atomic_max(&slot_max[h], e);
+      if (old != 0) {
+        uint b = atomic_cmpxchg(&second[h], 0u, e + 1);
+        if (b != 0) {
+          many[h] = 1;
+          atomic_min(&slot_min[h], min(e, min(old, b) - 1));
+        }
+      }
       return;
     }
     h = (h + 1) & mask;
@@ -79,27 +86,33 @@ inline void opposite_vertex(__global const VmScreenTri* tris, uint e, long* x, l
 
 /* flags[e] = 1 when edge e is the representative (lowest id) of a silhouette edge. */
 __kernel void edge_classify(__global const VmScreenTri* tris, uint nedges,
-                            __global const uint* slot_of_edge, __global const uint* slot_count,
-                            __global const uint* slot_min, __global const uint* slot_max,
-                            __global uint* flags) {
+                            __global const uint* slot_of_edge, __global const uint* table,
+                            __global const uint* second, __global const uint* many,
+                            __global const uint* slot_min, __global uint* flags) {
   uint e = get_global_id(0);
   if (e >= nedges) return;
   uint s = slot_of_edge[e];
-  if (slot_min[s] != e) {
+  if (many[s]) { /* three or more: a silhouette, kept once */
+    flags[e] = slot_min[s] == e;
+    return;
+  }
+  uint a = table[s] - 1, b = second[s];
+  if (b == 0) { /* one triangle: a boundary edge */
+    flags[e] = 1;
+    return;
+  }
+  b -= 1;
+  if (min(a, b) != e) {
     flags[e] = 0;
     return;
   }
-  uint f = 1;
-  if (slot_count[s] == 2) {
-    EdgeKey key = edge_key(tris, e);
-    long ax, ay, bx, by;
-    opposite_vertex(tris, e, &ax, &ay);
-    opposite_vertex(tris, slot_max[s], &bx, &by);
-    long sa = orient_points(key.x0, key.y0, key.x1, key.y1, ax, ay);
-    long sb = orient_points(key.x0, key.y0, key.x1, key.y1, bx, by);
-    if ((sa > 0 && sb < 0) || (sa < 0 && sb > 0)) f = 0;
-  }
-  flags[e] = f;
+  EdgeKey key = edge_key(tris, e);
+  long ax, ay, bx, by;
+  opposite_vertex(tris, a, &ax, &ay);
+  opposite_vertex(tris, b, &bx, &by);
+  long sa = orient_points(key.x0, key.y0, key.x1, key.y1, ax, ay);
+  long sb = orient_points(key.x0, key.y0, key.x1, key.y1, bx, by);
+  flags[e] = (sa > 0 && sb < 0) || (sa < 0 && sb > 0) ? 0 : 1;
 }
 
 __kernel void edge_emit(__global const VmScreenTri* tris, uint nedges, __global const uint* flags,
