@@ -341,13 +341,10 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
 
 
     struct Bins {
-      cl::Buffer count, offset, list, class_start;
+      cl::Buffer count, offset, list;
       uint32_t pairs = 0;
     };
-    // sort: each tile's list by id; classes: by (class, id) instead, with where each class starts
-    // (bin_sort_classes in kernels/bin.cl; pair traversals then skip what the tile does not own).
-    auto bin = [&](const char* stage, cl::Buffer& bb, uint32_t n, const VmGrid& g, bool sort,
-                   bool classes = false) {
+    auto bin = [&](const char* stage, cl::Buffer& bb, uint32_t n, const VmGrid& g) {
       const uint32_t ntiles = uint32_t(g.tiles_x) * uint32_t(g.tiles_y);
       Bins b;
       b.count = rt.alloc(size_t(ntiles) * 4, "tile counts");
@@ -359,20 +356,54 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       cl::Buffer cursor = rt.alloc(size_t(ntiles) * 4, "tile cursors");
       rt.fill_u32(cursor, 0, ntiles, stage);
       rt.launch(stage, "bin_fill", n, bb, n, g, b.offset, cursor, b.list);
-      if (classes) {
-        b.class_start = rt.alloc(size_t(ntiles) * sizeof(cl_uint4), "tile class starts");
-        rt.launch(stage, "bin_sort_classes", ntiles, b.offset, b.count, ntiles, bb, g, b.list, b.class_start);
-      } else if (sort) {
-        rt.launch(stage, "bin_sort", ntiles, b.offset, b.count, ntiles, b.list);
-      }
       return b;
+    };
+    // Adaptive leaves (kernels/bin.cl): a crowded tile of g is split into leaves where that
+    // saves work, and every leaf's list is ordered by (class, id) with where each class starts,
+    // so that pair traversals skip what a leaf does not own and every walk is in a fixed order.
+    struct Leaves {
+      cl::Buffer tile_leaf, offset, class_start, list;
+      uint32_t leaves = 0, entries = 0;
+    };
+    auto bin_leaves = [&](const char* stage, cl::Buffer& bb, uint32_t n, const VmGrid& g) {
+      const uint32_t ntiles = uint32_t(g.tiles_x) * uint32_t(g.tiles_y);
+      Bins coarse = bin(stage, bb, n, g);
+      Leaves lv;
+      lv.tile_leaf = rt.alloc(size_t(ntiles) * 4, "tile leaves");
+      cl::Buffer per_tile = rt.alloc(size_t(ntiles) * 4, "leaves per tile");
+      cl::Buffer first = rt.alloc(size_t(ntiles) * 4, "first leaf per tile");
+      rt.launch(stage, "bin_depth", ntiles, coarse.offset, coarse.count, ntiles, bb, g, coarse.list,
+                lv.tile_leaf, per_tile);
+      lv.leaves = rt.scan(stage, per_tile, first, ntiles);
+      rt.launch(stage, "bin_pack", ntiles, ntiles, first, lv.tile_leaf);
+      cl::Buffer count;
+      if (lv.leaves == ntiles) {  // no tile split: the coarse lists are the leaves
+        count = coarse.count;
+        lv.offset = coarse.offset;
+        lv.list = coarse.list;
+        lv.entries = coarse.pairs;
+      } else {
+        count = rt.alloc(size_t(lv.leaves) * 4, "leaf counts");
+        lv.offset = rt.alloc(size_t(lv.leaves) * 4, "leaf offsets");
+        rt.fill_u32(count, 0, lv.leaves, stage);
+        rt.launch(stage, "leaf_bin", n, bb, n, g, lv.tile_leaf, count, count, count, count, cl_int(0));
+        lv.entries = rt.scan(stage, count, lv.offset, lv.leaves);
+        lv.list = rt.alloc(std::max<size_t>(lv.entries, 1) * 4, "leaf lists");
+        cl::Buffer cursor = rt.alloc(size_t(lv.leaves) * 4, "leaf cursors");
+        rt.fill_u32(cursor, 0, lv.leaves, stage);
+        rt.launch(stage, "leaf_bin", n, bb, n, g, lv.tile_leaf, count, lv.offset, cursor, lv.list, cl_int(1));
+      }
+      lv.class_start = rt.alloc(size_t(lv.leaves) * sizeof(cl_uint4), "leaf class starts");
+      rt.launch(stage, "leaf_sort_classes", ntiles, ntiles, g, lv.tile_leaf, lv.offset, count, bb, lv.list,
+                lv.class_start);
+      return lv;
     };
     // Triangles on the fine grid (crossing pairs, occlusion), sorted so that every list a kernel
     // walks is in a fixed order.
     cl::Buffer tri_bb = rt.alloc(size_t(S) * sizeof(cl_int4), "triangle boxes");
     cl::Buffer tri_qr = rt.alloc(size_t(S) * sizeof(cl_double2), "triangle depth ranges");
     rt.launch("bin", "tri_bbox", S, tris, S, tri_bb, tri_qr);
-    Bins tbins = bin("bin", tri_bb, S, og, true, true);
+    Leaves tbins = bin_leaves("bin", tri_bb, S, og);
     cl::Buffer pair_t, pair_o, pair_rel, pair_line;
 
     // ---- penetrating and tying pairs ----------------------------------------------------------
@@ -386,8 +417,8 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       cl::Buffer scr_o = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
       cl::Buffer scr_rel = rt.alloc(size_t(S) * kInline * 4, "pair scratch");
       cl::Buffer scr_line = rt.alloc(size_t(S) * kInline * sizeof(VmLine), "pair scratch");
-      rt.launch("crossings", "cross_pairs", S, tris, S, tri_bb, tri_qr, og, tbins.offset, tbins.class_start,
-                tbins.list, pcount, scr_o, scr_rel, scr_line, totals);
+      rt.launch("crossings", "cross_pairs", S, tris, S, tri_bb, tri_qr, og, tbins.tile_leaf, tbins.offset,
+                tbins.class_start, tbins.list, pcount, scr_o, scr_rel, scr_line, totals);
       P = rt.scan("crossings", pcount, poffset, S);
       uint32_t status = 0;
       q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof status, &status);
@@ -396,8 +427,8 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       pair_rel = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
       pair_line = rt.alloc(std::max<size_t>(P, 1) * sizeof(VmLine), "pairs");
       if (status & VM_STATUS_PAIRS_OVERFLOW)
-        rt.launch("crossings", "cross_pairs_fill", S, tris, S, tri_bb, tri_qr, og, tbins.offset,
-                  tbins.class_start, tbins.list, poffset, pair_t, pair_o, pair_rel, pair_line);
+        rt.launch("crossings", "cross_pairs_fill", S, tris, S, tri_bb, tri_qr, og, tbins.tile_leaf,
+                  tbins.offset, tbins.class_start, tbins.list, poffset, pair_t, pair_o, pair_rel, pair_line);
       else
         rt.launch("crossings", "cross_compact", S, S, pcount, poffset, scr_o, scr_rel, scr_line,
                   pair_t, pair_o, pair_rel, pair_line);
@@ -426,17 +457,17 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
 
     cl::Buffer edge_bb = rt.alloc(std::max<size_t>(E, 1) * sizeof(cl_int4), "edge boxes");
     rt.launch("bin", "edge_bbox", E, edges, E, edge_bb);
-    Bins ebins = bin("bin", edge_bb, E, eg, true);
+    Leaves ebins = bin_leaves("bin", edge_bb, E, eg);
 
     // ---- candidate edges per triangle ---------------------------------------------------------
     cl::Buffer cand_count = rt.alloc(size_t(S) * 4, "candidate counts");
     cl::Buffer cand_offset = rt.alloc(size_t(S) * 4, "candidate offsets");
-    rt.launch("candidates", "cand_count", S, tris, S, tri_bb, edges, edge_bb, eg, ebins.offset,
-              ebins.count, ebins.list, cross_count, cand_count);
+    rt.launch("candidates", "cand_count", S, tris, S, tri_bb, edges, edge_bb, eg, ebins.tile_leaf,
+              ebins.offset, ebins.class_start, ebins.list, cross_count, cand_count);
     const uint32_t C = rt.scan("candidates", cand_count, cand_offset, S);
     cl::Buffer cand = rt.alloc(std::max<size_t>(C, 1) * 4, "candidates");
-    rt.launch("candidates", "cand_fill", S, tris, S, tri_bb, edges, edge_bb, eg, ebins.offset,
-              ebins.count, ebins.list, cross_offset, cross_count, E, cand_offset, cand);
+    rt.launch("candidates", "cand_fill", S, tris, S, tri_bb, edges, edge_bb, eg, ebins.tile_leaf,
+              ebins.offset, ebins.class_start, ebins.list, cross_offset, cross_count, E, cand_offset, cand);
 
     // ---- clipping rounds (work queue) ---------------------------------------------------------
     cl::Buffer done_meta, done_lines;
@@ -506,8 +537,9 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     // ---- occlusion ----------------------------------------------------------------------------
     cl::Buffer visible = rt.alloc(std::max<size_t>(nd, 1) * 4, "visibility");
     cl::Buffer voff = rt.alloc(std::max<size_t>(nd, 1) * 4, "visible offsets");
-    rt.launch("occlusion", "occlude", nd, done_meta, done_lines, nd, tris, tri_bb, og, tbins.offset,
-              tbins.count, tbins.list, edges, E, cross_offset, cross_count, partner, visible, totals);
+    rt.launch("occlusion", "occlude", nd, done_meta, done_lines, nd, tris, tri_bb, og, tbins.tile_leaf,
+              tbins.offset, tbins.class_start, tbins.list, edges, E, cross_offset, cross_count, partner,
+              visible, totals);
     const uint32_t V = rt.scan("occlusion", visible, voff, nd);
 
     // ---- planar map ---------------------------------------------------------------------------
@@ -561,7 +593,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     st.visible_fragments += V;
     st.sliver_fragments += tot[kSlivers];
     add_io("silhouettes", uint64_t(3) * S, E);
-    add_io("bin", uint64_t(S) + E, uint64_t(tbins.pairs) + ebins.pairs);
+    add_io("bin", uint64_t(S) + E, uint64_t(tbins.entries) + ebins.entries);
     add_io("crossings", S, P);
     add_io("candidates", S, C);
     add_io("clip", S, nd);

@@ -1,7 +1,9 @@
-/* Stage: binning into uniform tiles (MPR-style: a tile keeps only what can touch it).
- * Items are given by grid bounding boxes (int4: x0, y0, x1, y1, inclusive); count per tile,
- * scan (host), fill per tile, and sort each tile's list by item id so that everything downstream
- * is deterministic whatever order the atomics ran in. */
+/* Stage: binning (MPR-style: a tile keeps only what can touch it). Items are given by grid
+ * bounding boxes (int4: x0, y0, x1, y1, inclusive). A uniform grid of tiles first (count per
+ * tile, scan on the host, fill); then each tile chooses a depth from its list, and a crowded
+ * tile splits into 2^d x 2^d leaves, the items binned again into leaves (adaptive leaves below).
+ * Every leaf's list is sorted, so everything downstream is deterministic whatever order the
+ * atomics ran in. */
 
 /* Also each triangle's nearness range, so pair tests can reject by depth before loading it. */
 __kernel void tri_bbox(__global const VmScreenTri* tris, uint n, __global int4* bb,
@@ -28,16 +30,6 @@ inline int tile_coord(int v, int shift, int count) { return clamp(v >> shift, 0,
 inline int4 tile_range(int4 b, VmGrid g) {
   return (int4)(tile_coord(b.x, g.tile_shift, g.tiles_x), tile_coord(b.y, g.tile_shift, g.tiles_y),
                 tile_coord(b.z, g.tile_shift, g.tiles_x), tile_coord(b.w, g.tile_shift, g.tiles_y));
-}
-
-/* Should the pair of boxes a, b be looked at in tile (tx, ty)? Only in the tile holding the low
- * corner of their overlap, so a pair that shares several tiles is visited once. `open`: boxes
- * that only touch (zero-width overlap) are skipped too. */
-inline bool pair_here(int4 a, int4 b, VmGrid g, int tx, int ty, bool open) {
-  int ix0 = max(a.x, b.x), iy0 = max(a.y, b.y);
-  int ix1 = min(a.z, b.z), iy1 = min(a.w, b.w);
-  if (open ? (ix0 >= ix1 || iy0 >= iy1) : (ix0 > ix1 || iy0 > iy1)) return false;
-  return tile_coord(ix0, g.tile_shift, g.tiles_x) == tx && tile_coord(iy0, g.tile_shift, g.tiles_y) == ty;
 }
 
 /* Insertion sort of a short list of ids (per-tile and per-triangle lists). */
@@ -107,49 +99,151 @@ inline void sort_list(__global uint* a, int n) {
   }
 }
 
-/* One work-item per tile. */
-__kernel void bin_sort(__global const uint* tile_offset, __global const uint* tile_count,
-                       uint ntiles, __global uint* list) {
-  uint t = get_global_id(0);
-  if (t >= ntiles) return;
-  sort_list(list + tile_offset[t], (int)tile_count[t]);
+/* ---- Adaptive leaves (MPR-style: a crowded tile splits until its pieces hold little) --------
+ * A coarse tile at depth d is split into 2^d x 2^d leaves of side tile_size >> d; tile_leaf packs
+ * (index of the tile's first leaf << 4) | d. Items are listed per leaf, and a point or a box finds
+ * its leaves through its coarse tile. Tiles that are not crowded are their own single leaf. */
+#define VM_LEAF_MAX_DEPTH 7 /* leaves down to 8 grid units (1/32 pixel) on 4-pixel tiles */
+#define VM_LEAF_CROWDED 64  /* a tile with more entries than this may split */
+
+inline uint leaf_depth(uint tl) { return tl & 15u; }
+inline uint leaf_first(uint tl) { return tl >> 4; }
+
+/* Leaf coordinate of grid coordinate v inside the tile starting at origin (clamped to it). */
+inline int leaf_coord(int v, int origin, int leaf_shift, int n) {
+  return clamp((v - origin) >> leaf_shift, 0, n - 1);
 }
 
-/* Where an item's box starts relative to a tile it is listed in: class 0 starts in the tile in
- * both x and y (the item's home tile), 1 in x only, 2 in y only, 3 in neither. The pair of boxes
- * a, b is owned by the tile holding the low corner of their overlap (pair_here), which is tile
- * (tx, ty) exactly when a or b starts there in x and a or b starts there in y (tile coordinates
- * are monotone and both boxes reach the tile). So an item of class c in a tile only needs the
- * entries of some classes (partner_classes): all for class 0; classes 0 and 2 for class 1;
- * 0 and 1 for class 2; 0 for class 3. */
-inline uint box_class(int4 b, VmGrid g, int tx, int ty) {
-  return (tile_coord(b.x, g.tile_shift, g.tiles_x) == tx ? 0u : 1u) |
-         (tile_coord(b.y, g.tile_shift, g.tiles_y) == ty ? 0u : 2u);
+/* The leaf holding grid point (x, y). */
+inline uint leaf_of_point(int x, int y, VmGrid g, __global const uint* tile_leaf) {
+  int tx = tile_coord(x, g.tile_shift, g.tiles_x), ty = tile_coord(y, g.tile_shift, g.tiles_y);
+  uint tl = tile_leaf[ty * g.tiles_x + tx], d = leaf_depth(tl);
+  int n = 1 << d, ls = g.tile_shift - (int)d;
+  int lx = leaf_coord(x, tx << g.tile_shift, ls, n), ly = leaf_coord(y, ty << g.tile_shift, ls, n);
+  return leaf_first(tl) + (uint)(ly * n + lx);
 }
 
-/* Like bin_sort, ordering each tile's list by (class, id) and writing where classes 1, 2 and 3
- * begin (x, y, z; w = the count). Ids are below 2^30 (the host checks), so the class fits in the
- * top two bits of the sort key. */
-__kernel void bin_sort_classes(__global const uint* tile_offset, __global const uint* tile_count,
-                               uint ntiles, __global const int4* bb, VmGrid g, __global uint* list,
-                               __global uint4* class_start) {
+/* The leaves (x0, y0, x1, y1, inclusive, in leaf coordinates of tile (tx, ty) at depth d) that a
+ * box touches. */
+inline int4 leaf_range(int4 b, VmGrid g, int tx, int ty, uint d) {
+  int n = 1 << d, ls = g.tile_shift - (int)d, ox = tx << g.tile_shift, oy = ty << g.tile_shift;
+  return (int4)(leaf_coord(b.x, ox, ls, n), leaf_coord(b.y, oy, ls, n), leaf_coord(b.z, ox, ls, n),
+                leaf_coord(b.w, oy, ls, n));
+}
+
+/* Where an item's box starts relative to a leaf it is listed in: class 0 starts in the leaf in
+ * both x and y, 1 in y only, 2 in x only, 3 in neither. The pair of boxes a, b (overlapping with
+ * positive area) is owned by the leaf holding the low corner of their overlap, which is leaf L
+ * exactly when a or b starts in L in x and a or b starts in L in y (both boxes reach L, so the
+ * larger of their low x lies in L's x range exactly when one of them starts there; leaves at the
+ * screen's edge reach out to infinity, as the clamps say). So an item of class c in a leaf only
+ * needs the entries of some classes (partner_classes): all for class 0; classes 0 and 2 for
+ * class 1; 0 and 1 for class 2; 0 for class 3. */
+inline uint box_class(int4 b, VmGrid g, int tx, int ty, uint d, int lx, int ly) {
+  int4 r = leaf_range(b, g, tx, ty, d);
+  bool sx = tile_coord(b.x, g.tile_shift, g.tiles_x) == tx && r.x == lx;
+  bool sy = tile_coord(b.y, g.tile_shift, g.tiles_y) == ty && r.y == ly;
+  return (sx ? 0u : 1u) | (sy ? 0u : 2u);
+}
+
+/* Per coarse tile, from its coarse list: the depth minimising an estimate of the work, with
+ * e(d) the entries the tile's items would have at depth d (an item is listed in every leaf its
+ * box touches): per-leaf overhead + entries + pair visits, the last as if the entries spread
+ * evenly, e(d)^2 / 4^d. An uncrowded tile stays one leaf; a tile under a few big triangles does
+ * not split (their entries grow with the leaves). Writes 4^d to `leaves` for the scan. */
+__kernel void bin_depth(__global const uint* tile_offset, __global const uint* tile_count,
+                        uint ntiles, __global const int4* bb, VmGrid g, __global const uint* list,
+                        __global uint* tile_leaf, __global uint* leaves) {
   uint t = get_global_id(0);
   if (t >= ntiles) return;
   int tx = (int)(t % (uint)g.tiles_x), ty = (int)(t / (uint)g.tiles_x);
-  __global uint* a = list + tile_offset[t];
-  int n = (int)tile_count[t];
-  for (int k = 0; k < n; ++k) a[k] |= box_class(bb[a[k]], g, tx, ty) << 30;
-  sort_list(a, n);
-  uint4 cs = (uint4)(n, n, n, n);
-  for (int k = n - 1; k >= 0; --k) {
-    uint c = a[k] >> 30;
-    if (c >= 1) cs.x = k;
-    if (c >= 2) cs.y = k;
-    if (c == 3) cs.z = k;
-    a[k] &= 0x3fffffffu;
+  uint n = tile_count[t], off = tile_offset[t];
+  uint best = 0;
+  double best_cost = 4.0 + (double)n + (double)n * (double)n;
+  /* Splitting costs a second binning pass over all items: only for a crowded tile, and only for
+   * a clear gain. */
+  if (n > VM_LEAF_CROWDED) {
+    best_cost *= 0.5;
+    int dmax = min(VM_LEAF_MAX_DEPTH, g.tile_shift - 3);
+    for (int d = 1; d <= dmax; ++d) {
+      double e = 0;
+      for (uint k = 0; k < n; ++k) {
+        int4 r = leaf_range(bb[list[off + k]], g, tx, ty, (uint)d);
+        e += (double)((r.z - r.x + 1) * (r.w - r.y + 1));
+      }
+      double nl = (double)(1u << (2 * d));
+      double cost = 4.0 * nl + e + e * e / nl;
+      if (cost < best_cost) {
+        best_cost = cost;
+        best = (uint)d;
+      }
+    }
   }
-  /* cs.x: first entry of class >= 1, cs.y: of class >= 2, cs.z: of class 3 */
-  class_start[t] = cs;
+  tile_leaf[t] = best;
+  leaves[t] = 1u << (2 * best);
+}
+
+/* Packs each tile's first leaf (the scan of the leaf counts) with its depth. */
+__kernel void bin_pack(uint ntiles, __global const uint* leaf_first_of, __global uint* tile_leaf) {
+  uint t = get_global_id(0);
+  if (t >= ntiles) return;
+  tile_leaf[t] |= leaf_first_of[t] << 4;
+}
+
+/* Per item: counts (fill = 0) or fills (fill = 1) the lists of the leaves its box touches. */
+__kernel void leaf_bin(__global const int4* bb, uint n, VmGrid g, __global const uint* tile_leaf,
+                       __global uint* leaf_count, __global const uint* leaf_offset,
+                       __global uint* leaf_cursor, __global uint* list, int fill) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  int4 b = bb[i];
+  int4 tr = tile_range(b, g);
+  for (int ty = tr.y; ty <= tr.w; ++ty)
+    for (int tx = tr.x; tx <= tr.z; ++tx) {
+      uint tl = tile_leaf[ty * g.tiles_x + tx], d = leaf_depth(tl), first = leaf_first(tl);
+      int4 r = leaf_range(b, g, tx, ty, d);
+      int side = 1 << d;
+      for (int ly = r.y; ly <= r.w; ++ly)
+        for (int lx = r.x; lx <= r.z; ++lx) {
+          uint leaf = first + (uint)(ly * side + lx);
+          if (fill)
+            list[leaf_offset[leaf] + atomic_inc(&leaf_cursor[leaf])] = i;
+          else
+            atomic_inc(&leaf_count[leaf]);
+        }
+    }
+}
+
+/* Per coarse tile, for each of its leaves: orders the leaf's list by (class, id) and writes where
+ * classes 1, 2 and 3 begin (x, y, z) and the count (w). Ids are below 2^30 (the host checks), so
+ * the class fits in the top two bits of the sort key. Lists in a fixed order keep every kernel
+ * that walks them deterministic, whatever order the atomics ran in. */
+__kernel void leaf_sort_classes(uint ntiles, VmGrid g, __global const uint* tile_leaf,
+                                __global const uint* leaf_offset, __global const uint* leaf_count,
+                                __global const int4* bb, __global uint* list,
+                                __global uint4* class_start) {
+  uint t = get_global_id(0);
+  if (t >= ntiles) return;
+  int tx = (int)(t % (uint)g.tiles_x), ty = (int)(t / (uint)g.tiles_x);
+  uint tl = tile_leaf[t], d = leaf_depth(tl), first = leaf_first(tl);
+  int side = 1 << d;
+  for (int ly = 0; ly < side; ++ly)
+    for (int lx = 0; lx < side; ++lx) {
+      uint leaf = first + (uint)(ly * side + lx);
+      __global uint* a = list + leaf_offset[leaf];
+      int n = (int)leaf_count[leaf];
+      for (int k = 0; k < n; ++k) a[k] |= box_class(bb[a[k]], g, tx, ty, d, lx, ly) << 30;
+      sort_list(a, n);
+      uint4 cs = (uint4)(n, n, n, n);
+      for (int k = n - 1; k >= 0; --k) {
+        uint c = a[k] >> 30;
+        if (c >= 1) cs.x = k;
+        if (c >= 2) cs.y = k;
+        if (c == 3) cs.z = k;
+        a[k] &= 0x3fffffffu;
+      }
+      class_start[leaf] = cs;
+    }
 }
 
 /* The classes (bit mask) whose entries an item of class c must pair with in a tile. */

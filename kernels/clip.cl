@@ -45,23 +45,37 @@ inline bool edge_is_candidate(__global const VmScreenTri* T, VmEdge E) {
 
 inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
                           __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
-                          __global const uint* tile_offset, __global const uint* tile_count,
-                          __global const uint* tile_list, __global uint* out) {
+                          __global const uint* tile_leaf, __global const uint* leaf_offset,
+                          __global const uint4* class_start, __global const uint* leaf_list,
+                          __global uint* out) {
   int4 tb = tri_bb[t];
   int4 tr = tile_range(tb, g);
-  int tx0 = tr.x, ty0 = tr.y, tx1 = tr.z, ty1 = tr.w;
   uint count = 0;
-  for (int ty = ty0; ty <= ty1; ++ty)
-    for (int tx = tx0; tx <= tx1; ++tx) {
-      uint tile = ty * g.tiles_x + tx;
-      uint off = tile_offset[tile], n = tile_count[tile];
-      for (uint k = 0; k < n; ++k) {
-        uint e = tile_list[off + k];
-        if (!pair_here(tb, edge_bb[e], g, tx, ty, false)) continue;
-        if (!edge_is_candidate(&tris[t], edges[e])) continue;
-        if (out) out[count] = e;
-        ++count;
-      }
+  for (int ty = tr.y; ty <= tr.w; ++ty)
+    for (int tx = tr.x; tx <= tr.z; ++tx) {
+      uint tl = tile_leaf[ty * g.tiles_x + tx], d = leaf_depth(tl);
+      int4 lr = leaf_range(tb, g, tx, ty, d);
+      int side = 1 << d;
+      for (int ly = lr.y; ly <= lr.w; ++ly)
+        for (int lx = lr.x; lx <= lr.z; ++lx) {
+          uint leaf = leaf_first(tl) + (uint)(ly * side + lx);
+          __global const uint* list = leaf_list + leaf_offset[leaf];
+          /* Only the classes of edges whose (closed) box overlap with t's this leaf owns. */
+          uint4 cs = class_start[leaf];
+          uint want = partner_classes(box_class(tb, g, tx, ty, d, lx, ly));
+          for (uint c = 0; c < 4; ++c) {
+            if (!((want >> c) & 1u)) continue;
+            uint hi = class_begin(cs, c + 1);
+            for (uint k = class_begin(cs, c); k < hi; ++k) {
+              uint e = list[k];
+              int4 eb = edge_bb[e];
+              if (max(tb.x, eb.x) > min(tb.z, eb.z) || max(tb.y, eb.y) > min(tb.w, eb.w)) continue;
+              if (!edge_is_candidate(&tris[t], edges[e])) continue;
+              if (out) out[count] = e;
+              ++count;
+            }
+          }
+        }
     }
   return count;
 }
@@ -70,26 +84,26 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
  * the silhouette edges in front of it. */
 __kernel void cand_count(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
                          __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
-                         __global const uint* tile_offset, __global const uint* tile_count,
-                         __global const uint* tile_list, __global const uint* cross_count,
-                         __global uint* counts) {
+                         __global const uint* tile_leaf, __global const uint* leaf_offset,
+                         __global const uint4* class_start, __global const uint* leaf_list,
+                         __global const uint* cross_count, __global uint* counts) {
   uint t = get_global_id(0);
   if (t >= ntris) return;
-  counts[t] = cross_count[t] +
-              candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_offset, tile_count, tile_list, 0);
+  counts[t] = cross_count[t] + candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_leaf, leaf_offset,
+                                             class_start, leaf_list, 0);
 }
 
 __kernel void cand_fill(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
                         __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
-                        __global const uint* tile_offset, __global const uint* tile_count,
-                        __global const uint* tile_list, __global const uint* cross_offset,
-                        __global const uint* cross_count, uint nsil, __global const uint* offsets,
-                        __global uint* cand) {
+                        __global const uint* tile_leaf, __global const uint* leaf_offset,
+                        __global const uint4* class_start, __global const uint* leaf_list,
+                        __global const uint* cross_offset, __global const uint* cross_count,
+                        uint nsil, __global const uint* offsets, __global uint* cand) {
   uint t = get_global_id(0);
   if (t >= ntris) return;
   uint nc = cross_count[t];
   for (uint k = 0; k < nc; ++k) cand[offsets[t] + k] = nsil + cross_offset[t] + k;
-  candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_offset, tile_count, tile_list,
+  candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_leaf, leaf_offset, class_start, leaf_list,
                 cand + offsets[t] + nc);
 }
 

@@ -151,61 +151,68 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
 #define VM_PAIRS_INLINE 4
 
 inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
-                     __global const double2* tri_qr, VmGrid g,
-                     __global const uint* tile_offset, __global const uint4* class_start,
-                     __global const uint* tile_list, uint cap, __global uint* out_o,
+                     __global const double2* tri_qr, VmGrid g, __global const uint* tile_leaf,
+                     __global const uint* leaf_offset, __global const uint4* class_start,
+                     __global const uint* leaf_list, uint cap, __global uint* out_o,
                      __global uint* out_rel, __global VmLine* out_line) {
   int4 tb = tri_bb[t];
   VmScreenTri me = tris[t];
   double qmin = fmin(fmin(me.q[0], me.q[1]), me.q[2]), qmax = fmax(fmax(me.q[0], me.q[1]), me.q[2]);
   int4 tr = tile_range(tb, g);
-  int tx0 = tr.x, ty0 = tr.y, tx1 = tr.z, ty1 = tr.w;
   uint count = 0;
-  for (int ty = ty0; ty <= ty1; ++ty)
-    for (int tx = tx0; tx <= tx1; ++tx) {
-      uint tile = ty * g.tiles_x + tx;
-      __global const uint* list = tile_list + tile_offset[tile];
-      /* Only the classes of entries whose pairs with t this tile owns, each (sorted by id) from
-       * its first id above t: each pair is found once, by its lower member. */
-      uint4 cs = class_start[tile];
-      uint want = partner_classes(box_class(tb, g, tx, ty));
-      for (uint c = 0; c < 4; ++c) {
-        if (!((want >> c) & 1u)) continue;
-        uint hi = class_begin(cs, c + 1);
-        for (uint k = first_above(list, class_begin(cs, c), hi, t); k < hi; ++k) {
-          uint o = list[k];
-          int4 ob = tri_bb[o];
-          if (max(tb.x, ob.x) >= min(tb.z, ob.z) || max(tb.y, ob.y) >= min(tb.w, ob.w)) continue;
-          /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
-          double2 oq = tri_qr[o];
-          double band = VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(oq.y)), fmax(fabs(qmin), fabs(oq.x)));
-          if (oq.x > qmax + band || qmin > oq.y + band) continue;
-          VmScreenTri other = tris[o];
-          if (other.mesh == me.mesh && other.tri == me.tri) continue;
-          VmLine line;
-          int rel = pair_relation(&me, &other, &line, 1);
-          if (rel != VM_REL_CROSS && !(rel & VM_REL_TIE)) continue;
-          if (count < cap) {
-            out_o[count] = o;
-            out_rel[count] = (uint)rel;
-            out_line[count] = line;
+  for (int ty = tr.y; ty <= tr.w; ++ty)
+    for (int tx = tr.x; tx <= tr.z; ++tx) {
+      uint tl = tile_leaf[ty * g.tiles_x + tx], d = leaf_depth(tl);
+      int4 lr = leaf_range(tb, g, tx, ty, d);
+      int side = 1 << d;
+      for (int ly = lr.y; ly <= lr.w; ++ly)
+        for (int lx = lr.x; lx <= lr.z; ++lx) {
+          uint leaf = leaf_first(tl) + (uint)(ly * side + lx);
+          __global const uint* list = leaf_list + leaf_offset[leaf];
+          /* Only the classes of entries whose pairs with t this leaf owns, each (sorted by id)
+           * from its first id above t: each pair is found once, by its lower member. */
+          uint4 cs = class_start[leaf];
+          uint want = partner_classes(box_class(tb, g, tx, ty, d, lx, ly));
+          for (uint c = 0; c < 4; ++c) {
+            if (!((want >> c) & 1u)) continue;
+            uint hi = class_begin(cs, c + 1);
+            for (uint k = first_above(list, class_begin(cs, c), hi, t); k < hi; ++k) {
+              uint o = list[k];
+              int4 ob = tri_bb[o];
+              if (max(tb.x, ob.x) >= min(tb.z, ob.z) || max(tb.y, ob.y) >= min(tb.w, ob.w)) continue;
+              /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
+              double2 oq = tri_qr[o];
+              double band = VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(oq.y)), fmax(fabs(qmin), fabs(oq.x)));
+              if (oq.x > qmax + band || qmin > oq.y + band) continue;
+              VmScreenTri other = tris[o];
+              if (other.mesh == me.mesh && other.tri == me.tri) continue;
+              VmLine line;
+              int rel = pair_relation(&me, &other, &line, 1);
+              if (rel != VM_REL_CROSS && !(rel & VM_REL_TIE)) continue;
+              if (count < cap) {
+                out_o[count] = o;
+                out_rel[count] = (uint)rel;
+                out_line[count] = line;
+              }
+              ++count;
+            }
           }
-          ++count;
         }
-      }
     }
   return count;
 }
 
 __kernel void cross_pairs(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
-                          __global const double2* tri_qr, VmGrid g, __global const uint* tile_offset, __global const uint4* class_start,
-                          __global const uint* tile_list, __global uint* counts,
+                          __global const double2* tri_qr, VmGrid g, __global const uint* tile_leaf,
+                          __global const uint* leaf_offset, __global const uint4* class_start,
+                          __global const uint* leaf_list, __global uint* counts,
                           __global uint* scr_o, __global uint* scr_rel, __global VmLine* scr_line,
                           __global uint* status) {
   uint t = get_global_id(0);
   if (t >= ntris) return;
   size_t s = (size_t)t * VM_PAIRS_INLINE;
-  uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_offset, class_start, tile_list, VM_PAIRS_INLINE,
+  uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start, leaf_list,
+                    VM_PAIRS_INLINE,
                     scr_o + s, scr_rel + s, scr_line + s);
   counts[t] = c;
   if (c > VM_PAIRS_INLINE) atomic_or(status, VM_STATUS_PAIRS_OVERFLOW);
@@ -214,14 +221,15 @@ __kernel void cross_pairs(__global const VmScreenTri* tris, uint ntris, __global
 /* Only after an overflow: the same traversal, straight into the compact pair arrays. */
 __kernel void cross_pairs_fill(__global const VmScreenTri* tris, uint ntris,
                                __global const int4* tri_bb, __global const double2* tri_qr, VmGrid g,
-                               __global const uint* tile_offset, __global const uint4* class_start,
-                               __global const uint* tile_list, __global const uint* offsets,
+                               __global const uint* tile_leaf, __global const uint* leaf_offset,
+                               __global const uint4* class_start, __global const uint* leaf_list,
+                               __global const uint* offsets,
                                __global uint* pair_t, __global uint* pair_o, __global uint* pair_rel,
                                __global VmLine* pair_line) {
   uint t = get_global_id(0);
   if (t >= ntris) return;
   uint o = offsets[t];
-  uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_offset, class_start, tile_list, 0xffffffffu,
+  uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start, leaf_list, 0xffffffffu,
                     pair_o + o, pair_rel + o, pair_line + o);
   for (uint k = 0; k < c; ++k) pair_t[o + k] = t;
 }

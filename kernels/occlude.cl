@@ -215,8 +215,8 @@ inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris
  * 0 when one does; 0 (and counted in status[1]) when the fragment has no interior point. */
 __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* lines, uint n,
                       __global const VmScreenTri* tris, __global const int4* tri_bb, VmGrid g,
-                      __global const uint* tile_offset,
-                      __global const uint* tile_count, __global const uint* tile_list,
+                      __global const uint* tile_leaf, __global const uint* leaf_offset,
+                      __global const uint4* class_start, __global const uint* tile_list,
                       __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
                       __global const uint* cross_count, __global const uint* partner,
                       __global uint* visible, __global uint* status) {
@@ -231,8 +231,8 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
   }
   VmScreenTri t = tris[m.tri];
   int gx = (int)(px >> VM_POINT_BITS), gy = (int)(py >> VM_POINT_BITS);
-  uint tile = tile_coord(gy, g.tile_shift, g.tiles_y) * g.tiles_x + tile_coord(gx, g.tile_shift, g.tiles_x);
-  uint off = tile_offset[tile], cnt = tile_count[tile];
+  uint leaf = leaf_of_point(gx, gy, g, tile_leaf);
+  uint off = leaf_offset[leaf], cnt = class_start[leaf].w;
   /* A cycle through t needs one of its entangled partners at the point (a crossing line
    * misplaced by snapping, or a tie): without one, hidden is final. */
   bool partnered = false;

@@ -1,5 +1,6 @@
-// Kernel stages against small host re-implementations on tiny inputs: the scan, the binning,
-// transform + clip + snap, and the silhouette hash (through the pipeline's screen triangles).
+// Kernel stages against small host re-implementations on tiny inputs: the scan, the binning into
+// adaptive leaves, transform + clip + snap, and the silhouette hash (through the pipeline's
+// screen triangles).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -46,39 +47,121 @@ TEST(Stages, ScanMatchesHost) {
   }
 }
 
-TEST(Stages, BinningMatchesHostAndIsSorted) {
+// Adaptive leaves (kernels/bin.cl): random boxes plus a crowd in one tile. Every leaf must list
+// exactly the boxes that touch it, ordered by (class, id) with the right class starts, the crowded
+// tile must split, and the class rule must hand every overlapping pair of boxes to exactly one
+// leaf, as the pair traversals (cross_pairs, candidates) rely on.
+TEST(Stages, AdaptiveLeavesListEveryBoxAndOwnEveryPairOnce) {
   ClRuntime& rt = runtime();
   std::mt19937 rng(11);
-  const uint32_t n = 3000;
-  VmGrid g{64, 9, 7, 6};
-  std::vector<cl_int4> boxes(n);
-  for (auto& b : boxes) {
-    int x0 = rng() % 600, y0 = rng() % 460;
-    b = {{x0, y0, x0 + int(rng() % 120), y0 + int(rng() % 90)}};
+  const int tiles_x = 9, tiles_y = 7, shift = 6, size = 1 << shift;
+  VmGrid g{size, tiles_x, tiles_y, shift};
+  std::vector<cl_int4> boxes;
+  for (int i = 0; i < 1500; ++i) {  // spread, some reaching past the screen's edges
+    int x0 = int(rng() % 640) - 20, y0 = int(rng() % 500) - 20;
+    boxes.push_back({{x0, y0, x0 + int(rng() % 120), y0 + int(rng() % 90)}});
   }
+  for (int i = 0; i < 1500; ++i) {  // a crowd of small boxes inside tile (4, 3)
+    int x0 = 4 * size + int(rng() % 60), y0 = 3 * size + int(rng() % 60);
+    boxes.push_back({{x0, y0, x0 + int(rng() % 4), y0 + int(rng() % 4)}});
+  }
+  const uint32_t n = uint32_t(boxes.size()), ntiles = tiles_x * tiles_y;
   cl::Buffer bb = rt.upload(boxes, "boxes");
-  const uint32_t ntiles = 9 * 7;
   cl::Buffer count = rt.alloc(ntiles * 4, "c"), offset = rt.alloc(ntiles * 4, "o"),
              cursor = rt.alloc(ntiles * 4, "k");
   rt.fill_u32(count, 0, ntiles, "test");
   rt.fill_u32(cursor, 0, ntiles, "test");
   rt.launch("test", "bin_count", n, bb, n, g, count);
-  uint32_t pairs = rt.scan("test", count, offset, ntiles);
-  cl::Buffer list = rt.alloc(pairs * 4, "list");
+  uint32_t entries = rt.scan("test", count, offset, ntiles);
+  cl::Buffer list = rt.alloc(entries * 4, "list");
   rt.launch("test", "bin_fill", n, bb, n, g, offset, cursor, list);
-  rt.launch("test", "bin_sort", ntiles, offset, count, ntiles, list);
-  auto off = read<uint32_t>(rt, offset, ntiles), cnt = read<uint32_t>(rt, count, ntiles);
-  auto got = read<uint32_t>(rt, list, pairs);
-  std::vector<std::vector<uint32_t>> expect(ntiles);
+  cl::Buffer tile_leaf = rt.alloc(ntiles * 4, "tl"), per_tile = rt.alloc(ntiles * 4, "pt"),
+             first = rt.alloc(ntiles * 4, "f");
+  rt.launch("test", "bin_depth", ntiles, offset, count, ntiles, bb, g, list, tile_leaf, per_tile);
+  const uint32_t nleaves = rt.scan("test", per_tile, first, ntiles);
+  rt.launch("test", "bin_pack", ntiles, ntiles, first, tile_leaf);
+  ASSERT_GT(nleaves, ntiles) << "the crowded tile should split";
+  cl::Buffer lcount = rt.alloc(nleaves * 4, "lc"), loffset = rt.alloc(nleaves * 4, "lo"),
+             lcursor = rt.alloc(nleaves * 4, "lk");
+  rt.fill_u32(lcount, 0, nleaves, "test");
+  rt.fill_u32(lcursor, 0, nleaves, "test");
+  rt.launch("test", "leaf_bin", n, bb, n, g, tile_leaf, lcount, lcount, lcount, lcount, cl_int(0));
+  const uint32_t lentries = rt.scan("test", lcount, loffset, nleaves);
+  cl::Buffer llist = rt.alloc(lentries * 4, "ll");
+  rt.launch("test", "leaf_bin", n, bb, n, g, tile_leaf, lcount, loffset, lcursor, llist, cl_int(1));
+  cl::Buffer cstart = rt.alloc(nleaves * sizeof(cl_uint4), "cs");
+  rt.launch("test", "leaf_sort_classes", ntiles, ntiles, g, tile_leaf, loffset, lcount, bb, llist, cstart);
+  auto tl = read<uint32_t>(rt, tile_leaf, ntiles), loff = read<uint32_t>(rt, loffset, nleaves);
+  auto got = read<uint32_t>(rt, llist, lentries);
+  auto cs = read<cl_uint4>(rt, cstart, nleaves);
+
+  // Host model: leaf coordinates per tile, an item's leaves, its class in a leaf.
+  auto tc = [](int v, int count) { return std::clamp(v >> 6, 0, count - 1); };
+  auto lc = [&](int v, int origin, int d) { return std::clamp((v - origin) >> (shift - d), 0, (1 << d) - 1); };
+  struct Leaf {
+    int tx, ty, d, lx, ly;
+    uint32_t id;
+  };
+  auto leaves_of = [&](const cl_int4& b) {
+    std::vector<Leaf> out;
+    for (int ty = tc(b.s[1], tiles_y); ty <= tc(b.s[3], tiles_y); ++ty)
+      for (int tx = tc(b.s[0], tiles_x); tx <= tc(b.s[2], tiles_x); ++tx) {
+        uint32_t t = tl[ty * tiles_x + tx], d = t & 15, f = t >> 4;
+        for (int ly = lc(b.s[1], ty * size, d); ly <= lc(b.s[3], ty * size, d); ++ly)
+          for (int lx = lc(b.s[0], tx * size, d); lx <= lc(b.s[2], tx * size, d); ++lx)
+            out.push_back({tx, ty, int(d), lx, ly, f + uint32_t(ly * (1 << d) + lx)});
+      }
+    return out;
+  };
+  auto klass = [&](const cl_int4& b, const Leaf& l) {
+    bool sx = tc(b.s[0], tiles_x) == l.tx && lc(b.s[0], l.tx * size, l.d) == l.lx;
+    bool sy = tc(b.s[1], tiles_y) == l.ty && lc(b.s[1], l.ty * size, l.d) == l.ly;
+    return uint32_t(sx ? 0 : 1) | uint32_t(sy ? 0 : 2);
+  };
+  std::vector<std::vector<uint64_t>> expect(nleaves);  // (class << 32 | id), sorted
+  std::vector<std::vector<Leaf>> item_leaves(n);
   for (uint32_t i = 0; i < n; ++i) {
-    auto tc = [](int v, int count) { return std::clamp(v / 64, 0, count - 1); };
-    for (int ty = tc(boxes[i].s[1], 7); ty <= tc(boxes[i].s[3], 7); ++ty)
-      for (int tx = tc(boxes[i].s[0], 9); tx <= tc(boxes[i].s[2], 9); ++tx) expect[ty * 9 + tx].push_back(i);
+    item_leaves[i] = leaves_of(boxes[i]);
+    for (const Leaf& l : item_leaves[i]) expect[l.id].push_back(uint64_t(klass(boxes[i], l)) << 32 | i);
   }
-  for (uint32_t t = 0; t < ntiles; ++t) {
-    std::vector<uint32_t> tile(got.begin() + off[t], got.begin() + off[t] + cnt[t]);
-    EXPECT_EQ(tile, expect[t]) << "tile " << t;
+  for (uint32_t l = 0; l < nleaves; ++l) {
+    std::sort(expect[l].begin(), expect[l].end());
+    ASSERT_EQ(cs[l].s[3], expect[l].size()) << "leaf " << l;
+    uint32_t starts[4] = {0, cs[l].s[0], cs[l].s[1], cs[l].s[2]};
+    for (size_t k = 0; k < expect[l].size(); ++k) {
+      ASSERT_EQ(got[loff[l] + k], uint32_t(expect[l][k])) << "leaf " << l << " entry " << k;
+      uint32_t c = uint32_t(expect[l][k] >> 32);
+      EXPECT_TRUE(k >= starts[c] && (c == 3 ? k < cs[l].s[3] : k < starts[c + 1])) << "leaf " << l;
+    }
   }
+  // Every pair of boxes whose overlap has positive area, found from its lower member through the
+  // partner classes, exactly once.
+  const uint32_t partners[4] = {15, 5, 3, 1};
+  std::map<std::pair<uint32_t, uint32_t>, int> found;
+  for (uint32_t i = 0; i < n; ++i)
+    for (const Leaf& l : item_leaves[i]) {
+      uint32_t want = partners[klass(boxes[i], l)];
+      for (size_t k = 0; k < cs[l.id].s[3]; ++k) {
+        uint32_t j = got[loff[l.id] + k];
+        uint32_t cj = k < cs[l.id].s[0] ? 0 : k < cs[l.id].s[1] ? 1 : k < cs[l.id].s[2] ? 2 : 3;
+        if (j <= i || !((want >> cj) & 1)) continue;
+        const cl_int4 &a = boxes[i], &b = boxes[j];
+        if (std::max(a.s[0], b.s[0]) >= std::min(a.s[2], b.s[2]) || std::max(a.s[1], b.s[1]) >= std::min(a.s[3], b.s[3]))
+          continue;
+        ++found[{i, j}];
+      }
+    }
+  size_t overlapping = 0;
+  for (uint32_t i = 0; i < n; ++i)
+    for (uint32_t j = i + 1; j < n; ++j) {
+      const cl_int4 &a = boxes[i], &b = boxes[j];
+      if (std::max(a.s[0], b.s[0]) >= std::min(a.s[2], b.s[2]) || std::max(a.s[1], b.s[1]) >= std::min(a.s[3], b.s[3]))
+        continue;
+      ++overlapping;
+      auto it = found.find({i, j});
+      ASSERT_TRUE(it != found.end() && it->second == 1) << "pair " << i << "," << j;
+    }
+  EXPECT_EQ(found.size(), overlapping);
 }
 
 // --- transform + clip + snap, against a host version in double ---------------------------------
