@@ -104,7 +104,9 @@ inline void sort_list(__global uint* a, int n) {
  * (index of the tile's first leaf << 4) | d. Items are listed per leaf, and a point or a box finds
  * its leaves through its coarse tile. Tiles that are not crowded are their own single leaf. */
 #define VM_LEAF_MAX_DEPTH 7 /* leaves down to 8 grid units (1/32 pixel) on 4-pixel tiles */
-#define VM_LEAF_CROWDED 64  /* a tile with more entries than this may split */
+#ifndef VM_LEAF_CROWDED
+#define VM_LEAF_CROWDED 256 /* a tile with more entries than this may split */
+#endif
 
 inline uint leaf_depth(uint tl) { return tl & 15u; }
 inline uint leaf_first(uint tl) { return tl >> 4; }
