@@ -394,7 +394,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
         rt.launch(stage, "leaf_bin", n, bb, n, g, lv.tile_leaf, count, lv.offset, cursor, lv.list, cl_int(1));
       }
       lv.class_start = rt.alloc(size_t(lv.leaves) * sizeof(cl_uint4), "leaf class starts");
-      rt.launch(stage, "leaf_sort_classes", ntiles, ntiles, g, lv.tile_leaf, lv.offset, count, bb, lv.list,
+      rt.launch(stage, "leaf_sort_classes", ntiles, ntiles, lv.tile_leaf, lv.offset, count, lv.list,
                 lv.class_start);
       return lv;
     };

@@ -55,19 +55,23 @@ __kernel void bin_count(__global const int4* bb, uint n, VmGrid g, __global uint
     for (int tx = tx0; tx <= tx1; ++tx) atomic_inc(&tile_count[ty * g.tiles_x + tx]);
 }
 
+/* Writes each item into its tiles' lists as a key: the id, and in the top two bits its class in
+ * that tile (box_key below; ids are below 2^30, the host checks). */
 __kernel void bin_fill(__global const int4* bb, uint n, VmGrid g, __global const uint* tile_offset,
                        __global uint* tile_cursor, __global uint* list) {
   uint i = get_global_id(0);
   if (i >= n) return;
   int4 b = bb[i];
   int4 tr = tile_range(b, g);
-  int tx0 = tr.x, ty0 = tr.y, tx1 = tr.z, ty1 = tr.w;
-  for (int ty = ty0; ty <= ty1; ++ty)
-    for (int tx = tx0; tx <= tx1; ++tx) {
+  for (int ty = tr.y; ty <= tr.w; ++ty)
+    for (int tx = tr.x; tx <= tr.z; ++tx) {
       uint t = ty * g.tiles_x + tx;
-      list[tile_offset[t] + atomic_inc(&tile_cursor[t])] = i;
+      uint cls = (tx == tr.x ? 0u : 1u) | (ty == tr.y ? 0u : 2u);
+      list[tile_offset[t] + atomic_inc(&tile_cursor[t])] = i | cls << 30;
     }
 }
+
+#define VM_KEY_ID 0x3fffffffu
 
 /* Sorts n ids (or keys) ascending: insertion sort for short lists, heap sort for long ones. */
 inline void sort_list(__global uint* a, int n) {
@@ -140,12 +144,11 @@ inline int4 leaf_range(int4 b, VmGrid g, int tx, int ty, uint d) {
  * larger of their low x lies in L's x range exactly when one of them starts there; leaves at the
  * screen's edge reach out to infinity, as the clamps say). So an item of class c in a leaf only
  * needs the entries of some classes (partner_classes): all for class 0; classes 0 and 2 for
- * class 1; 0 and 1 for class 2; 0 for class 3. */
-inline uint box_class(int4 b, VmGrid g, int tx, int ty, uint d, int lx, int ly) {
-  int4 r = leaf_range(b, g, tx, ty, d);
-  bool sx = tile_coord(b.x, g.tile_shift, g.tiles_x) == tx && r.x == lx;
-  bool sy = tile_coord(b.y, g.tile_shift, g.tiles_y) == ty && r.y == ly;
-  return (sx ? 0u : 1u) | (sy ? 0u : 2u);
+ * class 1; 0 and 1 for class 2; 0 for class 3. With tr the box's tile range and lr its leaf
+ * range in tile (tx, ty), the box starts in leaf (lx, ly) of that tile in x exactly when tx and
+ * lx are the first of their ranges. */
+inline uint box_class(int4 tr, int4 lr, int tx, int ty, int lx, int ly) {
+  return (tx == tr.x && lx == lr.x ? 0u : 1u) | (ty == tr.y && ly == lr.y ? 0u : 2u);
 }
 
 /* Per coarse tile, from its coarse list: the depth minimising an estimate of the work, with
@@ -170,7 +173,7 @@ __kernel void bin_depth(__global const uint* tile_offset, __global const uint* t
     for (int d = 1; d <= dmax; ++d) {
       double e = 0;
       for (uint k = 0; k < n; ++k) {
-        int4 r = leaf_range(bb[list[off + k]], g, tx, ty, (uint)d);
+        int4 r = leaf_range(bb[list[off + k] & VM_KEY_ID], g, tx, ty, (uint)d);
         e += (double)((r.z - r.x + 1) * (r.w - r.y + 1));
       }
       double nl = (double)(1u << (2 * d));
@@ -192,7 +195,8 @@ __kernel void bin_pack(uint ntiles, __global const uint* leaf_first_of, __global
   tile_leaf[t] |= leaf_first_of[t] << 4;
 }
 
-/* Per item: counts (fill = 0) or fills (fill = 1) the lists of the leaves its box touches. */
+/* Per item: counts (fill = 0) or fills (fill = 1, keys as bin_fill writes them) the lists of the
+ * leaves its box touches. */
 __kernel void leaf_bin(__global const int4* bb, uint n, VmGrid g, __global const uint* tile_leaf,
                        __global uint* leaf_count, __global const uint* leaf_offset,
                        __global uint* leaf_cursor, __global uint* list, int fill) {
@@ -209,43 +213,38 @@ __kernel void leaf_bin(__global const int4* bb, uint n, VmGrid g, __global const
         for (int lx = r.x; lx <= r.z; ++lx) {
           uint leaf = first + (uint)(ly * side + lx);
           if (fill)
-            list[leaf_offset[leaf] + atomic_inc(&leaf_cursor[leaf])] = i;
+            list[leaf_offset[leaf] + atomic_inc(&leaf_cursor[leaf])] =
+                i | box_class(tr, r, tx, ty, lx, ly) << 30;
           else
             atomic_inc(&leaf_count[leaf]);
         }
     }
 }
 
-/* Per coarse tile, for each of its leaves: orders the leaf's list by (class, id) and writes where
- * classes 1, 2 and 3 begin (x, y, z) and the count (w). Ids are below 2^30 (the host checks), so
- * the class fits in the top two bits of the sort key. Lists in a fixed order keep every kernel
- * that walks them deterministic, whatever order the atomics ran in. */
-__kernel void leaf_sort_classes(uint ntiles, VmGrid g, __global const uint* tile_leaf,
+/* Per coarse tile, for each of its leaves: sorts the leaf's keys, so its list is ordered by
+ * (class, id), writes where classes 1, 2 and 3 begin (x, y, z) and the count (w), and leaves
+ * plain ids. Lists in a fixed order keep every kernel that walks them deterministic, whatever
+ * order the atomics ran in. */
+__kernel void leaf_sort_classes(uint ntiles, __global const uint* tile_leaf,
                                 __global const uint* leaf_offset, __global const uint* leaf_count,
-                                __global const int4* bb, __global uint* list,
-                                __global uint4* class_start) {
+                                __global uint* list, __global uint4* class_start) {
   uint t = get_global_id(0);
   if (t >= ntiles) return;
-  int tx = (int)(t % (uint)g.tiles_x), ty = (int)(t / (uint)g.tiles_x);
-  uint tl = tile_leaf[t], d = leaf_depth(tl), first = leaf_first(tl);
-  int side = 1 << d;
-  for (int ly = 0; ly < side; ++ly)
-    for (int lx = 0; lx < side; ++lx) {
-      uint leaf = first + (uint)(ly * side + lx);
-      __global uint* a = list + leaf_offset[leaf];
-      int n = (int)leaf_count[leaf];
-      for (int k = 0; k < n; ++k) a[k] |= box_class(bb[a[k]], g, tx, ty, d, lx, ly) << 30;
-      sort_list(a, n);
-      uint4 cs = (uint4)(n, n, n, n);
-      for (int k = n - 1; k >= 0; --k) {
-        uint c = a[k] >> 30;
-        if (c >= 1) cs.x = k;
-        if (c >= 2) cs.y = k;
-        if (c == 3) cs.z = k;
-        a[k] &= 0x3fffffffu;
-      }
-      class_start[leaf] = cs;
+  uint tl = tile_leaf[t], first = leaf_first(tl), nleaves = 1u << (2 * leaf_depth(tl));
+  for (uint leaf = first; leaf < first + nleaves; ++leaf) {
+    __global uint* a = list + leaf_offset[leaf];
+    int n = (int)leaf_count[leaf];
+    sort_list(a, n);
+    uint4 cs = (uint4)(n, n, n, n);
+    for (int k = n - 1; k >= 0; --k) {
+      uint c = a[k] >> 30;
+      if (c >= 1) cs.x = k;
+      if (c >= 2) cs.y = k;
+      if (c == 3) cs.z = k;
+      a[k] &= VM_KEY_ID;
     }
+    class_start[leaf] = cs;
+  }
 }
 
 /* The classes (bit mask) whose entries an item of class c must pair with in a tile. */
@@ -254,13 +253,4 @@ inline uint partner_classes(uint c) { return c == 0 ? 15u : c == 1 ? 5u : c == 2
 /* Where class c begins in a tile's list, from its class starts (class 4: the end). */
 inline uint class_begin(uint4 cs, uint c) {
   return c == 0 ? 0u : c == 1 ? cs.x : c == 2 ? cs.y : c == 3 ? cs.z : cs.w;
-}
-
-/* First index in the ascending ids a[lo, hi) holding an id above t. */
-inline uint first_above(__global const uint* a, uint lo, uint hi, uint t) {
-  while (lo < hi) {
-    uint mid = (lo + hi) >> 1;
-    if (a[mid] <= t) lo = mid + 1; else hi = mid;
-  }
-  return lo;
 }

@@ -59,10 +59,11 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
       for (int ly = lr.y; ly <= lr.w; ++ly)
         for (int lx = lr.x; lx <= lr.z; ++lx) {
           uint leaf = leaf_first(tl) + (uint)(ly * side + lx);
+          uint4 cs = class_start[leaf];
+          if (cs.w == 0) continue;
           __global const uint* list = leaf_list + leaf_offset[leaf];
           /* Only the classes of edges whose (closed) box overlap with t's this leaf owns. */
-          uint4 cs = class_start[leaf];
-          uint want = partner_classes(box_class(tb, g, tx, ty, d, lx, ly));
+          uint want = partner_classes(box_class(tr, lr, tx, ty, lx, ly));
           for (uint c = 0; c < 4; ++c) {
             if (!((want >> c) & 1u)) continue;
             uint hi = class_begin(cs, c + 1);

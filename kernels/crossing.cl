@@ -168,16 +168,19 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
       for (int ly = lr.y; ly <= lr.w; ++ly)
         for (int lx = lr.x; lx <= lr.z; ++lx) {
           uint leaf = leaf_first(tl) + (uint)(ly * side + lx);
+          uint4 cs = class_start[leaf];
+          if (cs.w == 0) continue;
           __global const uint* list = leaf_list + leaf_offset[leaf];
           /* Only the classes of entries whose pairs with t this leaf owns, each (sorted by id)
-           * from its first id above t: each pair is found once, by its lower member. */
-          uint4 cs = class_start[leaf];
-          uint want = partner_classes(box_class(tb, g, tx, ty, d, lx, ly));
+           * walked down from its top to its first id not above t: each pair is found once, by
+           * its lower member, and no entry below t is touched but the one that stops the walk. */
+          uint want = partner_classes(box_class(tr, lr, tx, ty, lx, ly));
           for (uint c = 0; c < 4; ++c) {
             if (!((want >> c) & 1u)) continue;
-            uint hi = class_begin(cs, c + 1);
-            for (uint k = first_above(list, class_begin(cs, c), hi, t); k < hi; ++k) {
+            uint lo = class_begin(cs, c);
+            for (uint k = class_begin(cs, c + 1); k-- > lo;) {
               uint o = list[k];
+              if (o <= t) break;
               int4 ob = tri_bb[o];
               if (max(tb.x, ob.x) >= min(tb.z, ob.z) || max(tb.y, ob.y) >= min(tb.w, ob.w)) continue;
               /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
@@ -212,8 +215,7 @@ __kernel void cross_pairs(__global const VmScreenTri* tris, uint ntris, __global
   if (t >= ntris) return;
   size_t s = (size_t)t * VM_PAIRS_INLINE;
   uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start, leaf_list,
-                    VM_PAIRS_INLINE,
-                    scr_o + s, scr_rel + s, scr_line + s);
+                    VM_PAIRS_INLINE, scr_o + s, scr_rel + s, scr_line + s);
   counts[t] = c;
   if (c > VM_PAIRS_INLINE) atomic_or(status, VM_STATUS_PAIRS_OVERFLOW);
 }

@@ -90,7 +90,7 @@ TEST(Stages, AdaptiveLeavesListEveryBoxAndOwnEveryPairOnce) {
   cl::Buffer llist = rt.alloc(lentries * 4, "ll");
   rt.launch("test", "leaf_bin", n, bb, n, g, tile_leaf, lcount, loffset, lcursor, llist, cl_int(1));
   cl::Buffer cstart = rt.alloc(nleaves * sizeof(cl_uint4), "cs");
-  rt.launch("test", "leaf_sort_classes", ntiles, ntiles, g, tile_leaf, loffset, lcount, bb, llist, cstart);
+  rt.launch("test", "leaf_sort_classes", ntiles, ntiles, tile_leaf, loffset, lcount, llist, cstart);
   auto tl = read<uint32_t>(rt, tile_leaf, ntiles), loff = read<uint32_t>(rt, loffset, nleaves);
   auto got = read<uint32_t>(rt, llist, lentries);
   auto cs = read<cl_uint4>(rt, cstart, nleaves);
