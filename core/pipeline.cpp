@@ -426,12 +426,14 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       pair_o = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
       pair_rel = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
       pair_line = rt.alloc(std::max<size_t>(P, 1) * sizeof(VmLine), "pairs");
+      // Triangles whose pairs fit their slots are copied; after an overflow the others traverse
+      // again, straight into the compact arrays.
+      rt.launch("crossings", "cross_compact", S, S, pcount, poffset, scr_o, scr_rel, scr_line,
+                pair_t, pair_o, pair_rel, pair_line);
       if (status & VM_STATUS_PAIRS_OVERFLOW)
         rt.launch("crossings", "cross_pairs_fill", S, tris, S, tri_bb, tri_qr, og, tbins.tile_leaf,
-                  tbins.offset, tbins.class_start, tbins.list, poffset, pair_t, pair_o, pair_rel, pair_line);
-      else
-        rt.launch("crossings", "cross_compact", S, S, pcount, poffset, scr_o, scr_rel, scr_line,
-                  pair_t, pair_o, pair_rel, pair_line);
+                  tbins.offset, tbins.class_start, tbins.list, pcount, poffset, pair_t, pair_o, pair_rel,
+                  pair_line);
     }
     rt.launch("crossings", "cross_refine", P, P, tris, pair_t, pair_o, pair_rel, pair_line);
     cl::Buffer in_count = rt.alloc(size_t(S) * 4, "incoming pair counts");

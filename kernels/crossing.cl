@@ -147,7 +147,8 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
 /* Entangled pairs: crossing pairs and pairs that tie (coplanar within the band). Each pair is
  * found once, by its lower triangle t, through the triangle bins (each pair looked at in one tile
  * only), in one traversal: up to VM_PAIRS_INLINE pairs per triangle go to a scratch slot and the
- * rest only raise a status bit, after which cross_pairs_fill traverses again into exact space. */
+ * rest only raise a status bit, after which cross_pairs_fill traverses again into exact space,
+ * for those triangles only. */
 #define VM_PAIRS_INLINE 4
 
 inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
@@ -220,16 +221,17 @@ __kernel void cross_pairs(__global const VmScreenTri* tris, uint ntris, __global
   if (c > VM_PAIRS_INLINE) atomic_or(status, VM_STATUS_PAIRS_OVERFLOW);
 }
 
-/* Only after an overflow: the same traversal, straight into the compact pair arrays. */
+/* Only after an overflow, and only for the triangles whose pairs did not fit their slots (the
+ * others are copied by cross_compact): the same traversal, straight into the compact arrays. */
 __kernel void cross_pairs_fill(__global const VmScreenTri* tris, uint ntris,
                                __global const int4* tri_bb, __global const double2* tri_qr, VmGrid g,
                                __global const uint* tile_leaf, __global const uint* leaf_offset,
                                __global const uint4* class_start, __global const uint* leaf_list,
-                               __global const uint* offsets,
+                               __global const uint* counts, __global const uint* offsets,
                                __global uint* pair_t, __global uint* pair_o, __global uint* pair_rel,
                                __global VmLine* pair_line) {
   uint t = get_global_id(0);
-  if (t >= ntris) return;
+  if (t >= ntris || counts[t] <= VM_PAIRS_INLINE) return;
   uint o = offsets[t];
   uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start, leaf_list, 0xffffffffu,
                     pair_o + o, pair_rel + o, pair_line + o);
@@ -244,6 +246,7 @@ __kernel void cross_compact(uint ntris, __global const uint* counts, __global co
   uint t = get_global_id(0);
   if (t >= ntris) return;
   uint c = counts[t], o = offsets[t];
+  if (c > VM_PAIRS_INLINE) return; /* cross_pairs_fill writes these */
   size_t s = (size_t)t * VM_PAIRS_INLINE;
   for (uint k = 0; k < c; ++k) {
     pair_t[o + k] = t;
