@@ -18,6 +18,25 @@
 #ifndef VM_SNAP_SEARCH
 #define VM_SNAP_SEARCH 256
 #endif
+/* Run along the axis between the two points of a crossing line snapped by direction (below):
+ * at most 2^21, so that the line's |a|, |b| <= 2^21 and its points stay within 2^22 + 2^21 of
+ * the origin for an overlap inside the grid's 2^22. */
+#define VM_SNAP_SPAN (1L << 21)
+/* Near-candidate error bound (grid units) below which the line is kept as the column search
+ * found it: more accurate lines make cells at triple points that can be thinner than the fine
+ * sample grid of occlusion (VM_POINT_BITS), which are then dropped as slivers. */
+#define VM_SNAP_GOOD (1.0 / 32)
+
+inline long gcd_long(long a, long b) {
+  a = a < 0 ? -a : a;
+  b = b < 0 ? -b : b;
+  while (b) {
+    long t = a % b;
+    a = b;
+    b = t;
+  }
+  return a;
+}
 
 /* The overlap of two screen triangles' footprints, in doubles (grid units): a clipped by b's
  * three edge lines. Returns the vertex count (0 when empty). */
@@ -93,7 +112,8 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
    * the first `search` columns from one grid unit beyond the box, the column where the line
    * passes closest to a grid point (rounding the other coordinate). Between the two points the
    * snapped line is within max(r0, r1) of the true one, r being those roundings (docs/NUMERICS.md
-   * §2). The pair traversal, which needs only the relation, takes the first column (search =
+   * §2); for slopes near simple fractions, a line snapped by its direction instead (below).
+   * The pair traversal, which needs only the relation, takes the first column (search =
    * 1: its hot loop stays as small as it was); cross_refine redoes the line of every crossing
    * pair with VM_SNAP_SEARCH before anything uses it. */
   double A = pa.gx - pb.gx, B = pa.gy - pb.gy;
@@ -124,6 +144,53 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
       double e0 = fabs(w0 - rint(w0)), e1 = fabs(w1 - rint(w1));
       if (e0 < r0) { r0 = e0; best0 = u0 - k; v0 = (long)rint(w0); }
       if (e1 < r1) { r1 = e1; best1 = u1 + k; v1 = (long)rint(w1); }
+    }
+    /* A line whose slope is near a simple fraction (axis-parallel, diagonal, 1/2, ...) rounds
+     * alike at every nearby column, up to 1/2 grid unit (nearly_touching: a horizontal line
+     * 0.41 off over 170 px). So a second candidate: a grid line of direction (n, p), n within
+     * `search` of VM_SNAP_SPAN and p/n within 1/n of the slope m, at the offset nearest the
+     * true line at the overlap's centre column uc (such lines are gcd(n, p)/n apart there).
+     * Its error over the overlap is at most |offset| + |p/n - m| h for the half-span h, about
+     * h/2^21 for an axis-parallel line; it replaces the near candidate when that bound is the
+     * smaller one (docs/NUMERICS.md §2). Its points straddle uc, n apart: |x|, |y| <= 2^23,
+     * |a|, |b| <= 2^21, within the bit budget. */
+    double m = -P / Q, ulo = along_x ? lo.x : lo.y, uhi = along_x ? hi.x : hi.y;
+    long uc = (long)rint(0.5 * (ulo + uhi));
+    double vc = -(P * (double)uc + C) / Q, h = fmax(uhi - (double)uc, (double)uc - ulo) + 1.0;
+    long vci = (long)rint(vc);
+    double f = vc - (double)vci; /* the true line crosses column uc at vci + f */
+    double s0 = (double)(v1 - v0) / (double)(best1 - best0);
+    double err = fabs((double)v0 + s0 * (double)(uc - best0) - vc) + fabs(s0 - m) * h;
+    long bn = 0, bp = 0, bj = 0;
+    for (int k = 0; k < search && err > VM_SNAP_GOOD; ++k) {
+      long n = VM_SNAP_SPAN - k, pm = (long)rint(m * (double)n);
+      for (long p = pm - 1; p <= pm + 1; ++p) {
+        double slope_err = fabs((double)p / (double)n - m) * h;
+        if (slope_err >= err || p > n || p < -n) continue;
+        long g = gcd_long(n, p);
+        /* grid lines n (v - vci) - p (u - uc) = j: j a multiple of g, nearest f n */
+        long j = g * (long)rint(f * (double)n / (double)g);
+        double e = slope_err + fabs((double)j / (double)n - f);
+        if (e < err) { err = e; bn = n; bp = p; bj = j; }
+      }
+    }
+    if (bn) {
+      long g = gcd_long(bn, bp), n = bn / g, p = bp / g, j = bj / g;
+      /* n dv - p du = j with du = -s j (mod n), where n t + p s = 1 (extended Euclid) */
+      long r0 = n, r1 = p, sa = 0, sb = 1;
+      while (r1) {
+        long qq = r0 / r1, tmp = r0 - qq * r1;
+        r0 = r1; r1 = tmp;
+        tmp = sa - qq * sb; sa = sb; sb = tmp;
+      }
+      long du = ((-sa * r0) % n * (j % n)) % n; /* r0 = +-1 */
+      if (du > 0) du -= n;                      /* du in (-n, 0]: the points straddle uc */
+      long dv = (j + p * du) / n;
+      ulong range = 1UL << 23;
+      if (max(abs(uc + du), abs(uc + du + n)) <= range && max(abs(vci + dv), abs(vci + dv + p)) <= range) {
+        best0 = uc + du; v0 = vci + dv;
+        best1 = best0 + n; v1 = v0 + p;
+      }
     }
     x0 = along_x ? best0 : v0; y0 = along_x ? v0 : best0;
     x1 = along_x ? best1 : v1; y1 = along_x ? v1 : best1;
