@@ -13,6 +13,7 @@
 #include "core/pipeline.h"
 #include "core/reference/scene_check.h"
 #include "core/scene.h"
+#include "tests/support/triangle_scene.h"
 
 namespace {
 
@@ -23,16 +24,7 @@ Renderer& renderer() {
   return r;
 }
 
-void add_triangle(Scene& s, const std::string& name, const double (&p)[3][3]) {
-  Mesh m;
-  m.name = name;
-  for (int k = 0; k < 3; ++k)
-    for (int c = 0; c < 3; ++c) m.positions.push_back(float(p[k][c]));
-  m.indices = {0, 1, 2};
-  m.face_ids = {0};
-  m.source_triangles = 1;
-  s.meshes.push_back(std::move(m));
-}
+using test_support::add_triangle;
 
 // World units = pixels (orthographic 256x256 looking down -z), as in data/stiff/.
 Scene cluster_scene(uint64_t seed, Camera& cam) {
