@@ -340,24 +340,6 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     const VmGrid og = make_grid(std::max<uint32_t>(tile_px / 2, 4), W, H);
 
 
-    struct Bins {
-      cl::Buffer count, offset, list;
-      uint32_t pairs = 0;
-    };
-    auto bin = [&](const char* stage, cl::Buffer& bb, uint32_t n, const VmGrid& g) {
-      const uint32_t ntiles = uint32_t(g.tiles_x) * uint32_t(g.tiles_y);
-      Bins b;
-      b.count = rt.alloc(size_t(ntiles) * 4, "tile counts");
-      b.offset = rt.alloc(size_t(ntiles) * 4, "tile offsets");
-      rt.fill_u32(b.count, 0, ntiles, stage);
-      rt.launch(stage, "bin_count", n, bb, n, g, b.count);
-      b.pairs = rt.scan(stage, b.count, b.offset, ntiles);
-      b.list = rt.alloc(std::max<size_t>(b.pairs, 1) * 4, "tile lists");
-      cl::Buffer cursor = rt.alloc(size_t(ntiles) * 4, "tile cursors");
-      rt.fill_u32(cursor, 0, ntiles, stage);
-      rt.launch(stage, "bin_fill", n, bb, n, g, b.offset, cursor, b.list);
-      return b;
-    };
     // Adaptive leaves (kernels/bin.cl): a crowded tile of g is split into leaves where that
     // saves work, and every leaf's list is ordered by (class, id) with where each class starts,
     // so that pair traversals skip what a leaf does not own and every walk is in a fixed order.
@@ -367,22 +349,10 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     };
     auto bin_leaves = [&](const char* stage, cl::Buffer& bb, uint32_t n, const VmGrid& g) {
       const uint32_t ntiles = uint32_t(g.tiles_x) * uint32_t(g.tiles_y);
-      Bins coarse = bin(stage, bb, n, g);
       Leaves lv;
-      lv.tile_leaf = rt.alloc(size_t(ntiles) * 4, "tile leaves");
-      cl::Buffer per_tile = rt.alloc(size_t(ntiles) * 4, "leaves per tile");
-      cl::Buffer first = rt.alloc(size_t(ntiles) * 4, "first leaf per tile");
-      rt.launch(stage, "bin_depth", ntiles, coarse.offset, coarse.count, ntiles, bb, g, coarse.list,
-                lv.tile_leaf, per_tile);
-      lv.leaves = rt.scan(stage, per_tile, first, ntiles);
-      rt.launch(stage, "bin_pack", ntiles, ntiles, first, lv.tile_leaf);
       cl::Buffer count;
-      if (lv.leaves == ntiles) {  // no tile split: the coarse lists are the leaves
-        count = coarse.count;
-        lv.offset = coarse.offset;
-        lv.list = coarse.list;
-        lv.entries = coarse.pairs;
-      } else {
+      // Count, scan and fill the lists of the leaves given by lv.tile_leaf (lv.leaves of them).
+      auto fill_leaves = [&] {
         count = rt.alloc(size_t(lv.leaves) * 4, "leaf counts");
         lv.offset = rt.alloc(size_t(lv.leaves) * 4, "leaf offsets");
         rt.fill_u32(count, 0, lv.leaves, stage);
@@ -392,6 +362,22 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
         cl::Buffer cursor = rt.alloc(size_t(lv.leaves) * 4, "leaf cursors");
         rt.fill_u32(cursor, 0, lv.leaves, stage);
         rt.launch(stage, "leaf_bin", n, bb, n, g, lv.tile_leaf, count, lv.offset, cursor, lv.list, cl_int(1));
+      };
+      // The coarse pass: every tile one leaf.
+      lv.tile_leaf = rt.alloc(size_t(ntiles) * 4, "tile leaves");
+      lv.leaves = ntiles;
+      rt.launch(stage, "leaf_identity", ntiles, ntiles, lv.tile_leaf);
+      fill_leaves();
+      // Each tile's depth from its coarse list; the map is rewritten only after the last use of
+      // the coarse one (the queue is in order).
+      cl::Buffer per_tile = rt.alloc(size_t(ntiles) * 4, "leaves per tile");
+      cl::Buffer first = rt.alloc(size_t(ntiles) * 4, "first leaf per tile");
+      rt.launch(stage, "bin_depth", ntiles, lv.offset, count, ntiles, bb, g, lv.list, lv.tile_leaf, per_tile);
+      const uint32_t leaves = rt.scan(stage, per_tile, first, ntiles);
+      rt.launch(stage, "bin_pack", ntiles, ntiles, first, lv.tile_leaf);
+      if (leaves != ntiles) {  // some tile split: bin again into the leaves (else the map is the same)
+        lv.leaves = leaves;
+        fill_leaves();
       }
       lv.class_start = rt.alloc(size_t(lv.leaves) * sizeof(cl_uint4), "leaf class starts");
       rt.launch(stage, "leaf_sort_classes", ntiles, ntiles, lv.tile_leaf, lv.offset, count, lv.list,

@@ -1,7 +1,7 @@
 /* Stage: binning (MPR-style: a tile keeps only what can touch it). Items are given by grid
- * bounding boxes (int4: x0, y0, x1, y1, inclusive). A uniform grid of tiles first (count per
- * tile, scan on the host, fill); then each tile chooses a depth from its list, and a crowded
- * tile splits into 2^d x 2^d leaves, the items binned again into leaves (adaptive leaves below).
+ * bounding boxes (int4: x0, y0, x1, y1, inclusive). A uniform grid of tiles first, each tile
+ * one leaf (count per leaf, scan on the host, fill); then each tile chooses a depth from its
+ * list, and a crowded tile splits into 2^d x 2^d leaves, the items binned again into leaves.
  * Every leaf's list is sorted, so everything downstream is deterministic whatever order the
  * atomics ran in. */
 
@@ -45,32 +45,8 @@ inline void sort_ids(__global uint* a, int n) {
   }
 }
 
-__kernel void bin_count(__global const int4* bb, uint n, VmGrid g, __global uint* tile_count) {
-  uint i = get_global_id(0);
-  if (i >= n) return;
-  int4 b = bb[i];
-  int4 tr = tile_range(b, g);
-  int tx0 = tr.x, ty0 = tr.y, tx1 = tr.z, ty1 = tr.w;
-  for (int ty = ty0; ty <= ty1; ++ty)
-    for (int tx = tx0; tx <= tx1; ++tx) atomic_inc(&tile_count[ty * g.tiles_x + tx]);
-}
-
-/* Writes each item into its tiles' lists as a key: the id, and in the top two bits its class in
- * that tile (box_key below; ids are below 2^30, the host checks). */
-__kernel void bin_fill(__global const int4* bb, uint n, VmGrid g, __global const uint* tile_offset,
-                       __global uint* tile_cursor, __global uint* list) {
-  uint i = get_global_id(0);
-  if (i >= n) return;
-  int4 b = bb[i];
-  int4 tr = tile_range(b, g);
-  for (int ty = tr.y; ty <= tr.w; ++ty)
-    for (int tx = tr.x; tx <= tr.z; ++tx) {
-      uint t = ty * g.tiles_x + tx;
-      uint cls = (tx == tr.x ? 0u : 1u) | (ty == tr.y ? 0u : 2u);
-      list[tile_offset[t] + atomic_inc(&tile_cursor[t])] = i | cls << 30;
-    }
-}
-
+/* List entries are keys while binning: the id, and in the top two bits the item's class in that
+ * leaf (box_class below; ids are below 2^30, the host checks). */
 #define VM_KEY_ID 0x3fffffffu
 
 /* Sorts n ids (or keys) ascending: insertion sort for short lists, heap sort for long ones. */
@@ -188,6 +164,13 @@ __kernel void bin_depth(__global const uint* tile_offset, __global const uint* t
   leaves[t] = 1u << (2 * best);
 }
 
+/* Every tile its own single leaf (depth 0, leaf index = tile index): the map the coarse pass
+ * bins with. */
+__kernel void leaf_identity(uint ntiles, __global uint* tile_leaf) {
+  uint t = get_global_id(0);
+  if (t < ntiles) tile_leaf[t] = t << 4;
+}
+
 /* Packs each tile's first leaf (the scan of the leaf counts) with its depth. */
 __kernel void bin_pack(uint ntiles, __global const uint* leaf_first_of, __global uint* tile_leaf) {
   uint t = get_global_id(0);
@@ -195,8 +178,8 @@ __kernel void bin_pack(uint ntiles, __global const uint* leaf_first_of, __global
   tile_leaf[t] |= leaf_first_of[t] << 4;
 }
 
-/* Per item: counts (fill = 0) or fills (fill = 1, keys as bin_fill writes them) the lists of the
- * leaves its box touches. */
+/* Per item: counts (fill = 0) or fills (fill = 1, with keys) the lists of the leaves its box
+ * touches. */
 __kernel void leaf_bin(__global const int4* bb, uint n, VmGrid g, __global const uint* tile_leaf,
                        __global uint* leaf_count, __global const uint* leaf_offset,
                        __global uint* leaf_cursor, __global uint* list, int fill) {
@@ -247,10 +230,10 @@ __kernel void leaf_sort_classes(uint ntiles, __global const uint* tile_leaf,
   }
 }
 
-/* The classes (bit mask) whose entries an item of class c must pair with in a tile. */
+/* The classes (bit mask) whose entries an item of class c must pair with in a leaf. */
 inline uint partner_classes(uint c) { return c == 0 ? 15u : c == 1 ? 5u : c == 2 ? 3u : 1u; }
 
-/* Where class c begins in a tile's list, from its class starts (class 4: the end). */
+/* Where class c begins in a leaf's list, from its class starts (class 4: the end). */
 inline uint class_begin(uint4 cs, uint c) {
   return c == 0 ? 0u : c == 1 ? cs.x : c == 2 ? cs.y : c == 3 ? cs.z : cs.w;
 }

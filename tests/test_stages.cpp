@@ -71,12 +71,13 @@ TEST(Stages, AdaptiveLeavesListEveryBoxAndOwnEveryPairOnce) {
              cursor = rt.alloc(ntiles * 4, "k");
   rt.fill_u32(count, 0, ntiles, "test");
   rt.fill_u32(cursor, 0, ntiles, "test");
-  rt.launch("test", "bin_count", n, bb, n, g, count);
-  uint32_t entries = rt.scan("test", count, offset, ntiles);
-  cl::Buffer list = rt.alloc(entries * 4, "list");
-  rt.launch("test", "bin_fill", n, bb, n, g, offset, cursor, list);
   cl::Buffer tile_leaf = rt.alloc(ntiles * 4, "tl"), per_tile = rt.alloc(ntiles * 4, "pt"),
              first = rt.alloc(ntiles * 4, "f");
+  rt.launch("test", "leaf_identity", ntiles, ntiles, tile_leaf);  // the coarse pass: a leaf per tile
+  rt.launch("test", "leaf_bin", n, bb, n, g, tile_leaf, count, count, count, count, cl_int(0));
+  uint32_t entries = rt.scan("test", count, offset, ntiles);
+  cl::Buffer list = rt.alloc(entries * 4, "list");
+  rt.launch("test", "leaf_bin", n, bb, n, g, tile_leaf, count, offset, cursor, list, cl_int(1));
   rt.launch("test", "bin_depth", ntiles, offset, count, ntiles, bb, g, list, tile_leaf, per_tile);
   const uint32_t nleaves = rt.scan("test", per_tile, first, ntiles);
   rt.launch("test", "bin_pack", ntiles, ntiles, first, tile_leaf);
