@@ -43,7 +43,7 @@ VmGrid make_grid(uint32_t tile_px, uint32_t W, uint32_t H) {
 }
 
 // Totals buffer slots: one small read per clip round brings back all of them.
-enum Slot : uint32_t { kStatus = 0, kSlivers = 1, kNextTotal = 2, kDoneTotal = 3, kSlots = 4 };
+enum Slot : uint32_t { kStatus = 0, kSlivers = 1, kNextTotal = 2, kDoneTotal = 3, kThin = 4, kSlots = 5 };
 
 struct LinesOverflow {};
 
@@ -528,6 +528,12 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     rt.launch("occlusion", "occlude", nd, done_meta, done_lines, nd, tris, tri_bb, og, tbins.tile_leaf,
               tbins.offset, tbins.class_start, tbins.list, edges, E, cross_offset, cross_count, partner,
               visible, totals);
+    uint32_t thin = 0;
+    q.enqueueReadBuffer(totals, CL_TRUE, kThin * 4, 4, &thin);
+    if (thin > 0)  // cells thinner than the fine sample grid: decided at exact rational points
+      rt.launch("occlusion", "occlude_thin", nd, done_meta, done_lines, nd, tris, tri_bb, og,
+                tbins.tile_leaf, tbins.offset, tbins.class_start, tbins.list, edges, E, cross_offset,
+                cross_count, partner, visible, totals);
     const uint32_t V = rt.scan("occlusion", visible, voff, nd);
 
     // ---- planar map ---------------------------------------------------------------------------
@@ -579,6 +585,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     st.clip_rounds += rounds;
     st.fragments += nd;
     st.visible_fragments += V;
+    st.thin_fragments += thin;
     st.sliver_fragments += tot[kSlivers];
     add_io("silhouettes", uint64_t(3) * S, E);
     add_io("bin", uint64_t(S) + E, uint64_t(tbins.entries) + ebins.entries);

@@ -42,7 +42,8 @@ struct RenderStats {
   uint64_t entangled_pairs = 0;     // screen-triangle pairs that cross or tie (coplanar)
   uint64_t crossing_lines = 0;      // clipping entries those pairs add (lines and partner edges)
   uint64_t fragments = 0, visible_fragments = 0;
-  uint64_t sliver_fragments = 0;    // fragments thinner than the sample grid (dropped)
+  uint64_t thin_fragments = 0;      // thinner than the fine sample grid: decided at exact points
+  uint64_t sliver_fragments = 0;    // fragments without interior (zero area; dropped)
   uint64_t peak_device_bytes = 0;   // most device memory held at once (scene upload included)
   uint64_t allocated_device_bytes = 0;  // sum of every allocation during the render
   uint32_t clip_rounds = 0;         // summed over buckets

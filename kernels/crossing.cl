@@ -25,7 +25,9 @@
 /* Near-candidate error bound (grid units) below which the line is kept as the column search
  * found it: more accurate lines make cells at triple points that can be thinner than the fine
  * sample grid of occlusion (VM_POINT_BITS), which are then dropped as slivers. */
+#ifndef VM_SNAP_GOOD
 #define VM_SNAP_GOOD (1.0 / 32)
+#endif
 
 inline long gcd_long(long a, long b) {
   a = a < 0 ? -a : a;

@@ -62,6 +62,40 @@ inline int line_side_fine(Line3 L, long px, long py) {
   return i128_sign(s);
 }
 
+/* A point where occlusion decides: a fine-grid point (px, py) / 2^VM_POINT_BITS, or, for a
+ * cell thinner than the fine grid, an exact rational point (X / W, Y / W) with W > 0
+ * (occlude.cl exact_interior_point; coordinates below 2^167 over 2^143, §1 of NUMERICS). */
+typedef struct {
+  long px, py;
+  int exact;
+  int gx, gy;    /* the grid cell holding the point: floor of its coordinates */
+  double fx, fy; /* the point in grid units, rounded: for depths only, never for sides */
+  i256 X, Y, W;
+} VmSample;
+
+inline VmSample sample_fine(long px, long py) {
+  VmSample s;
+  s.px = px;
+  s.py = py;
+  s.exact = 0;
+  s.gx = (int)(px >> VM_POINT_BITS);
+  s.gy = (int)(py >> VM_POINT_BITS);
+  const double inv = 1.0 / (double)((long)1 << VM_POINT_BITS);
+  s.fx = (double)px * inv;
+  s.fy = (double)py * inv;
+  return s;
+}
+
+/* Exact side of a rational point: a*X + b*Y + c*W, each term below 2^191 (NUMERICS §1). */
+inline int line_side_exact(Line3 L, i256 X, i256 Y, i256 W) {
+  i256 s = i256_add(i256_mul64(X, L.a), i256_mul64(Y, L.b));
+  return i256_sign(i256_add(s, i256_mul64(W, L.c)));
+}
+
+inline int sample_side(Line3 L, const VmSample* s) {
+  return s->exact ? line_side_exact(L, s->X, s->Y, s->W) : line_side_fine(L, s->px, s->py);
+}
+
 /* A screen triangle's depth plane: nearness q(x, y) = q0 + gx*(x - x0) + gy*(y - y0) in grid
  * units, the affine interpolation of its three vertices' nearness. */
 typedef struct {

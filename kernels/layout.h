@@ -23,7 +23,9 @@ typedef uint64_t vm_u64;
 /* Largest viewport side in pixels; grid coordinates stay below 2^22 (docs/NUMERICS.md). */
 #define VM_MAX_VIEWPORT 16384
 /* Interior sample points carry this many extra fraction bits below the grid. */
+#ifndef VM_POINT_BITS
 #define VM_POINT_BITS 24
+#endif
 /* Relative depth difference under which two surfaces tie (the fixed tie rule decides). */
 #define VM_TIE_EPS 1e-6
 

@@ -37,6 +37,69 @@ inline bool interior_point(__global const VmLine* L, uint n, long* px, long* py)
   return false;
 }
 
+/* The vertex Li ^ Lj exactly, as (X / W, Y / W) with W > 0: |X|, |Y| < 2^71, W < 2^47 (§1 of
+ * NUMERICS). False when the lines are parallel. */
+inline bool vertex_exact(Line3 Li, Line3 Lj, i128* X, i128* Y, long* W) {
+  long w = Li.a * Lj.b - Lj.a * Li.b;
+  if (w == 0) return false;
+  i128 x = i128_sub(i128_mul64(Li.b, Lj.c), i128_mul64(Lj.b, Li.c));
+  i128 y = i128_sub(i128_mul64(Li.c, Lj.a), i128_mul64(Lj.c, Li.a));
+  *X = w < 0 ? i128_neg(x) : x;
+  *Y = w < 0 ? i128_neg(y) : y;
+  *W = w < 0 ? -w : w;
+  return true;
+}
+
+/* floor(X / W) for W > 0, exactly: the rounded quotient corrected by exact comparisons. */
+inline int floor_div_exact(i256 X, i256 W) {
+  long g = (long)floor(i256_to_double(X) / i256_to_double(W));
+  while (i256_sign(i256_sub(X, i256_mul64(W, g))) < 0) --g;
+  while (i256_sign(i256_sub(X, i256_mul64(W, g + 1))) >= 0) ++g;
+  return (int)g;
+}
+
+/* For a cell that interior_point() found no fine-grid point in (thinner than 2^-VM_POINT_BITS
+ * grid units: three lines that nearly meet, e.g. at a triple point): an exact rational point
+ * strictly inside, the centroid of a fan triangle of its exact vertices,
+ *   (X0 Wa Wb + Xa W0 Wb + Xb W0 Wa) / (3 W0 Wa Wb),
+ * numerators below 2^167 and denominator below 2^143. Every candidate is checked exactly
+ * against every line, so a cell of positive area always gets one (some fan triangle of a
+ * convex polygon has positive area, and its centroid is strictly inside); false means the
+ * cell has no interior. */
+inline bool exact_interior_point(__global const VmLine* L, uint n, VmSample* s) {
+  i128 X0, Y0;
+  long W0;
+  if (!vertex_exact(line_of_vm(L[0]), line_of_vm(L[1 % n]), &X0, &Y0, &W0)) return false;
+  for (uint a = 1; a + 1 < n; ++a) {
+    i128 Xa, Ya, Xb, Yb;
+    long Wa, Wb;
+    Line3 La = line_of_vm(L[a]), Lb = line_of_vm(L[a + 1]), Lc = line_of_vm(L[(a + 2) % n]);
+    if (!vertex_exact(La, Lb, &Xa, &Ya, &Wa) || !vertex_exact(Lb, Lc, &Xb, &Yb, &Wb)) continue;
+    i256 X = i256_mul64(i256_mul64(i256_from_i128(X0), Wa), Wb);
+    X = i256_add(X, i256_mul64(i256_mul64(i256_from_i128(Xa), W0), Wb));
+    X = i256_add(X, i256_mul64(i256_mul64(i256_from_i128(Xb), W0), Wa));
+    i256 Y = i256_mul64(i256_mul64(i256_from_i128(Y0), Wa), Wb);
+    Y = i256_add(Y, i256_mul64(i256_mul64(i256_from_i128(Ya), W0), Wb));
+    Y = i256_add(Y, i256_mul64(i256_mul64(i256_from_i128(Yb), W0), Wa));
+    i256 W = i256_mul64(i256_mul64(i256_from_long(3 * W0), Wa), Wb);
+    bool inside = true;
+    for (uint i = 0; i < n && inside; ++i) inside = line_side_exact(line_of_vm(L[i]), X, Y, W) > 0;
+    if (!inside) continue;
+    s->exact = 1;
+    s->X = X;
+    s->Y = Y;
+    s->W = W;
+    s->px = s->py = 0;
+    s->gx = floor_div_exact(X, W);
+    s->gy = floor_div_exact(Y, W);
+    double w = i256_to_double(W);
+    s->fx = i256_to_double(X) / w;
+    s->fy = i256_to_double(Y) / w;
+    return true;
+  }
+  return false;
+}
+
 /* Exact: is the fine point inside or on the boundary of screen triangle o (orient > 0)? */
 inline bool covers(__global const VmScreenTri* o, long px, long py) {
   for (int i = 0; i < 3; ++i) {
@@ -49,13 +112,29 @@ inline bool covers(__global const VmScreenTri* o, long px, long py) {
   return true;
 }
 
-/* Does screen triangle o hide screen triangle t at the fine point (px, py), which both cover?
+/* Exact: is the rational point (X / W, Y / W) inside or on the boundary of o? Each term below
+ * 2^23 * 2^168. */
+inline bool covers_exact(__global const VmScreenTri* o, i256 X, i256 Y, i256 W) {
+  for (int i = 0; i < 3; ++i) {
+    int j = i == 2 ? 0 : i + 1;
+    long ex = o->x[j] - o->x[i], ey = o->y[j] - o->y[i];
+    i256 dy = i256_sub(Y, i256_mul64(W, o->y[i])), dx = i256_sub(X, i256_mul64(W, o->x[i]));
+    if (i256_sign(i256_sub(i256_mul64(dy, ex), i256_mul64(dx, ey))) < 0) return false;
+  }
+  return true;
+}
+
+inline bool sample_covers(__global const VmScreenTri* o, const VmSample* s) {
+  return s->exact ? covers_exact(o, s->X, s->Y, s->W) : covers(o, s->px, s->py);
+}
+
+/* Does screen triangle o hide screen triangle t at the sample point, which both cover?
  * Crossing pairs: by the side of their snapped intersection line (t's copy is directed so that
  * t is in front on its positive side). Other pairs: by the depth difference where it is clear
  * of the tie band, else by the relation of the pair over its whole overlap, so that all points
  * of the overlap get the same answer. Antisymmetric at every point: exactly one of
  * hides(t, o) and hides(o, t) holds, so the covering triangles form a tournament there. */
-inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, long px, long py,
+inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, const VmSample* smp,
                   __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
                   __global const uint* cross_count, __global const uint* partner) {
   uint co = cross_offset[t], cn = cross_count[t];
@@ -65,14 +144,12 @@ inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, lo
       if (isinf(e.q0)) {
         /* The point lies on the line only when neither t's nor o's fragment is clipped by it
          * (a tournament among other triangles): the lower index is in front there. */
-        int s = line_side_fine(line_of(e.x0, e.y0, e.x1, e.y1), px, py);
+        int s = sample_side(line_of(e.x0, e.y0, e.x1, e.y1), smp);
         return s < 0 || (s == 0 && o < t);
       }
       break; /* a tying pair: its entries are the partner's edges */
     }
-  const double inv = 1.0 / (double)((long)1 << VM_POINT_BITS);
-  double fx = (double)px * inv, fy = (double)py * inv;
-  double qt = tri_depth_at(T, fx, fy), qo = tri_depth_at(O, fx, fy);
+  double qt = tri_depth_at(T, smp->fx, smp->fy), qo = tri_depth_at(O, smp->fx, smp->fy);
   double band = VM_TIE_EPS * fmax(fabs(qt), fabs(qo));
   if (qo - qt > band) return true;
   if (qt - qo > band) return false;
@@ -85,14 +162,13 @@ inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, lo
   return in_front(qo, qt, O->mesh, O->tri, T->mesh, T->tri);
 }
 
-/* Is screen triangle o one of those competing at the fine point: does it cover the point, and
- * is it no piece of the source of triangle t (pieces of one source never overlap)? */
+/* Is screen triangle o one of those competing at the sample point: does it cover the point,
+ * and is it no piece of the source of triangle t (pieces of one source never overlap)? */
 inline bool competes(__global const VmScreenTri* tris, __global const int4* tri_bb, uint o,
-                     const VmScreenTri* t, long px, long py) {
-  int gx = (int)(px >> VM_POINT_BITS), gy = (int)(py >> VM_POINT_BITS);
+                     const VmScreenTri* t, const VmSample* s) {
   int4 ob = tri_bb[o];
-  if (gx < ob.x || gx > ob.z || gy < ob.y || gy > ob.w) return false;
-  if (!covers(&tris[o], px, py)) return false;
+  if (s->gx < ob.x || s->gx > ob.z || s->gy < ob.y || s->gy > ob.w) return false;
+  if (!sample_covers(&tris[o], s)) return false;
   VmScreenTri ot = tris[o];
   return !(ot.mesh == t->mesh && ot.tri == t->tri);
 }
@@ -130,8 +206,8 @@ inline bool pair_line_of(uint a, uint b, __global const VmEdge* edges, uint nsil
  * visible. Every triangle at the point computes the same tournament, so exactly one is visible
  * there; the triple-point entries (crossing.cl) make the answer the same over each fragment.
  * Returns whether t is the visible one. */
-inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris, long px,
-                       long py, __global const VmEdge* edges, uint nsil,
+inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris,
+                       const VmSample* smp, __global const VmEdge* edges, uint nsil,
                        __global const uint* cross_offset, __global const uint* cross_count,
                        __global const uint* partner) {
   uint t = ids[0];
@@ -146,7 +222,7 @@ inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris
         if (ids[i] < ids[j]) beats[i] |= (ulong)1 << j; else beats[j] |= (ulong)1 << i;
         continue;
       }
-      if (hides(ids[i], ids[j], &A, &B, px, py, edges, nsil, cross_offset, cross_count, partner))
+      if (hides(ids[i], ids[j], &A, &B, smp, edges, nsil, cross_offset, cross_count, partner))
         beats[j] |= (ulong)1 << i;
       else
         beats[i] |= (ulong)1 << j;
@@ -211,8 +287,40 @@ inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris
   return best == t;
 }
 
+/* Is t visible at the sample point, deciding by the whole tournament of the triangles covering
+ * it: hidden by nobody, or the visible member of a cycle (wins_cycle). One pass over the
+ * point's leaf collects them; beyond VM_TOUR_MAX of them a hidden t stays hidden. */
+inline uint visible_by_tournament(uint tri, const VmScreenTri* t, const VmSample* s,
+                                  __global const VmScreenTri* tris, __global const int4* tri_bb,
+                                  __global const uint* list, uint cnt, __global const VmEdge* edges,
+                                  uint nsil, __global const uint* cross_offset,
+                                  __global const uint* cross_count, __global const uint* partner) {
+  uint ids[VM_TOUR_MAX];
+  uint nc = 0;
+  ids[nc++] = tri;
+  bool hidden = false, over = false;
+  for (uint k = 0; k < cnt; ++k) {
+    uint o = list[k];
+    if (o == tri || !competes(tris, tri_bb, o, t, s)) continue;
+    if (nc < VM_TOUR_MAX)
+      ids[nc++] = o;
+    else
+      over = true;
+    if (!hidden) {
+      VmScreenTri ot = tris[o];
+      hidden = hides(tri, o, t, &ot, s, edges, nsil, cross_offset, cross_count, partner);
+    }
+  }
+  return !hidden ||
+         (!over && wins_cycle(ids, nc, tris, s, edges, nsil, cross_offset, cross_count, partner));
+}
+
+/* occlude() leaves this in visible[] for a fragment it found no fine-grid point in. */
+#define VM_VISIBLE_THIN 2u
+
 /* visible[i] = 1 when no screen triangle covers fragment i's interior point in front of it;
- * 0 when one does; 0 (and counted in status[1]) when the fragment has no interior point. */
+ * 0 when one does; VM_VISIBLE_THIN (counted in status[4]) when the fragment is thinner than the
+ * fine grid, for occlude_thin() to decide. */
 __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* lines, uint n,
                       __global const VmScreenTri* tris, __global const int4* tri_bb, VmGrid g,
                       __global const uint* tile_leaf, __global const uint* leaf_offset,
@@ -225,12 +333,13 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
   VmFragMeta m = meta[i];
   long px, py;
   if (!interior_point(lines + (size_t)i * VM_MAXL, m.nlines, &px, &py)) {
-    visible[i] = 0;
-    atomic_inc(&status[1]);
+    visible[i] = VM_VISIBLE_THIN;
+    atomic_inc(&status[4]);
     return;
   }
+  const VmSample s = sample_fine(px, py);
   VmScreenTri t = tris[m.tri];
-  int gx = (int)(px >> VM_POINT_BITS), gy = (int)(py >> VM_POINT_BITS);
+  int gx = s.gx, gy = s.gy;
   uint leaf = leaf_of_point(gx, gy, g, tile_leaf);
   uint off = leaf_offset[leaf], cnt = class_start[leaf].w;
   /* A cycle through t needs one of its entangled partners at the point (a crossing line
@@ -242,47 +351,58 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
       uint o = partner[co + k];
       if (o == last || o == VM_NONE) continue;
       last = o;
-      partnered = competes(tris, tri_bb, o, &t, px, py);
+      partnered = competes(tris, tri_bb, o, &t, &s);
     }
   }
-  if (!partnered) {
-    /* (Written out rather than through competes(): PoCL compiles this hot loop 3x slower
-     * that way.) */
-    for (uint k = 0; k < cnt; ++k) {
-      uint o = tile_list[off + k];
-      if (o == m.tri) continue;
-      int4 ob = tri_bb[o];
-      if (gx < ob.x || gx > ob.z || gy < ob.y || gy > ob.w) continue;
-      if (!covers(&tris[o], px, py)) continue;
-      VmScreenTri ot = tris[o];
-      if (ot.mesh == t.mesh && ot.tri == t.tri) continue; /* pieces of one source never overlap */
-      if (hides(m.tri, o, &t, &ot, px, py, edges, nsil, cross_offset, cross_count, partner)) {
-        visible[i] = 0;
-        return;
-      }
-    }
-    visible[i] = 1;
+  if (partnered) {
+    /* An entangled partner of t covers the point: hidden may still mean visible when the
+     * covering triangles form a cycle. */
+    visible[i] = visible_by_tournament(m.tri, &t, &s, tris, tri_bb, tile_list + off, cnt, edges,
+                                       nsil, cross_offset, cross_count, partner);
     return;
   }
-  /* An entangled partner of t covers the point: hidden may still mean visible when the
-   * covering triangles form a cycle, so collect them all in the same pass. */
-  uint ids[VM_TOUR_MAX];
-  uint nc = 0;
-  ids[nc++] = m.tri;
-  bool hidden = false, over = false;
+  /* (Written out rather than through competes(): PoCL compiles this hot loop 3x slower that
+   * way.) */
   for (uint k = 0; k < cnt; ++k) {
     uint o = tile_list[off + k];
-    if (o == m.tri || !competes(tris, tri_bb, o, &t, px, py)) continue;
-    if (nc < VM_TOUR_MAX)
-      ids[nc++] = o;
-    else
-      over = true;
-    if (!hidden) {
-      VmScreenTri ot = tris[o];
-      hidden = hides(m.tri, o, &t, &ot, px, py, edges, nsil, cross_offset, cross_count, partner);
+    if (o == m.tri) continue;
+    int4 ob = tri_bb[o];
+    if (gx < ob.x || gx > ob.z || gy < ob.y || gy > ob.w) continue;
+    if (!covers(&tris[o], px, py)) continue;
+    VmScreenTri ot = tris[o];
+    if (ot.mesh == t.mesh && ot.tri == t.tri) continue; /* pieces of one source never overlap */
+    if (hides(m.tri, o, &t, &ot, &s, edges, nsil, cross_offset, cross_count, partner)) {
+      visible[i] = 0;
+      return;
     }
   }
-  /* More than VM_TOUR_MAX covering triangles: beyond what the tournament holds; stays hidden. */
-  visible[i] = !hidden || (!over && wins_cycle(ids, nc, tris, px, py, edges, nsil, cross_offset,
-                                               cross_count, partner));
+  visible[i] = 1;
+}
+
+/* The fragments occlude() left VM_VISIBLE_THIN: decided the same way at an exact rational
+ * point inside (exact_interior_point), by the whole tournament (a cell this thin is where
+ * nearly concurrent lines meet, so a cycle is likely). A fragment with no interior at all
+ * (zero area) is dropped and counted in status[1]. Launched only when status[4] > 0. */
+__kernel void occlude_thin(__global const VmFragMeta* meta, __global const VmLine* lines, uint n,
+                           __global const VmScreenTri* tris, __global const int4* tri_bb, VmGrid g,
+                           __global const uint* tile_leaf, __global const uint* leaf_offset,
+                           __global const uint4* class_start, __global const uint* tile_list,
+                           __global const VmEdge* edges, uint nsil,
+                           __global const uint* cross_offset, __global const uint* cross_count,
+                           __global const uint* partner, __global uint* visible,
+                           __global uint* status) {
+  uint i = get_global_id(0);
+  if (i >= n || visible[i] != VM_VISIBLE_THIN) return;
+  VmFragMeta m = meta[i];
+  VmSample s;
+  if (!exact_interior_point(lines + (size_t)i * VM_MAXL, m.nlines, &s)) {
+    visible[i] = 0;
+    atomic_inc(&status[1]);
+    return;
+  }
+  VmScreenTri t = tris[m.tri];
+  uint leaf = leaf_of_point(s.gx, s.gy, g, tile_leaf);
+  visible[i] = visible_by_tournament(m.tri, &t, &s, tris, tri_bb, tile_list + leaf_offset[leaf],
+                                     class_start[leaf].w, edges, nsil, cross_offset, cross_count,
+                                     partner);
 }

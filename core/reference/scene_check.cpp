@@ -31,6 +31,7 @@ SceneFigures check_scene(Renderer& renderer, const Scene& scene, const Camera& c
   f.input_triangles = st.input_triangles;
   f.screen_triangles = screen.size();
   f.fragments = map.fragment_count();
+  f.thin_fragments = st.thin_fragments;
   f.sliver_fragments = st.sliver_fragments;
   f.crossing_lines = st.crossing_lines;
 
@@ -136,6 +137,7 @@ nlohmann::ordered_json to_json(const SceneFigures& f) {
   j["input_triangles"] = f.input_triangles;
   j["screen_triangles"] = f.screen_triangles;
   j["fragments"] = f.fragments;
+  j["thin_fragments"] = f.thin_fragments;
   j["sliver_fragments"] = f.sliver_fragments;
   j["crossing_lines"] = f.crossing_lines;
   return j;

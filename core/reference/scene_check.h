@@ -28,7 +28,8 @@ struct SceneCheckOptions {
 
 // Figures of one run. std::nullopt: not computed (skipped by the options).
 struct SceneFigures {
-  size_t input_triangles = 0, screen_triangles = 0, fragments = 0, sliver_fragments = 0;
+  size_t input_triangles = 0, screen_triangles = 0, fragments = 0, thin_fragments = 0,
+         sliver_fragments = 0;
   size_t crossing_lines = 0;              // clipping lines from penetrating pairs (snapped)
   double pipeline_ms = 0;                 // Renderer::render wall time
   std::optional<double> area_error, xor_area, visible_area;  // vs the exact reference
