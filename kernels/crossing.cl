@@ -22,12 +22,6 @@
  * at most 2^21, so that the line's |a|, |b| <= 2^21 and its points stay within 2^22 + 2^21 of
  * the origin for an overlap inside the grid's 2^22. */
 #define VM_SNAP_SPAN (1L << 21)
-/* Near-candidate error bound (grid units) below which the line is kept as the column search
- * found it: more accurate lines make cells at triple points that can be thinner than the fine
- * sample grid of occlusion (VM_POINT_BITS), which are then dropped as slivers. */
-#ifndef VM_SNAP_GOOD
-#define VM_SNAP_GOOD (1.0 / 32)
-#endif
 
 inline long gcd_long(long a, long b) {
   a = a < 0 ? -a : a;
@@ -147,9 +141,10 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
       if (e0 < r0) { r0 = e0; best0 = u0 - k; v0 = (long)rint(w0); }
       if (e1 < r1) { r1 = e1; best1 = u1 + k; v1 = (long)rint(w1); }
     }
-    /* A line whose slope is near a simple fraction (axis-parallel, diagonal, 1/2, ...) rounds
-     * alike at every nearby column, up to 1/2 grid unit (nearly_touching: a horizontal line
-     * 0.41 off over 170 px). So a second candidate: a grid line of direction (n, p), n within
+    /* The column line is good to ~1/512 grid unit at best, and a line whose slope is near a
+     * simple fraction (axis-parallel, diagonal, 1/2, ...) rounds alike at every nearby column,
+     * up to 1/2 grid unit (nearly_touching: a horizontal line 0.41 off over 170 px). So a
+     * second candidate, for every line: a grid line of direction (n, p), n within
      * `search` of VM_SNAP_SPAN and p/n within 1/n of the slope m, at the offset nearest the
      * true line at the overlap's centre column uc (such lines are gcd(n, p)/n apart there).
      * Its error over the overlap is at most |offset| + |p/n - m| h for the half-span h, about
@@ -164,7 +159,7 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
     double s0 = (double)(v1 - v0) / (double)(best1 - best0);
     double err = fabs((double)v0 + s0 * (double)(uc - best0) - vc) + fabs(s0 - m) * h;
     long bn = 0, bp = 0, bj = 0;
-    for (int k = 0; k < search && err > VM_SNAP_GOOD; ++k) {
+    for (int k = 0; k < search; ++k) {
       long n = VM_SNAP_SPAN - k, pm = (long)rint(m * (double)n);
       for (long p = pm - 1; p <= pm + 1; ++p) {
         double slope_err = fabs((double)p / (double)n - m) * h;

@@ -56,9 +56,10 @@ TEST(CliCheck, PixelsSkipTheReference) {
 // The reference ties only identical depth planes; the pipeline ties within VM_TIE_EPS
 // (docs/NUMERICS.md §3): this case is over tolerance until the two agree on the tie band.
 TEST(CliCheck, OverToleranceExitsWithFour) {
-  // Mutually penetrating triangles: within the snap-level allowance, but not exact.
-  EXPECT_EQ(check(kData + "stiff/one_tile_crowded.json").status, 0);
-  Out r = check(kData + "stiff/one_tile_crowded.json --strict");
+  // Three planes crossing along nearly concurrent lines: within the snap-level allowance, but
+  // not exact (area_error 4e-10, over --strict's 1e-12).
+  EXPECT_EQ(check(kData + "stiff/concurrent_planes.json").status, 0);
+  Out r = check(kData + "stiff/concurrent_planes.json --strict");
   EXPECT_EQ(r.status, 4) << r.out;
   auto j = nlohmann::json::parse(r.out);
   EXPECT_FALSE(j["over_tolerance"].empty());
