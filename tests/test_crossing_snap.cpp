@@ -36,14 +36,7 @@ Scene crossing_pair(double nx, double ny, double px, double py, Camera& cam) {
   add_triangle(s, "a", {{20, 20, 10}, {236, 20, 10}, {128, 240, 10}});
   auto z = [&](double x, double y) { return 10 + 0.05 * (nx * (x - px) + ny * (y - py)); };
   add_triangle(s, "b", {{20, 236, z(20, 236)}, {236, 236, z(236, 236)}, {128, 16, z(128, 16)}});
-  cam = Camera{};
-  cam.width = cam.height = 256;
-  cam.up = {0, 1, 0};
-  cam.projection = Camera::Projection::Orthographic;
-  cam.eye = {128, 128, 100};
-  cam.target = {128, 128, 0};
-  cam.ortho_height = 256;
-  fit_near_far(cam, s);
+  cam = test_support::ortho_view_256(s);
   return s;
 }
 

@@ -86,14 +86,7 @@ Scene thin_cell_scene(bool front_over_delta, Camera& cam) {
     const double g[3][2] = {{kX + 100, kY}, {kX - 50, kY + 87}, {kX - 50, kY - 87}};
     add_grid_triangle(s, "G", g, 30);
   }
-  cam = Camera{};
-  cam.width = cam.height = 256;
-  cam.up = {0, 1, 0};
-  cam.projection = Camera::Projection::Orthographic;
-  cam.eye = {128, 128, 100};
-  cam.target = {128, 128, 0};
-  cam.ortho_height = 256;
-  fit_near_far(cam, s);
+  cam = test_support::ortho_view_256(s);
   return s;
 }
 

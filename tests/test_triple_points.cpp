@@ -64,20 +64,14 @@ Scene cluster_scene(uint64_t seed, Camera& cam) {
     add_triangle(s, "fold0", {{a[0], a[1], a[2]}, {e[0], e[1], e[2]}, {c1[0], c1[1], c1[2]}});
     add_triangle(s, "fold1", {{a[0], a[1], a[2]}, {e[0], e[1], e[2]}, {c2[0], c2[1], c2[2]}});
   }
-  cam = Camera{};
-  cam.width = cam.height = 256;
-  cam.up = {0, 1, 0};
-  if (seed % 5 == 0) {
+  cam = test_support::ortho_view_256(s);
+  if (seed % 5 == 0) {  // perspective instead
+    cam.projection = Camera::Projection::Perspective;
     cam.eye = {128 + uni(-40, 40), 128 + uni(-40, 40), 150};
     cam.target = {128, 128, 20};
     cam.fov_y_deg = 90;
-  } else {
-    cam.projection = Camera::Projection::Orthographic;
-    cam.eye = {128, 128, 100};
-    cam.target = {128, 128, 0};
-    cam.ortho_height = 256;
+    fit_near_far(cam, s);
   }
-  fit_near_far(cam, s);
   return s;
 }
 
