@@ -11,13 +11,7 @@ struct L3 {
   int64_t a, b, c;
 };
 
-L3 coeffs(const VmLine& l) {
-  L3 r;
-  r.a = -(int64_t(l.y1) - l.y0);
-  r.b = int64_t(l.x1) - l.x0;
-  r.c = -(r.a * l.x0 + r.b * l.y0);
-  return r;
-}
+L3 coeffs(const VmLine& l) { return {l.a, l.b, l.c}; }
 
 __int128 round_div(__int128 num, __int128 den) {  // round(num / den), den > 0, ties up
   __int128 n2 = 2 * num + den, d2 = 2 * den;

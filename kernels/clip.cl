@@ -122,15 +122,16 @@ __kernel void frag_init(__global const VmScreenTri* tris, uint ntris, int4 regio
   uint n = 3;
   for (int i = 0; i < 3; ++i) {
     int j = i == 2 ? 0 : i + 1;
-    VmLine l = {s.x[i], s.y[i], s.x[j], s.y[j]};
-    P[i] = l;
+    P[i] = vm_line_of(s.x[i], s.y[i], s.x[j], s.y[j]);
   }
   if (clip_region) {
     /* The region's sides, directed so that its interior is on their positive side. */
-    VmLine side[4] = {{region.x, region.y, region.z, region.y}, {region.z, region.y, region.z, region.w},
-                      {region.z, region.w, region.x, region.w}, {region.x, region.w, region.x, region.y}};
+    VmLine side[4] = {vm_line_of(region.x, region.y, region.z, region.y),
+                      vm_line_of(region.z, region.y, region.z, region.w),
+                      vm_line_of(region.z, region.w, region.x, region.w),
+                      vm_line_of(region.x, region.w, region.x, region.y)};
     for (int k = 0; k < 4 && n > 0; ++k) {
-      Line3 LE = line_of(side[k].x0, side[k].y0, side[k].x1, side[k].y1);
+      Line3 LE = line_of_vm(side[k]);
       int sgn[VM_MAXL];
       int pos = 0, neg = 0;
       Line3 first = line_of_vm(P[0]), cur = first;
@@ -178,7 +179,7 @@ inline bool cuts(__global const VmLine* L, uint n, VmEdge E, int* sgn) {
     Line3 Li = line_of_vm(L[i]);
     if (line_eval_point(Li, E.x0, E.y0) <= 0 && line_eval_point(Li, E.x1, E.y1) <= 0) return false;
   }
-  Line3 LE = line_of(E.x0, E.y0, E.x1, E.y1);
+  Line3 LE = edge_line(E);
   int pos = 0, neg = 0;
   Line3 first = line_of_vm(L[0]);
   Line3 cur = first;
@@ -250,7 +251,7 @@ __kernel void clip_find(__global const VmFragMeta* meta, __global const VmLine* 
                          fmax((double)E.y0, (double)E.y1) < lo.y || fmin((double)E.y0, (double)E.y1) > hi.y))
       continue;
     if (cuts(L, m.nlines, E, sgn)) {
-      VmLine cut = {E.x0, E.y0, E.x1, E.y1};
+      VmLine cut = vm_line(edge_line(E));
       uint np = split_side(L, m.nlines, sgn, 1, cut, 0, 0);
       uint nn = split_side(L, m.nlines, sgn, -1, cut, 0, 0);
       if (np > VM_MAXL || nn > VM_MAXL) atomic_or(status, VM_STATUS_LINES_OVERFLOW);
@@ -287,8 +288,8 @@ __kernel void clip_apply(__global const VmFragMeta* meta, __global const VmLine*
   int sgn[VM_MAXL];
   cuts(L, m.nlines, E, sgn);
   uint o = next_offset[i];
-  VmLine cut = {E.x0, E.y0, E.x1, E.y1};
-  VmLine rev = {E.x1, E.y1, E.x0, E.y0};
+  VmLine cut = vm_line(edge_line(E));
+  VmLine rev = vm_line(line_reversed(edge_line(E)));
   VmFragMeta c = m;
   c.next = k + 1;
   c.nlines = split_side(L, m.nlines, sgn, 1, cut, next_lines + (size_t)o * VM_MAXL, 1);

@@ -14,25 +14,12 @@
 #define VM_REL_CROSS 3
 #define VM_REL_TIE 4      /* or'ed in: decided by the tie rule (the planes agree within the band) */
 
-/* Columns searched on either side for the grid points of a snapped crossing line. */
+/* Values of n tried when rounding a crossing line to integer coefficients (pair_relation). */
 #ifndef VM_SNAP_SEARCH
 #define VM_SNAP_SEARCH 256
 #endif
-/* Run along the axis between the two points of a crossing line snapped by direction (below):
- * at most 2^21, so that the line's |a|, |b| <= 2^21 and its points stay within 2^22 + 2^21 of
- * the origin for an overlap inside the grid's 2^22. */
-#define VM_SNAP_SPAN (1L << 21)
-
-inline long gcd_long(long a, long b) {
-  a = a < 0 ? -a : a;
-  b = b < 0 ? -b : b;
-  while (b) {
-    long t = a % b;
-    a = b;
-    b = t;
-  }
-  return a;
-}
+/* Largest coefficient of a crossing line (a, b, c): |a|, |b| <= 2^23, within the bit budget. */
+#define VM_SNAP_N (1L << 23)
 
 /* The overlap of two screen triangles' footprints, in doubles (grid units): a clipped by b's
  * three edge lines. Returns the vertex count (0 when empty). */
@@ -103,108 +90,39 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
                              ? VM_REL_A_FRONT
                              : VM_REL_B_FRONT);
   }
-  /* d(x, y) = A x + B y + C, zero on the intersection line. Two grid points near it, beyond
-   * the overlap's box on either side: along the axis on which the line's slope is <= 1, among
-   * the first `search` columns from one grid unit beyond the box, the column where the line
-   * passes closest to a grid point (rounding the other coordinate). Between the two points the
-   * snapped line is within max(r0, r1) of the true one, r being those roundings (docs/NUMERICS.md
-   * §2); for slopes near simple fractions, a line snapped by its direction instead (below).
-   * The pair traversal, which needs only the relation, takes the first column (search =
-   * 1: its hot loop stays as small as it was); cross_refine redoes the line of every crossing
-   * pair with VM_SNAP_SEARCH before anything uses it. */
+  /* d(x, y) = A x + B y + C, zero on the intersection line. It is rounded to an integer line
+   * (a, b, c): along the axis u on which its slope m is <= 1 (v the other coordinate), the line
+   * n v + p u + c = 0 with n within `search` of VM_SNAP_N = 2^23, p = round(m n), and c putting
+   * it on the true line at the overlap's centre column uc to within 1/(2n). Its error over the
+   * overlap is at most |c - c_exact| / n + |p/n - m| h for the half-span h; the best of the
+   * `search` values of n is kept (docs/NUMERICS.md §2). An axis-parallel line is exact in
+   * direction and within 2^-24 grid units in offset. |c| <= 2^23 (|v| + |u|) < 2^47: the budget
+   * of §1. The pair traversal, which needs only the relation, takes n = 2^23 (search = 1);
+   * cross_refine redoes every crossing pair with VM_SNAP_SEARCH before anything uses it. */
   double A = pa.gx - pb.gx, B = pa.gy - pb.gy;
   double C = (pa.q0 - pa.gx * pa.x0 - pa.gy * pa.y0) - (pb.q0 - pb.gx * pb.x0 - pb.gy * pb.y0);
-  long x0, y0, x1, y1;
-  if (search <= 1) { /* the first column (pair traversal: the relation is what it needs) */
-    if (fabs(B) >= fabs(A)) {
-      x0 = (long)floor(lo.x) - 1;
-      x1 = (long)ceil(hi.x) + 1;
-      y0 = (long)rint(-(A * (double)x0 + C) / B);
-      y1 = (long)rint(-(A * (double)x1 + C) / B);
-    } else {
-      y0 = (long)floor(lo.y) - 1;
-      y1 = (long)ceil(hi.y) + 1;
-      x0 = (long)rint(-(B * (double)y0 + C) / A);
-      x1 = (long)rint(-(B * (double)y1 + C) / A);
-    }
-  } else {
-    bool along_x = fabs(B) >= fabs(A);
-    double P = along_x ? A : B, Q = along_x ? B : A; /* other = -(P * axis + C) / Q */
-    long u0 = along_x ? (long)floor(lo.x) - 1 : (long)floor(lo.y) - 1;
-    long u1 = along_x ? (long)ceil(hi.x) + 1 : (long)ceil(hi.y) + 1;
-    long v0 = 0, v1 = 0;
-    double r0 = INFINITY, r1 = INFINITY;
-    long best0 = u0, best1 = u1;
-    for (int k = 0; k < search; ++k) {
-      double w0 = -(P * (double)(u0 - k) + C) / Q, w1 = -(P * (double)(u1 + k) + C) / Q;
-      double e0 = fabs(w0 - rint(w0)), e1 = fabs(w1 - rint(w1));
-      if (e0 < r0) { r0 = e0; best0 = u0 - k; v0 = (long)rint(w0); }
-      if (e1 < r1) { r1 = e1; best1 = u1 + k; v1 = (long)rint(w1); }
-    }
-    /* The column line is good to ~1/512 grid unit at best, and a line whose slope is near a
-     * simple fraction (axis-parallel, diagonal, 1/2, ...) rounds alike at every nearby column,
-     * up to 1/2 grid unit (nearly_touching: a horizontal line 0.41 off over 170 px). So a
-     * second candidate, for every line: a grid line of direction (n, p), n within
-     * `search` of VM_SNAP_SPAN and p/n within 1/n of the slope m, at the offset nearest the
-     * true line at the overlap's centre column uc (such lines are gcd(n, p)/n apart there).
-     * Its error over the overlap is at most |offset| + |p/n - m| h for the half-span h, about
-     * h/2^21 for an axis-parallel line; it replaces the near candidate when that bound is the
-     * smaller one (docs/NUMERICS.md §2). Its points straddle uc, n apart: |x|, |y| <= 2^23,
-     * |a|, |b| <= 2^21, within the bit budget. */
-    double m = -P / Q, ulo = along_x ? lo.x : lo.y, uhi = along_x ? hi.x : hi.y;
-    long uc = (long)rint(0.5 * (ulo + uhi));
-    double vc = -(P * (double)uc + C) / Q, h = fmax(uhi - (double)uc, (double)uc - ulo) + 1.0;
-    long vci = (long)rint(vc);
-    double f = vc - (double)vci; /* the true line crosses column uc at vci + f */
-    double s0 = (double)(v1 - v0) / (double)(best1 - best0);
-    double err = fabs((double)v0 + s0 * (double)(uc - best0) - vc) + fabs(s0 - m) * h;
-    long bn = 0, bp = 0, bj = 0;
-    for (int k = 0; k < search; ++k) {
-      long n = VM_SNAP_SPAN - k, pm = (long)rint(m * (double)n);
-      for (long p = pm - 1; p <= pm + 1; ++p) {
-        double slope_err = fabs((double)p / (double)n - m) * h;
-        if (slope_err >= err || p > n || p < -n) continue;
-        long g = gcd_long(n, p);
-        /* grid lines n (v - vci) - p (u - uc) = j: j a multiple of g, nearest f n */
-        long j = g * (long)rint(f * (double)n / (double)g);
-        double e = slope_err + fabs((double)j / (double)n - f);
-        if (e < err) { err = e; bn = n; bp = p; bj = j; }
-      }
-    }
-    if (bn) {
-      long g = gcd_long(bn, bp), n = bn / g, p = bp / g, j = bj / g;
-      /* n dv - p du = j with du = -s j (mod n), where n t + p s = 1 (extended Euclid) */
-      long r0 = n, r1 = p, sa = 0, sb = 1;
-      while (r1) {
-        long qq = r0 / r1, tmp = r0 - qq * r1;
-        r0 = r1; r1 = tmp;
-        tmp = sa - qq * sb; sa = sb; sb = tmp;
-      }
-      long du = ((-sa * r0) % n * (j % n)) % n; /* r0 = +-1 */
-      if (du > 0) du -= n;                      /* du in (-n, 0]: the points straddle uc */
-      long dv = (j + p * du) / n;
-      ulong range = 1UL << 23;
-      if (max(abs(uc + du), abs(uc + du + n)) <= range && max(abs(vci + dv), abs(vci + dv + p)) <= range) {
-        best0 = uc + du; v0 = vci + dv;
-        best1 = best0 + n; v1 = v0 + p;
-      }
-    }
-    x0 = along_x ? best0 : v0; y0 = along_x ? v0 : best0;
-    x1 = along_x ? best1 : v1; y1 = along_x ? v1 : best1;
+  bool along_x = fabs(B) >= fabs(A);
+  double P = along_x ? A : B, Q = along_x ? B : A; /* P u + Q v + C = 0 */
+  double m = P / Q, ulo = along_x ? lo.x : lo.y, uhi = along_x ? hi.x : hi.y;
+  double uc = rint(0.5 * (ulo + uhi));
+  double vc = -(P * uc + C) / Q, h = fmax(uhi - uc, uc - ulo) + 1.0;
+  long bn = 0, bp = 0, bc = 0;
+  double err = INFINITY;
+  for (int k = 0; k < search; ++k) {
+    long n = VM_SNAP_N - k, p = (long)rint(m * (double)n);
+    double cex = -((double)n * vc + (double)p * uc);
+    double c = rint(cex);
+    double e = fabs(c - cex) / (double)n + fabs((double)p / (double)n - m) * h;
+    if (e < err) { err = e; bn = n; bp = p; bc = (long)c; }
   }
-  /* Keep the points inside the grid's range: slide along the line if needed is not worth it;
-   * the overlap lies inside the viewport, so clamping moves them only for near-vertical lines
-   * that already leave it. */
-  long lim = (long)1 << 23;
-  x0 = clamp(x0, -lim, lim); y0 = clamp(y0, -lim, lim);
-  x1 = clamp(x1, -lim, lim); y1 = clamp(y1, -lim, lim);
-  if (x0 == x1 && y0 == y1) return dmax > -dmin ? VM_REL_A_FRONT : VM_REL_B_FRONT;
-  /* Positive side of (p0 -> p1) is along (-(y1-y0), x1-x0); a is in front where d > 0. */
-  if (A * (double)(-(y1 - y0)) + B * (double)(x1 - x0) < 0) {
-    long t = x0; x0 = x1; x1 = t;
-    t = y0; y0 = y1; y1 = t;
-  }
-  line->x0 = (int)x0; line->y0 = (int)y0; line->x1 = (int)x1; line->y1 = (int)y1;
+  long lim = (long)1 << 47;
+  bc = clamp(bc, -lim, lim);
+  /* (p, n, c) in (u, v) is a positive multiple of (P, Q, C) when Q > 0: a is in front where
+   * d > 0, so that is the positive side. */
+  long s = Q > 0 ? 1 : -1;
+  line->a = (int)(s * (along_x ? bp : bn));
+  line->b = (int)(s * (along_x ? bn : bp));
+  line->c = s * bc;
   return VM_REL_CROSS;
 }
 
@@ -320,8 +238,8 @@ __kernel void cross_compact(uint ntris, __global const uint* counts, __global co
   }
 }
 
-/* The crossing lines of the compacted pairs, snapped through the best of VM_SNAP_SEARCH
- * columns on either side (kept out of the pair traversal, whose hot loop it would slow down). */
+/* The crossing lines of the compacted pairs, rounded with the best of VM_SNAP_SEARCH values of
+ * n (kept out of the pair traversal, whose hot loop it would slow down). */
 __kernel void cross_refine(uint npairs, __global const VmScreenTri* tris, __global const uint* pair_t,
                            __global const uint* pair_o, __global const uint* pair_rel,
                            __global VmLine* pair_line) {
@@ -454,11 +372,18 @@ inline uint partner_at(uint x, uint k, __global const uint* out_count, __global 
   return pair_t[*pr];
 }
 
-inline void put_line(__global VmEdge* out, __global uint* partner, uint m, VmLine l, double q) {
+/* An entry without a partner: an infinite crossing line, or a segment always in front. */
+inline void put_line(__global VmEdge* out, __global uint* partner, uint m, VmLine l) {
+  out[m] = crossing_edge(line_of_vm(l));
+  partner[m] = VM_NONE_PAIR;
+}
+
+inline void put_segment(__global VmEdge* out, __global uint* partner, uint m, int x0, int y0,
+                        int x1, int y1) {
   VmEdge e;
-  e.x0 = l.x0; e.y0 = l.y0; e.x1 = l.x1; e.y1 = l.y1;
-  e.q0 = q;
-  e.q1 = q;
+  e.x0 = x0; e.y0 = y0; e.x1 = x1; e.y1 = y1;
+  e.q0 = DBL_MAX;
+  e.q1 = DBL_MAX;
   out[m] = e;
   partner[m] = VM_NONE_PAIR;
 }
@@ -489,7 +414,7 @@ inline uint triple_lines(uint x, __global const VmScreenTri* tris, __global cons
       if (!cycle_possible(x, b, c, tris, pair_rel[pi], pair_line[pi], pair_rel[pj], pair_line[pj],
                           VM_REL_CROSS, pair_line[pbc]))
         continue;
-      if (out) put_line(out, partner, m, pair_line[pbc], INFINITY);
+      if (out) put_line(out, partner, m, pair_line[pbc]);
       ++m;
     }
     uint nb = out_count[b] + in_count[b];
@@ -509,11 +434,10 @@ inline uint triple_lines(uint x, __global const VmScreenTri* tris, __global cons
                           pair_line[pbc]))
         continue;
       if (out) {
-        put_line(out, partner, m, pair_line[pbc], INFINITY);
+        put_line(out, partner, m, pair_line[pbc]);
         for (int k = 0; k < 3; ++k) {
           int k1 = k == 2 ? 0 : k + 1;
-          VmLine e = {tc.x[k], tc.y[k], tc.x[k1], tc.y[k1]};
-          put_line(out, partner, m + 1 + k, e, DBL_MAX);
+          put_segment(out, partner, m + 1 + k, tc.x[k], tc.y[k], tc.x[k1], tc.y[k1]);
         }
       }
       m += 4;
@@ -564,15 +488,8 @@ inline uint write_entries(uint x, uint p, bool lower, __global const VmScreenTri
   uint m = 0;
   VmEdge e;
   if (rel == VM_REL_CROSS) {
-    VmLine l = pair_line[p];
-    if (lower) {
-      e.x0 = l.x0; e.y0 = l.y0; e.x1 = l.x1; e.y1 = l.y1;
-    } else {
-      e.x0 = l.x1; e.y0 = l.y1; e.x1 = l.x0; e.y1 = l.y0;
-    }
-    e.q0 = INFINITY;
-    e.q1 = INFINITY;
-    out[m] = e;
+    Line3 l = line_of_vm(pair_line[p]);
+    out[m] = crossing_edge(lower ? l : line_reversed(l));
     partner[m] = o;
     ++m;
   }

@@ -16,7 +16,46 @@ inline Line3 line_of(int x0, int y0, int x1, int y1) {
   return L;
 }
 
-inline Line3 line_of_vm(VmLine l) { return line_of(l.x0, l.y0, l.x1, l.y1); }
+inline Line3 line_of_vm(VmLine l) {
+  Line3 L;
+  L.a = l.a;
+  L.b = l.b;
+  L.c = l.c;
+  return L;
+}
+
+inline VmLine vm_line(Line3 L) {
+  VmLine l;
+  l.a = (int)L.a;
+  l.b = (int)L.b;
+  l.c = L.c;
+  return l;
+}
+
+inline VmLine vm_line_of(int x0, int y0, int x1, int y1) { return vm_line(line_of(x0, y0, x1, y1)); }
+
+/* The line of an edge record: a segment's through its two points; an infinite crossing line
+ * (q0 = +inf) keeps its coefficients in the point fields: a, b in (x0, y0), c in (x1, y1) as
+ * low and high 32 bits. */
+inline Line3 edge_line(VmEdge e) {
+  if (!isinf(e.q0)) return line_of(e.x0, e.y0, e.x1, e.y1);
+  Line3 L;
+  L.a = e.x0;
+  L.b = e.y0;
+  L.c = (long)(((ulong)(uint)e.y1 << 32) | (ulong)(uint)e.x1);
+  return L;
+}
+
+inline VmEdge crossing_edge(Line3 L) {
+  VmEdge e;
+  e.x0 = (int)L.a;
+  e.y0 = (int)L.b;
+  e.x1 = (int)(uint)((ulong)L.c & 0xffffffffUL);
+  e.y1 = (int)(L.c >> 32);
+  e.q0 = INFINITY;
+  e.q1 = INFINITY;
+  return e;
+}
 
 inline Line3 line_reversed(Line3 L) {
   Line3 R;

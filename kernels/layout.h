@@ -53,10 +53,12 @@ typedef struct {
   double q0, q1;
 } VmEdge;
 
-/* A directed line through two grid points; a fragment's interior is on its positive side:
- * orient(p0, p1, p) = (x1-x0)(py-y0) - (y1-y0)(px-x0) > 0. */
+/* A directed line a*x + b*y + c = 0 on the grid; a fragment's interior is on its positive side.
+ * An edge's line goes through two grid points (|a|, |b| <= 2^23, |c| <= 2^46); a crossing line
+ * is the true intersection line rounded to integers (max(|a|, |b|) <= 2^23, |c| <= 2^47). */
 typedef struct {
-  vm_i32 x0, y0, x1, y1;
+  vm_i32 a, b;
+  vm_i64 c;
 } VmLine;
 
 /* Per fragment in the clip work queue: the screen triangle it came from, its line count, the

@@ -144,7 +144,7 @@ inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, co
       if (isinf(e.q0)) {
         /* The point lies on the line only when neither t's nor o's fragment is clipped by it
          * (a tournament among other triangles): the lower index is in front there. */
-        int s = sample_side(line_of(e.x0, e.y0, e.x1, e.y1), smp);
+        int s = sample_side(edge_line(e), smp);
         return s < 0 || (s == 0 && o < t);
       }
       break; /* a tying pair: its entries are the partner's edges */
@@ -183,7 +183,7 @@ inline bool pair_line_of(uint a, uint b, __global const VmEdge* edges, uint nsil
     if (partner[co + k] == b) {
       VmEdge e = edges[nsil + co + k];
       if (!isinf(e.q0)) return false;
-      Line3 l = line_of(e.x0, e.y0, e.x1, e.y1);
+      Line3 l = edge_line(e);
       /* canonical direction: as the lower member stores it, so both members get one line */
       *L = a < b ? l : line_reversed(l);
       return true;
