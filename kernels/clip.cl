@@ -288,8 +288,8 @@ __kernel void clip_apply(__global const VmFragMeta* meta, __global const VmLine*
   int sgn[VM_MAXL];
   cuts(L, m.nlines, E, sgn);
   uint o = next_offset[i];
-  VmLine cut = vm_line(edge_line(E));
-  VmLine rev = vm_line(line_reversed(edge_line(E)));
+  Line3 LE = edge_line(E);
+  VmLine cut = vm_line(LE), rev = vm_line(line_reversed(LE));
   VmFragMeta c = m;
   c.next = k + 1;
   c.nlines = split_side(L, m.nlines, sgn, 1, cut, next_lines + (size_t)o * VM_MAXL, 1);

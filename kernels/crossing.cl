@@ -372,18 +372,8 @@ inline uint partner_at(uint x, uint k, __global const uint* out_count, __global 
   return pair_t[*pr];
 }
 
-/* An entry without a partner: an infinite crossing line, or a segment always in front. */
-inline void put_line(__global VmEdge* out, __global uint* partner, uint m, VmLine l) {
-  out[m] = crossing_edge(line_of_vm(l));
-  partner[m] = VM_NONE_PAIR;
-}
-
-inline void put_segment(__global VmEdge* out, __global uint* partner, uint m, int x0, int y0,
-                        int x1, int y1) {
-  VmEdge e;
-  e.x0 = x0; e.y0 = y0; e.x1 = x1; e.y1 = y1;
-  e.q0 = DBL_MAX;
-  e.q1 = DBL_MAX;
+/* An entry without a partner (a triple-point entry): a crossing line or a segment. */
+inline void put_entry(__global VmEdge* out, __global uint* partner, uint m, VmEdge e) {
   out[m] = e;
   partner[m] = VM_NONE_PAIR;
 }
@@ -414,7 +404,7 @@ inline uint triple_lines(uint x, __global const VmScreenTri* tris, __global cons
       if (!cycle_possible(x, b, c, tris, pair_rel[pi], pair_line[pi], pair_rel[pj], pair_line[pj],
                           VM_REL_CROSS, pair_line[pbc]))
         continue;
-      if (out) put_line(out, partner, m, pair_line[pbc]);
+      if (out) put_entry(out, partner, m, crossing_edge(line_of_vm(pair_line[pbc])));
       ++m;
     }
     uint nb = out_count[b] + in_count[b];
@@ -434,10 +424,10 @@ inline uint triple_lines(uint x, __global const VmScreenTri* tris, __global cons
                           pair_line[pbc]))
         continue;
       if (out) {
-        put_line(out, partner, m, pair_line[pbc]);
+        put_entry(out, partner, m, crossing_edge(line_of_vm(pair_line[pbc])));
         for (int k = 0; k < 3; ++k) {
           int k1 = k == 2 ? 0 : k + 1;
-          put_segment(out, partner, m + 1 + k, tc.x[k], tc.y[k], tc.x[k1], tc.y[k1]);
+          put_entry(out, partner, m + 1 + k, segment_edge(tc.x[k], tc.y[k], tc.x[k1], tc.y[k1]));
         }
       }
       m += 4;
@@ -486,7 +476,6 @@ inline uint write_entries(uint x, uint p, bool lower, __global const VmScreenTri
   uint o = lower ? pair_o[p] : pair_t[p];
   uint rel = pair_rel[p];
   uint m = 0;
-  VmEdge e;
   if (rel == VM_REL_CROSS) {
     Line3 l = line_of_vm(pair_line[p]);
     out[m] = crossing_edge(lower ? l : line_reversed(l));
@@ -496,10 +485,7 @@ inline uint write_entries(uint x, uint p, bool lower, __global const VmScreenTri
   VmScreenTri other = tris[o];
   for (int i = 0; i < 3; ++i) {
     int j = i == 2 ? 0 : i + 1;
-    e.x0 = other.x[i]; e.y0 = other.y[i]; e.x1 = other.x[j]; e.y1 = other.y[j];
-    e.q0 = DBL_MAX;
-    e.q1 = DBL_MAX;
-    out[m] = e;
+    out[m] = segment_edge(other.x[i], other.y[i], other.x[j], other.y[j]);
     partner[m] = o;
     ++m;
   }

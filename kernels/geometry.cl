@@ -46,6 +46,15 @@ inline Line3 edge_line(VmEdge e) {
   return L;
 }
 
+/* A partner's edge as an entry: a segment always in front (q0 = q1 = DBL_MAX). */
+inline VmEdge segment_edge(int x0, int y0, int x1, int y1) {
+  VmEdge e;
+  e.x0 = x0; e.y0 = y0; e.x1 = x1; e.y1 = y1;
+  e.q0 = DBL_MAX;
+  e.q1 = DBL_MAX;
+  return e;
+}
+
 inline VmEdge crossing_edge(Line3 L) {
   VmEdge e;
   e.x0 = (int)L.a;
