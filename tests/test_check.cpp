@@ -261,6 +261,33 @@ TEST(Reference, PenetratingPairSplitsAlongIntersectionLine) {
   EXPECT_EQ(bad.partly_outside, 1u);  // B's (0,0),(4,0),(4,4): 3.5 of its 8 outside
   EXPECT_GT(pixel_compare(penetrating_map(4), s, 64).mismatched, 0u);
   EXPECT_EQ(bad.wrong_source, 0u);
+  // A whole grid unit off is far outside the pair's snap band: none of it is explained.
+  EXPECT_NEAR(bad.area_error_outside_band, 7.0 / 75.0, 1e-6);
+  EXPECT_EQ(bad.wrong_outside_band, 1u);
+  EXPECT_EQ(good.area_error_outside_band, 0.0);
+  EXPECT_EQ(good.wrong_outside_band, 0u);
+}
+
+TEST(Reference, SnapBandExplainsOnlyWhatRoundingCanMove) {
+  // The line x = 3 px (6 grid units) over an overlap 10 grid units high: the pipeline's rounded
+  // line is within (1 + h) / (2 (2^23 - 255)) grid units of it, h = 5 + 1.5, i.e. 4.47e-7 grid
+  // units = 2.24e-7 px, plus a floating-point allowance far below that here. The maps below
+  // carry their vertices as doubles (rounded()), so that the cut can be off the grid.
+  ScreenTriangles s = penetrating();
+  ReferenceResult ref = exact_visibility(s);
+  EXPECT_GT(ref.snap_band, 2.23e-7);
+  EXPECT_LT(ref.snap_band, 2.25e-7);
+
+  ReferenceReport inside = compare_with_reference(rounded(penetrating_map(3 + 1e-7)), s, ref);
+  EXPECT_GT(inside.area_error, 0.0);
+  EXPECT_EQ(inside.area_error_outside_band, 0.0);
+  EXPECT_EQ(inside.wrong_outside_band, 0u);
+  EXPECT_EQ(inside.snap_band, ref.snap_band);
+
+  ReferenceReport outside = compare_with_reference(rounded(penetrating_map(3 + 1e-6)), s, ref);
+  EXPECT_GT(outside.area_error_outside_band, 0.0);
+  EXPECT_LT(outside.area_error_outside_band, outside.area_error);
+  EXPECT_EQ(outside.wrong_outside_band, 1u);
 }
 
 TEST(Reference, CoplanarOverlapLowerIdInFront) {

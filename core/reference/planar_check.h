@@ -71,6 +71,9 @@ struct ReferenceResult {
   std::shared_ptr<const Impl> impl;
   std::vector<double> visible_area;   // per screen triangle, square pixels (rounded from exact)
   double total_visible_area = 0;      // square pixels
+  // Widest snap band of a crossing pair, pixels: how far (in the axis across the line) the
+  // pipeline's rounded crossing line may lie from the exact one (reference.cpp snap_band()).
+  double snap_band = 0;
   double ms = 0;
 };
 
@@ -84,6 +87,12 @@ struct ReferenceReport {
   size_t wrong_source = 0;      // fragments with more than half their area outside visible(src)
   size_t partly_outside = 0;    // fragments with any area outside visible(src) beyond
                                 // 1e-9 of their own area (exact maps: any area at all)
+  // What the snapped crossing lines cannot explain: the above outside every snap band (the
+  // part of each crossing pair's overlap within its rounding bound of the exact line). Both
+  // are 0 for a right map, with or without crossing lines.
+  double area_error_outside_band = 0;  // area(output xor visible, minus the bands) / visible
+  size_t wrong_outside_band = 0;       // fragments with any area outside visible(src) and bands
+  double snap_band = 0;                // ReferenceResult::snap_band, pixels
   bool exact = false;
   double ms = 0;
 };

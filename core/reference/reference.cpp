@@ -154,7 +154,52 @@ mpq_class union_area2(const ScreenTriangles& screen) {
 struct ReferenceResult::Impl {
   uint32_t gs = 1;
   std::vector<PSet> visible;  // per screen triangle, grid units
+  PSet bands;                 // the snap bands of the crossing pairs, grid units
 };
+
+namespace {
+
+// The pipeline rounds a crossing line to integers (crossing.cl pair_relation): along the axis u
+// on which the true line's slope m is <= 1, the line n v + p u + c = 0 with n >= 2^23 - 255,
+// p = round(m n), and c = round(the exact c at the overlap's rounded centre column uc). So at
+// every u of the overlap its v is within |c - c_exact| / n + |p / n - m| |u - uc|
+// <= (1 + h) / (2 n) of the true line's, h = the overlap's half-span in u plus 1.5 (uc is
+// rounded, and the kernel adds 1). The kernel forms the true line in doubles from the double
+// depth planes; `fp` bounds that: a few roundings of 2^-53 on each term of
+// d = A x + B y + C, i.e. 2^-44 ((|A| + |B|) (|x| + |y|) + |C|) summed over both planes, with
+// |x| + |y| the largest over both triangles' vertices, divided by |Q| (v's coefficient) to give
+// v units. The band is the part of the overlap within that
+// many v units of the exact line: outside every band the map must be exactly right
+// (docs/NUMERICS.md §2), inside one a cell may lie wholly on the wrong side of the true line.
+Poly snap_band(const Poly& overlap, const Poly& to, const Poly& tt, const Plane& po, const Plane& pt,
+               double* half_width) {
+  FT a = po.a - pt.a, b = po.b - pt.b, c = po.c - pt.c;
+  bool along_x = CGAL::abs(b) >= CGAL::abs(a);
+  FT q = CGAL::abs(along_x ? b : a);
+  double umin = INFINITY, umax = -INFINITY, xy = 0;
+  for (size_t i = 0; i < overlap.size(); ++i) {
+    double u = CGAL::to_double(along_x ? overlap[i].x() : overlap[i].y());
+    umin = std::min(umin, u), umax = std::max(umax, u);
+  }
+  for (const Poly* p : {&to, &tt})
+    for (size_t i = 0; i < p->size(); ++i)
+      xy = std::max(xy, std::abs(CGAL::to_double((*p)[i].x())) + std::abs(CGAL::to_double((*p)[i].y())));
+  const double n_min = double((1 << 23) - 255);
+  double h = (umax - umin) / 2 + 1.5;
+  double scale = 0;
+  for (const Plane* p : {&po, &pt})
+    scale += (std::abs(CGAL::to_double(p->a)) + std::abs(CGAL::to_double(p->b))) * xy +
+             std::abs(CGAL::to_double(p->c));
+  double fp = std::ldexp(scale, -44) / CGAL::to_double(q);
+  double e = (1 + h) / (2 * n_min) + fp;
+  *half_width = e;
+  FT w = FT(e) * q;
+  Poly band = clip_halfplane(overlap, a, b, c + w);
+  if (band.size() >= 3) band = clip_halfplane(band, -a, -b, w - c);
+  return band;
+}
+
+}  // namespace
 
 ReferenceResult exact_visibility(const ScreenTriangles& screen) {
   auto t0 = Clock::now();
@@ -177,6 +222,7 @@ ReferenceResult exact_visibility(const ScreenTriangles& screen) {
   std::sort(by_x.begin(), by_x.end(), [&](uint32_t a, uint32_t b) { return box[a][0] < box[b][0]; });
 
   ReferenceResult r;
+  std::vector<Poly> bands;
   r.visible_area.resize(n);
   impl->visible.resize(n);
   FT total = 0;
@@ -219,6 +265,15 @@ ReferenceResult exact_visibility(const ScreenTriangles& screen) {
       }
       Poly part = clip_halfplane(tri[o], a, b, c);
       if (part.size() >= 3 && part.is_simple() && !CGAL::is_zero(part.area())) occluders.push_back(part);
+      if (t < o) {
+        double e = 0;
+        Poly band = snap_band(overlap, tri[o], tri[t], plane[o], plane[t], &e);
+        r.snap_band = std::max(r.snap_band, e / impl->gs);
+        if (band.size() >= 3 && band.is_simple() && !CGAL::is_zero(band.area())) {
+          if (band.orientation() == CGAL::CLOCKWISE) band.reverse_orientation();
+          bands.push_back(std::move(band));
+        }
+      }
     }
     PSet vis(tri[t]);
     if (!occluders.empty()) {
@@ -232,6 +287,7 @@ ReferenceResult exact_visibility(const ScreenTriangles& screen) {
     impl->visible[t] = std::move(vis);
   }
   r.total_visible_area = CGAL::to_double(total) / (double(impl->gs) * impl->gs);
+  if (!bands.empty()) impl->bands.join(bands.begin(), bands.end());
   r.impl = impl;
   r.ms = ms_since(t0);
   return r;
@@ -254,7 +310,12 @@ ReferenceReport compare_with_reference(const PlanarMap& map, const ScreenTriangl
   for (size_t t = 0; t < screen.size(); ++t) visible[source_key(screen.mesh[t], screen.triangle[t])].join(ref.visible[t]);
 
   std::map<uint64_t, PSet> output;
-  FT total_visible = 0, xor_area = 0;
+  FT total_visible = 0, xor_area = 0, xor_outside = 0;
+  // The part of a symmetric difference that no snap band explains.
+  auto outside_bands = [&](PSet x) {
+    if (!ref.bands.is_empty()) x.difference(ref.bands);
+    return area(x);
+  };
   r.fragments = map.fragment_count();
   for (size_t f = 0; f < map.fragment_count(); ++f) {
     Poly p;
@@ -284,26 +345,42 @@ ReferenceReport compare_with_reference(const PlanarMap& map, const ScreenTriangl
     FT out = a - inside;
     if (out > a / 2) ++r.wrong_source;
     if (r.exact ? CGAL::is_positive(out) : out > a * 1e-9) ++r.partly_outside;
+    if (CGAL::is_positive(out)) {  // is what lies outside visible(src) all inside snap bands?
+      PSet wrong(p);
+      if (it != visible.end()) wrong.difference(it->second);
+      if (!ref.bands.is_empty()) wrong.difference(ref.bands);
+      if (CGAL::is_positive(area(wrong))) ++r.wrong_outside_band;
+    }
   }
   for (auto& [key, vis] : visible) {
     total_visible += area(vis);
     auto it = output.find(key);
     if (it == output.end()) {
       xor_area += area(vis);
+      xor_outside += outside_bands(vis);
       continue;
     }
     PSet x = it->second;
     x.symmetric_difference(vis);
-    xor_area += area(x);
+    FT xa = area(x);
+    xor_area += xa;
+    if (CGAL::is_positive(xa)) xor_outside += outside_bands(x);
   }
   for (auto& [key, out] : output)
-    if (!visible.count(key)) xor_area += area(out);
+    if (!visible.count(key)) {
+      xor_area += area(out);
+      xor_outside += outside_bands(out);
+    }
 
   double g2 = double(gs) * gs;
   r.total_visible_area = CGAL::to_double(total_visible) / g2;
   r.xor_area = CGAL::to_double(xor_area) / g2;
   r.area_error = CGAL::is_zero(total_visible) ? (CGAL::is_zero(xor_area) ? 0 : INFINITY)
                                               : CGAL::to_double(xor_area / total_visible);
+  r.area_error_outside_band = CGAL::is_zero(total_visible)
+                                  ? (CGAL::is_zero(xor_outside) ? 0 : INFINITY)
+                                  : CGAL::to_double(xor_outside / total_visible);
+  r.snap_band = reference.snap_band;
   r.ms = ms_since(t0);
   return r;
 }

@@ -64,6 +64,9 @@ SceneFigures check_scene(Renderer& renderer, const Scene& scene, const Camera& c
     f.visible_area = ref.total_visible_area;
     f.wrong_source = cmp.wrong_source;
     f.partly_outside = cmp.partly_outside;
+    f.area_error_outside_band = cmp.area_error_outside_band;
+    f.wrong_outside_band = cmp.wrong_outside_band;
+    f.snap_band = cmp.snap_band;
   }
   if (o.pixels) {
     PixelReport px = pixel_compare(map, screen, o.pixels);
@@ -100,6 +103,9 @@ std::vector<std::string> over_tolerance(const SceneFigures& f, const Tolerances&
   chk("area_error", f.area_error, area_tol);
   chk("overlap_area", f.overlap_area, t.overlap_area);
   if (!crossing) chk("wrong_source", f.wrong_source, t.wrong_source);
+  // Outside the snap bands nothing is left to snapping: exact in every mode.
+  chk("area_error_outside_band", f.area_error_outside_band, t.exact);
+  chk("wrong_outside_band", f.wrong_outside_band, t.wrong_source);
   chk("pixel_error", f.pixel_error, t.pixel_error);
   // Snapping crossing lines moves area between triangles, never out of the union: holes are
   // held to the exact tolerance with or without crossing lines (docs/NUMERICS.md §2).
@@ -127,6 +133,9 @@ nlohmann::ordered_json to_json(const SceneFigures& f) {
   put("degenerate", f.degenerate);
   put("nonconvex", f.nonconvex);
   put("partly_outside", f.partly_outside);
+  put("area_error_outside_band", f.area_error_outside_band);
+  put("wrong_outside_band", f.wrong_outside_band);
+  put("snap_band", f.snap_band);
   put("xor_area", f.xor_area);
   put("visible_area", f.visible_area);
   put("pixel_error_all", f.pixel_error_all);

@@ -34,6 +34,10 @@ struct SceneFigures {
   double pipeline_ms = 0;                 // Renderer::render wall time
   std::optional<double> area_error, xor_area, visible_area;  // vs the exact reference
   std::optional<size_t> wrong_source, partly_outside;
+  // The same outside the crossing pairs' snap bands (ReferenceReport): exact with or without
+  // crossing lines. snap_band: the widest band, pixels.
+  std::optional<double> area_error_outside_band, snap_band;
+  std::optional<size_t> wrong_outside_band;
   std::optional<double> reference_ms;     // exact_visibility + compare_with_reference
   std::optional<double> overlap_area, coverage_error, outside_area;
   std::optional<size_t> overlap_pairs, outside_source, degenerate, nonconvex;
@@ -48,14 +52,15 @@ struct SceneFigures {
 
 // Tolerances of `vismap check` (docs/NUMERICS.md derives them). Against the snapped screen
 // triangles the map is exact unless penetrating pairs were clipped along snapped crossing lines:
-// then area_error and coverage_error may reach the snap level (snap_area_bound) and wrong_source
-// counts snap-sized fragments on the wrong side of a crossing line (their area is in area_error).
+// then area_error may reach the snap level (snap_area_bound) and wrong_source counts snap-sized
+// fragments on the wrong side of a crossing line (their area is in area_error), but outside the
+// crossing pairs' snap bands the map is still exact (area_error_outside_band, wrong_outside_band).
 struct Tolerances {
   double exact = 1e-12;         // coverage_error always, area_error without crossing lines
                                 // (rounding of the final quotient and the 2^-96 fixed-point sums)
   double snap_factor = 1.0;     // with crossing lines: <= snap_factor * snap_area_bound
   double overlap_area = 0;
-  size_t wrong_source = 0;      // without crossing lines
+  size_t wrong_source = 0;      // without crossing lines; wrong_outside_band always
   double pixel_error = 1e-3;    // interior samples
   size_t outside_source = 0;
   bool strict = false;          // `--strict`: no snap-level allowance for crossing lines either
