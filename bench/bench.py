@@ -270,7 +270,7 @@ def write_outputs(out, rows, sweep, env, have_check):
                   f"{r.get('cli_out_bytes', 0) / 1e6:.2f} | {100 * share:.0f}% |")
     md += ["", "## Error and time (`vismap check`)", ""]
     if not have_check:
-        md.append("`vismap check` is not in this build's CLI yet: the error columns are empty.")
+        md.append("`vismap check` was not run (`--no-check`, or a CLI without it): no error columns.")
     else:
         md += ["| scene | res | area error | overlap area | wrong source | pixel error | pipeline ms | reference ms | mode |",
                "|---|---:|---:|---:|---:|---:|---:|---:|---|"]
