@@ -5,7 +5,10 @@
 // "m"/"l"), printed with at most 2 decimals, trailing zeros and leading "0" dropped, and no
 // separator where the grammar allows it ("1.5-2", "1.5.5"). A vertex that two fragments share is
 // the same double, hence the same integer, so every path reconstructs it to the same decimal
-// value: no cracks from formatting. See svg_number(). Why 2 decimals, not 3: 1/100 px is far
+// value: no cracks from formatting. A vertex that lies on a neighbour's edge without being one
+// of its vertices (a T-junction: an occluder's edge against the fragments it hides) would round
+// off that edge and open a gap up to 1/200 px wide, which crispEdges shows as background specks;
+// it is inserted into the neighbour's edge (conform_t_junctions). See svg_number(). Why 2 decimals, not 3: 1/100 px is far
 // below what anyone sees even zoomed 10x (the binary format keeps full float precision for
 // programs), and it saves a byte per number: ~6 bytes per triangle, which is what keeps a
 // 60k-fragment bunny under 3 MB.
@@ -249,81 +252,78 @@ QuantizedMap quantize_map(const PlanarMap& map) {
   return q;
 }
 
-// Marks the edges that another fragment shares: exactly (the reverse edge exists), or along a
-// T-junction (reverse-direction collinear edges cover at least half of it).
-void find_shared_edges(QuantizedMap& q, size_t fragments) {
-  const size_t ne = q.v.size();
-  q.shared.assign(ne, 0);
-  auto edge = [&](size_t f, uint32_t i) {
-    const uint32_t b = q.off[f], n = q.off[f + 1] - b;
-    return EdgeKey{q.v[b + i], q.v[b + (i + 1) % n]};
-  };
-  std::unordered_set<EdgeKey, EdgeHash> all;
-  all.reserve(ne * 2);
-  for (size_t f = 0; f < fragments; ++f)
-    for (uint32_t i = 0; i < q.off[f + 1] - q.off[f]; ++i) all.insert(edge(f, i));
-  std::vector<EdgeKey> open;  // unmatched edges
-  std::vector<uint32_t> open_id;
-  for (size_t f = 0; f < fragments; ++f)
-    for (uint32_t i = 0; i < q.off[f + 1] - q.off[f]; ++i) {
-      const EdgeKey e = edge(f, i);
-      if (all.count(EdgeKey{e.b, e.a})) {
-        q.shared[q.off[f] + i] = 1;
-      } else {
-        open.push_back(e);
-        open_id.push_back(q.off[f] + i);
-      }
-    }
-  if (open.empty()) return;
+// The edges of a quantized map that no other edge matches exactly in reverse (an occluder's
+// edge against the fragments it hides: a T-junction), bucketed in a grid of 16-pixel cells
+// for partner queries; edges whose box spans more than 64 cells go to a list every query scans.
+class OpenEdges {
+ public:
+  std::vector<EdgeKey> edge;
+  std::vector<uint32_t> id, frag;  // first vertex (index into q.v) and fragment of each
 
-  // T-junctions: bucket the unmatched edges in a grid of 16-pixel cells; edges whose box spans
-  // more than 64 cells go to a list every query scans.
-  constexpr int64_t kCell = 16 * kUnit;
-  auto cell = [](int64_t v) { return v >= 0 ? v / kCell : -((-v + kCell - 1) / kCell); };
-  auto cell_key = [](int64_t cx, int64_t cy) { return uint64_t(cx) * 0x100000001B3ull ^ uint64_t(cy); };
-  std::unordered_map<uint64_t, std::vector<uint32_t>> grid;
-  std::vector<uint32_t> big;
-  for (uint32_t k = 0; k < open.size(); ++k) {
-    const EdgeKey& e = open[k];
-    const int64_t x0 = cell(std::min(e.a.x, e.b.x) - kTJunctionTol),
-                  x1 = cell(std::max(e.a.x, e.b.x) + kTJunctionTol),
-                  y0 = cell(std::min(e.a.y, e.b.y) - kTJunctionTol),
-                  y1 = cell(std::max(e.a.y, e.b.y) + kTJunctionTol);
-    if ((x1 - x0 + 1) * (y1 - y0 + 1) > 64) {
-      big.push_back(k);
-      continue;
+  // `matched` (optional): per edge of q, set to 1 when the reverse edge exists.
+  OpenEdges(const QuantizedMap& q, size_t fragments, std::vector<uint8_t>* matched) {
+    auto at = [&](size_t f, uint32_t i) {
+      const uint32_t b = q.off[f], n = q.off[f + 1] - b;
+      return EdgeKey{q.v[b + i], q.v[b + (i + 1) % n]};
+    };
+    std::unordered_set<EdgeKey, EdgeHash> all;
+    all.reserve(q.v.size() * 2);
+    for (size_t f = 0; f < fragments; ++f)
+      for (uint32_t i = 0; i < q.off[f + 1] - q.off[f]; ++i) all.insert(at(f, i));
+    for (size_t f = 0; f < fragments; ++f)
+      for (uint32_t i = 0; i < q.off[f + 1] - q.off[f]; ++i) {
+        const EdgeKey e = at(f, i);
+        if (all.count(EdgeKey{e.b, e.a})) {
+          if (matched) (*matched)[q.off[f] + i] = 1;
+        } else {
+          edge.push_back(e);
+          id.push_back(q.off[f] + i);
+          frag.push_back(uint32_t(f));
+        }
+      }
+    for (uint32_t k = 0; k < edge.size(); ++k) {
+      const EdgeKey& e = edge[k];
+      const int64_t x0 = cell(std::min(e.a.x, e.b.x) - kTJunctionTol),
+                    x1 = cell(std::max(e.a.x, e.b.x) + kTJunctionTol),
+                    y0 = cell(std::min(e.a.y, e.b.y) - kTJunctionTol),
+                    y1 = cell(std::max(e.a.y, e.b.y) + kTJunctionTol);
+      if ((x1 - x0 + 1) * (y1 - y0 + 1) > 64) {
+        big_.push_back(k);
+        continue;
+      }
+      for (int64_t cx = x0; cx <= x1; ++cx)
+        for (int64_t cy = y0; cy <= y1; ++cy) grid_[cell_key(cx, cy)].push_back(k);
     }
-    for (int64_t cx = x0; cx <= x1; ++cx)
-      for (int64_t cy = y0; cy <= y1; ++cy) grid[cell_key(cx, cy)].push_back(k);
   }
-  std::vector<uint32_t> cand;
-  for (uint32_t k = 0; k < open.size(); ++k) {
-    const EdgeKey& e = open[k];
-    cand.assign(big.begin(), big.end());
+
+  // The open edges other than k that run the opposite way along the same line: both end points
+  // of the shorter one within kTJunctionTol of the longer one's line.
+  void partners(uint32_t k, std::vector<uint32_t>& out) {
+    const EdgeKey& e = edge[k];
+    cand_.assign(big_.begin(), big_.end());
     const int64_t x0 = cell(std::min(e.a.x, e.b.x)), x1 = cell(std::max(e.a.x, e.b.x)),
                   y0 = cell(std::min(e.a.y, e.b.y)), y1 = cell(std::max(e.a.y, e.b.y));
     if ((x1 - x0 + 1) * (y1 - y0 + 1) > 64) {
-      cand.resize(open.size());
-      for (uint32_t j = 0; j < open.size(); ++j) cand[j] = j;
+      cand_.resize(edge.size());
+      for (uint32_t j = 0; j < edge.size(); ++j) cand_[j] = j;
     } else {
       for (int64_t cx = x0; cx <= x1; ++cx)
         for (int64_t cy = y0; cy <= y1; ++cy) {
-          auto it = grid.find(cell_key(cx, cy));
-          if (it != grid.end()) cand.insert(cand.end(), it->second.begin(), it->second.end());
+          auto it = grid_.find(cell_key(cx, cy));
+          if (it != grid_.end()) cand_.insert(cand_.end(), it->second.begin(), it->second.end());
         }
-      std::sort(cand.begin(), cand.end());
-      cand.erase(std::unique(cand.begin(), cand.end()), cand.end());
+      std::sort(cand_.begin(), cand_.end());
+      cand_.erase(std::unique(cand_.begin(), cand_.end()), cand_.end());
     }
+    out.clear();
     const double dx = double(e.b.x - e.a.x), dy = double(e.b.y - e.a.y);
     const double len = std::hypot(dx, dy);
-    double covered = 0;
-    for (uint32_t j : cand) {
+    for (uint32_t j : cand_) {
       if (j == k) continue;
-      const EdgeKey& o = open[j];
+      const EdgeKey& o = edge[j];
       const double ox = double(o.b.x - o.a.x), oy = double(o.b.y - o.a.y);
       if (dx * ox + dy * oy >= 0) continue;  // must run the opposite way
       const double olen = std::hypot(ox, oy);
-      // The shorter edge's end points must lie on the longer edge's line.
       const EdgeKey& lng = len >= olen ? e : o;
       const EdgeKey& sht = len >= olen ? o : e;
       const double lx = double(lng.b.x - lng.a.x), ly = double(lng.b.y - lng.a.y);
@@ -331,13 +331,93 @@ void find_shared_edges(QuantizedMap& q, size_t fragments) {
       auto dist = [&](Q p) {
         return std::abs(lx * double(p.y - lng.a.y) - ly * double(p.x - lng.a.x)) / llen;
       };
-      if (dist(sht.a) > kTJunctionTol || dist(sht.b) > kTJunctionTol) continue;
+      if (dist(sht.a) <= kTJunctionTol && dist(sht.b) <= kTJunctionTol) out.push_back(j);
+    }
+  }
+
+ private:
+  static constexpr int64_t kCell = 16 * kUnit;
+  static int64_t cell(int64_t v) { return v >= 0 ? v / kCell : -((-v + kCell - 1) / kCell); }
+  static uint64_t cell_key(int64_t cx, int64_t cy) {
+    return uint64_t(cx) * 0x100000001B3ull ^ uint64_t(cy);
+  }
+  std::unordered_map<uint64_t, std::vector<uint32_t>> grid_;
+  std::vector<uint32_t> big_, cand_;
+};
+
+// Where a fragment's edge runs along several edges of its neighbours (a T-junction), the
+// neighbours' vertices lie on it in the exact map but not after rounding: each moved by up to
+// half a unit, so thin gaps (and overlaps) open along the edge, which an aliased rasterizer
+// (Fill::Id, crispEdges) shows as background specks where a pixel centre falls in one. So the
+// neighbours' vertices strictly inside the edge are inserted into it, in order: both sides then
+// pass through the same rounded points (the edge bends by at most kTJunctionTol units). Not
+// inserted: a vertex the fragment already has (a sliver thinner than the tolerance would fold
+// onto itself) and one within the tolerance of the edge's end points (it would spike a corner
+// whose two edges both pass that close).
+void conform_t_junctions(QuantizedMap& q, size_t fragments) {
+  OpenEdges open(q, fragments, nullptr);
+  if (open.edge.empty()) return;
+  std::unordered_map<uint32_t, std::vector<std::pair<double, Q>>> insert;  // by edge id
+  std::vector<uint32_t> partners;
+  for (uint32_t k = 0; k < open.edge.size(); ++k) {
+    open.partners(k, partners);
+    const EdgeKey& e = open.edge[k];
+    const double dx = double(e.b.x - e.a.x), dy = double(e.b.y - e.a.y);
+    const double len2 = dx * dx + dy * dy;
+    const uint32_t f = open.frag[k];
+    auto near = [](Q p, Q v) {
+      return std::max(std::abs(p.x - v.x), std::abs(p.y - v.y)) <= kTJunctionTol;
+    };
+    for (uint32_t j : partners) {
+      if (open.frag[j] == f) continue;
+      for (Q p : {open.edge[j].a, open.edge[j].b}) {
+        if (near(p, e.a) || near(p, e.b)) continue;
+        if (std::find(q.v.begin() + q.off[f], q.v.begin() + q.off[f + 1], p) != q.v.begin() + q.off[f + 1])
+          continue;
+        const double t = (double(p.x - e.a.x) * dx + double(p.y - e.a.y) * dy) / len2;
+        if (t > 0 && t < 1) insert[open.id[k]].push_back({t, p});
+      }
+    }
+  }
+  if (insert.empty()) return;
+  QuantizedMap r;
+  r.v.reserve(q.v.size() + insert.size() * 2);
+  for (size_t f = 0; f < fragments; ++f) {
+    for (uint32_t i = q.off[f]; i < q.off[f + 1]; ++i) {
+      r.v.push_back(q.v[i]);
+      auto it = insert.find(i);
+      if (it == insert.end()) continue;
+      auto& pts = it->second;
+      std::sort(pts.begin(), pts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+      for (size_t m = 0; m < pts.size(); ++m)
+        if (!(pts[m].second == r.v.back())) r.v.push_back(pts[m].second);
+    }
+    r.off.push_back(uint32_t(r.v.size()));
+  }
+  q = std::move(r);
+}
+
+// Marks the edges that another fragment shares: exactly (the reverse edge exists), or along a
+// T-junction that conform_t_junctions() left (reverse-direction collinear edges cover at least
+// half of it).
+void find_shared_edges(QuantizedMap& q, size_t fragments) {
+  q.shared.assign(q.v.size(), 0);
+  OpenEdges open(q, fragments, &q.shared);
+  std::vector<uint32_t> partners;
+  for (uint32_t k = 0; k < open.edge.size(); ++k) {
+    open.partners(k, partners);
+    const EdgeKey& e = open.edge[k];
+    const double dx = double(e.b.x - e.a.x), dy = double(e.b.y - e.a.y);
+    const double len = std::hypot(dx, dy);
+    double covered = 0;
+    for (uint32_t j : partners) {
+      const EdgeKey& o = open.edge[j];
       // Overlap of o with e, measured along e.
       const double t0 = (double(o.a.x - e.a.x) * dx + double(o.a.y - e.a.y) * dy) / len;
       const double t1 = (double(o.b.x - e.a.x) * dx + double(o.b.y - e.a.y) * dy) / len;
       covered += std::max(0.0, std::min(len, std::max(t0, t1)) - std::max(0.0, std::min(t0, t1)));
     }
-    if (covered >= 0.5 * len) q.shared[open_id[k]] = 1;
+    if (covered >= 0.5 * len) q.shared[open.id[k]] = 1;
   }
 }
 
@@ -424,6 +504,7 @@ std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& ca
   });
 
   QuantizedMap q = quantize_map(map);
+  conform_t_junctions(q, nf);
   const bool shade = fill == Fill::Shade;
   if (shade) find_shared_edges(q, nf);
 
