@@ -7,8 +7,9 @@
 // the same double, hence the same integer, so every path reconstructs it to the same decimal
 // value: no cracks from formatting. A vertex that lies on a neighbour's edge without being one
 // of its vertices (a T-junction: an occluder's edge against the fragments it hides) would round
-// off that edge and open a gap up to 1/200 px wide, which crispEdges shows as background specks;
-// it is inserted into the neighbour's edge (conform_t_junctions). See svg_number(). Why 2 decimals, not 3: 1/100 px is far
+// off that edge and open a gap up to 1/200 px wide, which crispEdges (Fill::Id) shows as
+// background specks; there it is inserted into the neighbour's edge (conform_t_junctions), and
+// Fill::Shade strokes such edges instead (below). See svg_number(). Why 2 decimals, not 3: 1/100 px is far
 // below what anyone sees even zoomed 10x (the binary format keeps full float precision for
 // programs), and it saves a byte per number: ~6 bytes per triangle, which is what keeps a
 // 60k-fragment bunny under 3 MB.
@@ -398,8 +399,7 @@ void conform_t_junctions(QuantizedMap& q, size_t fragments) {
 }
 
 // Marks the edges that another fragment shares: exactly (the reverse edge exists), or along a
-// T-junction that conform_t_junctions() left (reverse-direction collinear edges cover at least
-// half of it).
+// T-junction (reverse-direction collinear edges cover at least half of it).
 void find_shared_edges(QuantizedMap& q, size_t fragments) {
   q.shared.assign(q.v.size(), 0);
   OpenEdges open(q, fragments, &q.shared);
@@ -504,9 +504,14 @@ std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& ca
   });
 
   QuantizedMap q = quantize_map(map);
-  conform_t_junctions(q, nf);
   const bool shade = fill == Fill::Shade;
-  if (shade) find_shared_edges(q, nf);
+  // Shade strokes the T-junction edges (find_shared_edges), which covers their gaps; Id has no
+  // stroke, so its T-junctions are made conforming (which costs ~25 ms on the bunny's 30k
+  // fragments and, for millions of fragments, a second copy of the vertices).
+  if (shade)
+    find_shared_edges(q, nf);
+  else
+    conform_t_junctions(q, nf);
 
   std::string out;
   out.reserve(64 + q.v.size() * 12 + nf * 16);
