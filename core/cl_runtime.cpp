@@ -114,14 +114,19 @@ ClRuntime::ClRuntime(const std::string& device_spec) {
   scratch_total_ = cl::Buffer(ctx_, CL_MEM_READ_WRITE, sizeof(uint32_t));
 }
 
-void ClRuntime::build(uint32_t maxl) {
-  if (maxl == maxl_ && program_()) return;
+std::string program_source() {
   std::string source;
   for (const char* f : kProgramFiles) {
     auto it = kernel_sources().find(f);
     if (it == kernel_sources().end()) throw DeviceError(std::string("missing embedded kernel ") + f);
     source += "/* ---- " + std::string(f) + " ---- */\n" + it->second + "\n";
   }
+  return source;
+}
+
+void ClRuntime::build(uint32_t maxl) {
+  if (maxl == maxl_ && program_()) return;
+  const std::string source = program_source();
   std::string options = "-cl-std=CL1.2 -DVM_MAXL=" + std::to_string(maxl);
   if (const char* extra = std::getenv("VISMAP_CL_OPTIONS"); extra && *extra) options += std::string(" ") + extra;
   uint64_t key = fnv1a(source, fnv1a(options, fnv1a(info_.platform + "|" + info_.name + "|" +

@@ -18,6 +18,10 @@ namespace vismap {
 
 const std::map<std::string, std::string>& kernel_sources();  // generated at build time
 
+// The OpenCL C program every device builds: the embedded kernel files, concatenated in
+// dependency order. Built with "-cl-std=CL1.2 -DVM_MAXL=<lines per fragment>".
+std::string program_source();
+
 class ClRuntime {
  public:
   explicit ClRuntime(const std::string& device_spec);
