@@ -200,7 +200,7 @@ def write_outputs(out, rows, sweep, env, have_check):
             "first_render_ms", "upload_ms", "pipeline_ms", "pipeline_min_ms", "pipeline_max_ms", "kernels_ms",
             "host_ms"] + ["stage_" + s + "_ms" for s in STAGES] + [
             "triangles_per_s", "screen_triangles", "silhouette_edges", "crossing_lines", "fragments",
-            "visible_fragments", "output_fragments", "output_triangles", "clip_rounds", "peak_device_bytes",
+            "visible_fragments", "output_fragments", "output_triangles", "clip_rounds", "host_syncs", "peak_device_bytes",
             "zbuffer_ms", "zbuffer_kernels_ms", "zbuffer_ratio",
             "svg_bytes", "svg_ms", "bin_bytes", "bin_ms", "peak_rss_mb", "process_ms", "process_min_ms",
             "process_max_ms", "process_runs", "peak_rss_mb_cli", "cli_load_ms", "cli_render_ms", "cli_write_ms",

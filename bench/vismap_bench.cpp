@@ -289,6 +289,7 @@ int main(int argc, char** argv) {
       num("visible_fragments", double(st.visible_fragments));
       num("sliver_fragments", double(st.sliver_fragments));
       num("clip_rounds", st.clip_rounds);
+      num("host_syncs", st.host_syncs);
       num("output_fragments", double(map.fragment_count()));
       num("output_triangles", double(out_tris));
       num("peak_device_bytes", double(st.peak_device_bytes));

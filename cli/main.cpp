@@ -145,9 +145,9 @@ int cmd_render(int argc, char** argv) {
                  static_cast<unsigned long long>(scene.dropped_degenerate),
                  static_cast<unsigned long long>(st.screen_triangles),
                  static_cast<unsigned long long>(st.silhouette_edges));
-    std::fprintf(stderr, "fragments %llu, visible %llu, clip rounds %u, device memory peak %.1f MB (%.1f MB allocated in all)\n",
+    std::fprintf(stderr, "fragments %llu, visible %llu, clip rounds %u, host syncs %u, device memory peak %.1f MB (%.1f MB allocated in all)\n",
                  static_cast<unsigned long long>(st.fragments),
-                 static_cast<unsigned long long>(st.visible_fragments), st.clip_rounds,
+                 static_cast<unsigned long long>(st.visible_fragments), st.clip_rounds, st.host_syncs,
                  st.peak_device_bytes / 1e6, st.allocated_device_bytes / 1e6);
     if (a.memory_budget)
       std::fprintf(stderr, "memory budget %.1f MB: %u bucket(s), each planned under %.1f MB of work\n",

@@ -295,13 +295,19 @@ uint32_t ClRuntime::scan(const char* stage, cl::Buffer& counts, cl::Buffer& offs
   scan_level(stage, counts, offsets, n);
   launch(stage, "scan_total", 1, counts, offsets, n, scratch_total_, 0u);
   uint32_t total = 0;
-  queue_.enqueueReadBuffer(scratch_total_, CL_TRUE, 0, sizeof total, &total);
+  read(scratch_total_, 0, sizeof total, &total);
   return total;
+}
+
+void ClRuntime::read(const cl::Buffer& b, size_t offset, size_t bytes, void* dst) {
+  queue_.enqueueReadBuffer(b, CL_TRUE, offset, bytes, dst);
+  ++syncs_;
 }
 
 void ClRuntime::reset_profile() {
   launches_.clear();
   kernel_profile_.clear();
+  syncs_ = 0;
 }
 
 std::map<std::string, std::pair<double, uint32_t>> ClRuntime::collect_profile() {

@@ -54,6 +54,10 @@ class ClRuntime {
     return b;
   }
   void fill_u32(cl::Buffer& b, uint32_t value, size_t count, const char* stage);
+  // Blocking read: the host waits for the queue to drain and the copy (one round trip, ~50 us
+  // on PoCL here, ~16-19 us on an H100). Counted: host_syncs() since reset_profile().
+  void read(const cl::Buffer& b, size_t offset, size_t bytes, void* dst);
+  uint32_t host_syncs() const { return syncs_; }
 
   // Exclusive scan of n counts into offsets (device), returning the total (one read back).
   uint32_t scan(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n);
@@ -104,6 +108,7 @@ class ClRuntime {
   std::shared_ptr<std::atomic<uint64_t>> live_ = std::make_shared<std::atomic<uint64_t>>(0);
   bool host_blocks_ = false;  // large buffers on host blocks: CPU devices, unless $VISMAP_HOST_BLOCKS=0
   uint64_t peak_ = 0;
+  uint32_t syncs_ = 0;
   cl::Buffer scratch_total_;
 };
 

@@ -111,7 +111,7 @@ std::vector<cl_int4> Renderer::Impl::plan_buckets(uint64_t budget, Frame& fr, Re
     rt.fill_u32(h, 0, hist.size(), "transform");
     rt.launch("transform", "clip_cells", ntri, idx, ntri, fr.clip, tri_mesh, tri_local, fr.mesh_cull,
               W, H, fr.ortho, fr.full, cells, h, fr.boxes);
-    rt.queue().enqueueReadBuffer(h, CL_TRUE, 0, hist.size() * 4, hist.data());
+    rt.read(h, 0, hist.size() * 4, hist.data());
   }
   // What every bucket holds besides its own work: the scene, the clip-space vertices, the
   // per-input-triangle counts, offsets and boxes (all allocated by now).
@@ -407,7 +407,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
                 tbins.class_start, tbins.list, pcount, scr_o, scr_rel, scr_line, totals);
       P = rt.scan("crossings", pcount, poffset, S);
       uint32_t status = 0;
-      q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof status, &status);
+      rt.read(totals, 0, sizeof status, &status);
       pair_t = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
       pair_o = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
       pair_rel = rt.alloc(std::max<size_t>(P, 1) * 4, "pairs");
@@ -485,7 +485,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
           rt.scan_to("clip", ncount, noff, nq, totals, kNextTotal);
           rt.scan_to("clip", dcount, doff, nq, totals, kDoneTotal);
           uint32_t tot[kSlots];
-          q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof tot, tot);
+          rt.read(totals, 0, sizeof tot, tot);
           if (tot[kStatus] & VM_STATUS_LINES_OVERFLOW) throw LinesOverflow{};
           if (tot[kStatus] & VM_STATUS_HASH_FULL) throw DeviceError("edge hash table full");
           const uint32_t nn = tot[kNextTotal], dn = tot[kDoneTotal];
@@ -529,7 +529,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
               tbins.offset, tbins.class_start, tbins.list, edges, E, cross_offset, cross_count, partner,
               visible, totals);
     uint32_t thin = 0;
-    q.enqueueReadBuffer(totals, CL_TRUE, kThin * 4, 4, &thin);
+    rt.read(totals, kThin * 4, 4, &thin);
     if (thin > 0)  // cells thinner than the fine sample grid: decided at exact rational points
       rt.launch("occlusion", "occlude_thin", nd, done_meta, done_lines, nd, tris, tri_bb, og,
                 tbins.tile_leaf, tbins.offset, tbins.class_start, tbins.list, edges, E, cross_offset,
@@ -549,10 +549,10 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       rt.launch("emit", "emit_visible", nd, done_meta, done_lines, nd, visible, voff, tris, om, ol, os);
       q.enqueueReadBuffer(om, CL_FALSE, 0, size_t(V) * sizeof(VmFragMeta), vf.meta.data());
       q.enqueueReadBuffer(ol, CL_FALSE, 0, size_t(V) * L * sizeof(VmLine), vf.lines.data());
-      q.enqueueReadBuffer(os, CL_TRUE, 0, size_t(V) * sizeof(cl_uint2), src.data());
+      q.enqueueReadBuffer(os, CL_FALSE, 0, size_t(V) * sizeof(cl_uint2), src.data());
     }
     uint32_t tot[kSlots];
-    q.enqueueReadBuffer(totals, CL_TRUE, 0, sizeof tot, tot);
+    rt.read(totals, 0, sizeof tot, tot);  // in order: the reads above are done too
     vf.mesh.resize(V);
     vf.triangle.resize(V);
     for (uint32_t i = 0; i < V; ++i) {
@@ -564,12 +564,13 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     std::vector<float> host_bary;
     if (want_bary || screen) {
       host_tris.resize(S);
-      q.enqueueReadBuffer(tris, CL_TRUE, 0, size_t(S) * sizeof(VmScreenTri), host_tris.data());
+      q.enqueueReadBuffer(tris, CL_FALSE, 0, size_t(S) * sizeof(VmScreenTri), host_tris.data());
     }
     if (want_bary) {
       host_bary.resize(size_t(S) * 9);
-      q.enqueueReadBuffer(tri_bary, CL_TRUE, 0, host_bary.size() * sizeof(float), host_bary.data());
+      q.enqueueReadBuffer(tri_bary, CL_FALSE, 0, host_bary.size() * sizeof(float), host_bary.data());
     }
+    if (want_bary || screen) q.finish();
     for (const auto& [stage, t] : rt.collect_profile()) {
       profile[stage].first += t.first;
       profile[stage].second += t.second;
@@ -618,6 +619,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       bytes_per_tri = std::max(bytes_per_tri, (rt.allocated_bytes() - base) / S);
     }
   }  // buckets
+  st.host_syncs = rt.host_syncs();
   add_io("emit", st.visible_fragments, map.vertex_count());
 
   for (const char* name : {"transform", "silhouettes", "bin", "crossings", "candidates", "clip",

@@ -47,6 +47,7 @@ struct RenderStats {
   uint64_t peak_device_bytes = 0;   // most device memory held at once (scene upload included)
   uint64_t allocated_device_bytes = 0;  // sum of every allocation during the render
   uint32_t clip_rounds = 0;         // summed over buckets
+  uint32_t host_syncs = 0;          // blocking reads (host waits for the device), upload excluded
   uint32_t buckets = 1;             // screen rectangles rendered one after another
   uint32_t tile_pixels = 0;         // bin tile side used (the last bucket's when there are several)
   uint64_t bucket_work_bytes = 0;   // the estimate each bucket was planned to stay under

@@ -361,4 +361,23 @@ TEST(Stages, SilhouetteHashMatchesBruteForce) {
   EXPECT_EQ(stats.silhouette_edges, host_silhouettes(st));
 }
 
+TEST(Stages, HostSyncsAreOnePerClipRoundPlusAFewPerStage) {
+  // Each blocking read is a round trip the host waits for (~17 us on an H100, against a 0.5 ms
+  // target for the bunny): counted, and held to one per clip round plus the stages' fixed ones
+  // (scan totals, statuses, the thin count, the read-back), so that a new one shows here.
+  Camera cam;
+  cam.eye = {0, 0, 5};
+  cam.near_plane = 0.5;
+  cam.far_plane = 10;
+  cam.width = cam.height = 256;
+  Renderer r;
+  for (double fold : {1.0, 9.0}) {
+    RenderStats stats;
+    r.render(grid_surface(12, fold), cam, {}, &stats);
+    ASSERT_GT(stats.clip_rounds, 0u);
+    EXPECT_GT(stats.host_syncs, stats.clip_rounds) << "fold " << fold;
+    EXPECT_LE(stats.host_syncs, stats.clip_rounds + 14) << "fold " << fold;
+  }
+}
+
 }  // namespace
