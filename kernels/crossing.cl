@@ -13,6 +13,13 @@
 #define VM_REL_B_FRONT 2
 #define VM_REL_CROSS 3
 #define VM_REL_TIE 4      /* or'ed in: decided by the tie rule (the planes agree within the band) */
+/* or'ed into A_FRONT / B_FRONT: the planes come within the band somewhere in the overlap (the
+ * surfaces touch there), and the two share no edge. Such a pair is entangled like a tying one:
+ * each is clipped by the other's edges. Where a surface passes from in front of a triangle x to
+ * behind it across one of its own mesh edges (within the band), no crossing line and no
+ * silhouette marks that edge for x, yet x's visibility changes there; both triangles at the
+ * edge touch x, so this brings the edge into x's clipping lines. */
+#define VM_REL_TOUCH 8
 
 /* Values of n tried when rounding a crossing line to integer coefficients (pair_relation). */
 #ifndef VM_SNAP_SEARCH
@@ -48,6 +55,14 @@ inline int tri_overlap(const VmScreenTri* a, const VmScreenTri* b, double2* out)
 /* How a (lower index) and b relate over their overlap; for crossing pairs also the snapped
  * line, directed so that a is in front on its positive side. Pure function of the two
  * triangles: both members of a pair compute the same answer. */
+/* Do a and b have a vertex in common (mesh neighbours, after snapping)? */
+inline bool share_vertex(const VmScreenTri* a, const VmScreenTri* b) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (a->x[i] == b->x[j] && a->y[i] == b->y[j]) return true;
+  return false;
+}
+
 inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* line, int search) {
   /* Exact separating axes on the grid first: most pairs that get here are mesh neighbours whose
    * footprints only touch (an edge or a corner in common). */
@@ -84,8 +99,8 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
     hi = fmax(hi, r[i]);
   }
   if (!(dmax > band && dmin < -band)) {
-    if (dmax > band) return VM_REL_A_FRONT;
-    if (dmin < -band) return VM_REL_B_FRONT;
+    if (dmax > band) return VM_REL_A_FRONT | (dmin <= band && !share_vertex(a, b) ? VM_REL_TOUCH : 0);
+    if (dmin < -band) return VM_REL_B_FRONT | (dmax >= -band && !share_vertex(a, b) ? VM_REL_TOUCH : 0);
     return VM_REL_TIE | ((a->mesh < b->mesh || (a->mesh == b->mesh && a->tri < b->tri))
                              ? VM_REL_A_FRONT
                              : VM_REL_B_FRONT);
@@ -174,7 +189,7 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
               if (other.mesh == me.mesh && other.tri == me.tri) continue;
               VmLine line;
               int rel = pair_relation(&me, &other, &line, 1);
-              if (rel != VM_REL_CROSS && !(rel & VM_REL_TIE)) continue;
+              if (rel != VM_REL_CROSS && !(rel & (VM_REL_TIE | VM_REL_TOUCH))) continue;
               if (count < cap) {
                 out_o[count] = o;
                 out_rel[count] = (uint)rel;
