@@ -359,6 +359,9 @@ void conform_t_junctions(QuantizedMap& q, size_t fragments) {
   OpenEdges open(q, fragments, nullptr);
   if (open.edge.empty()) return;
   std::unordered_map<uint32_t, std::vector<std::pair<double, Q>>> insert;  // by edge id
+  auto near = [](Q p, Q v) {
+    return std::max(std::abs(p.x - v.x), std::abs(p.y - v.y)) <= kTJunctionTol;
+  };
   std::vector<uint32_t> partners;
   for (uint32_t k = 0; k < open.edge.size(); ++k) {
     open.partners(k, partners);
@@ -366,9 +369,6 @@ void conform_t_junctions(QuantizedMap& q, size_t fragments) {
     const double dx = double(e.b.x - e.a.x), dy = double(e.b.y - e.a.y);
     const double len2 = dx * dx + dy * dy;
     const uint32_t f = open.frag[k];
-    auto near = [](Q p, Q v) {
-      return std::max(std::abs(p.x - v.x), std::abs(p.y - v.y)) <= kTJunctionTol;
-    };
     for (uint32_t j : partners) {
       if (open.frag[j] == f) continue;
       for (Q p : {open.edge[j].a, open.edge[j].b}) {

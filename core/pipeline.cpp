@@ -570,7 +570,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
       host_bary.resize(size_t(S) * 9);
       q.enqueueReadBuffer(tri_bary, CL_FALSE, 0, host_bary.size() * sizeof(float), host_bary.data());
     }
-    if (want_bary || screen) q.finish();
+    // collect_profile() waits for the queue: the reads above are complete after it.
     for (const auto& [stage, t] : rt.collect_profile()) {
       profile[stage].first += t.first;
       profile[stage].second += t.second;

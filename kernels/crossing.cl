@@ -14,11 +14,13 @@
 #define VM_REL_CROSS 3
 #define VM_REL_TIE 4      /* or'ed in: decided by the tie rule (the planes agree within the band) */
 /* or'ed into A_FRONT / B_FRONT: the planes come within the band somewhere in the overlap (the
- * surfaces touch there), and the two share no edge. Such a pair is entangled like a tying one:
+ * surfaces touch there), and the two share no vertex. Such a pair is entangled like a tying one:
  * each is clipped by the other's edges. Where a surface passes from in front of a triangle x to
  * behind it across one of its own mesh edges (within the band), no crossing line and no
  * silhouette marks that edge for x, yet x's visibility changes there; both triangles at the
- * edge touch x, so this brings the edge into x's clipping lines. */
+ * edge touch x, so this brings the edge into x's clipping lines. Mesh neighbours of x touch
+ * it at their shared vertex by construction; for them the fold's silhouette or the triangle on
+ * the other side of the edge brings it (docs/NUMERICS.md §2, "Touching pairs"). */
 #define VM_REL_TOUCH 8
 
 /* Values of n tried when rounding a crossing line to integer coefficients (pair_relation). */

@@ -311,7 +311,7 @@ ReferenceReport compare_with_reference(const PlanarMap& map, const ScreenTriangl
 
   std::map<uint64_t, PSet> output;
   FT total_visible = 0, xor_area = 0, xor_outside = 0;
-  // The part of a symmetric difference that no snap band explains.
+  // The area of a region that no snap band explains.
   auto outside_bands = [&](PSet x) {
     if (!ref.bands.is_empty()) x.difference(ref.bands);
     return area(x);
@@ -348,8 +348,7 @@ ReferenceReport compare_with_reference(const PlanarMap& map, const ScreenTriangl
     if (CGAL::is_positive(out)) {  // is what lies outside visible(src) all inside snap bands?
       PSet wrong(p);
       if (it != visible.end()) wrong.difference(it->second);
-      if (!ref.bands.is_empty()) wrong.difference(ref.bands);
-      if (CGAL::is_positive(area(wrong))) ++r.wrong_outside_band;
+      if (CGAL::is_positive(outside_bands(std::move(wrong)))) ++r.wrong_outside_band;
     }
   }
   for (auto& [key, vis] : visible) {
@@ -364,7 +363,7 @@ ReferenceReport compare_with_reference(const PlanarMap& map, const ScreenTriangl
     x.symmetric_difference(vis);
     FT xa = area(x);
     xor_area += xa;
-    if (CGAL::is_positive(xa)) xor_outside += outside_bands(x);
+    if (CGAL::is_positive(xa)) xor_outside += outside_bands(std::move(x));
   }
   for (auto& [key, out] : output)
     if (!visible.count(key)) {
