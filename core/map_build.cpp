@@ -46,7 +46,7 @@ HomPoint intersect(const VmLine& la, const VmLine& lb) {
 double to_pixels(__int128 num, __int128 w, uint32_t grid_scale) {
   constexpr int kBits = 20;
   // q = round(num * 2^20 / w), ties up, without a 128-bit division in the common case: estimate
-  // in double, then confirm exactly that (2q-1)w <= 2 num 2^20 < (2q+1)w (|q| < 2^43, w < 2^48:
+  // in double, then confirm exactly that (2q-1)w <= 2 num 2^20 < (2q+1)w (|q| < 2^43, w < 2^61:
   // every product fits in 128 bits) and step by one if the estimate was off.
   const __int128 n2 = num * (__int128(1) << (kBits + 1));
   __int128 q = static_cast<__int128>(

@@ -76,6 +76,10 @@ struct Renderer::Impl {
     uint32_t W = 0, H = 0;
     cl::Buffer mat, mesh_cull, clip, counts, offsets, boxes;
     cl_int ortho = 0, use_boxes = 0;
+    // The depth-plane exponent reductions (transform.cl depth_exponents): over the whole frame
+    // once clip_cells has noted every screen triangle (buckets), else per screen set.
+    cl::Buffer depth_ex;
+    bool depth_ex_done = false;
     cl_int4 full{};
   };
   Frame begin_frame(const Scene& scene, const Camera& cam, const char* stage);
@@ -84,6 +88,10 @@ struct Renderer::Impl {
   uint32_t count_screen(Frame& fr, const cl_int4& region, const char* stage);
   void fill_screen(Frame& fr, const cl_int4& region, const char* stage, uint32_t S, cl::Buffer& tris,
                    cl::Buffer* bary);
+  // The S screen triangles' depth planes snapped to integers over one 2^k (transform.cl
+  // snap_depth_planes): crossing lines between them are then exact. After the silhouette hash,
+  // whose keys are the transformed depths shared by mesh neighbours.
+  void snap_depths(Frame& fr, cl::Buffer& tris, uint32_t S, const char* stage);
   std::vector<cl_int4> plan_buckets(uint64_t budget, Frame& fr, RenderStats& st);
 };
 
@@ -110,7 +118,8 @@ std::vector<cl_int4> Renderer::Impl::plan_buckets(uint64_t budget, Frame& fr, Re
     cl::Buffer h = rt.alloc(hist.size() * 4, "bucket cell counts");
     rt.fill_u32(h, 0, hist.size(), "transform");
     rt.launch("transform", "clip_cells", ntri, idx, ntri, fr.clip, tri_mesh, tri_local, fr.mesh_cull,
-              W, H, fr.ortho, fr.full, cells, h, fr.boxes);
+              W, H, fr.ortho, fr.full, cells, h, fr.boxes, fr.depth_ex);
+    fr.depth_ex_done = true;
     rt.read(h, 0, hist.size() * 4, hist.data());
   }
   // What every bucket holds besides its own work: the scene, the clip-space vertices, the
@@ -281,6 +290,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     screen->depth.clear();
     screen->mesh.clear();
     screen->triangle.clear();
+    screen->plane_k.clear();
   }
 
   while (!todo.empty()) {
@@ -328,6 +338,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
                 slot_min, eflags);
       E = rt.scan("silhouettes", eflags, eoffs, nedges);
     }
+    snap_depths(fr, tris, S, "transform");
 
     // ---- bins ---------------------------------------------------------------------------------
     uint32_t tile_px = opts.tile_pixels;
@@ -610,6 +621,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
         }
         screen->mesh.push_back(t.mesh);
         screen->triangle.push_back(t.tri);
+        screen->plane_k.push_back(t.plane_k == VM_PLANE_FREE ? ScreenTriangles::kFreePlane : t.plane_k);
       }
     }
     if (use_boxes) {
@@ -662,6 +674,8 @@ Renderer::Impl::Frame Renderer::Impl::begin_frame(const Scene& scene, const Came
   f.ortho = cam.projection == Camera::Projection::Orthographic ? 1 : 0;
   f.full = {{0, 0, cl_int(cam.width * VM_GRID_SCALE), cl_int(cam.height * VM_GRID_SCALE)}};
   f.boxes = rt.alloc(16, "triangle boxes");  // plan_buckets fills it for buckets
+  f.depth_ex = rt.alloc(4 * sizeof(cl_int), "depth exponents");
+  rt.fill_u32(f.depth_ex, 0, 4, stage);
   return f;
 }
 
@@ -682,6 +696,14 @@ void Renderer::Impl::fill_screen(Frame& fr, const cl_int4& region, const char* s
             fr.ortho, region, fr.boxes, fr.use_boxes, fr.offsets, tris, b, want);
 }
 
+void Renderer::Impl::snap_depths(Frame& fr, cl::Buffer& tris, uint32_t S, const char* stage) {
+  if (!fr.depth_ex_done) {  // zeroed by begin_frame
+    rt.launch(stage, "depth_exponents", S, tris, S, fr.ortho, fr.depth_ex);
+    fr.depth_ex_done = true;
+  }
+  rt.launch(stage, "snap_depth_planes", S, tris, S, fr.depth_ex);
+}
+
 RasterStats Renderer::Impl::raster(const Scene& scene, const Camera& cam, std::vector<uint32_t>* ids) {
   cam.validate();
   RenderStats ust;
@@ -698,6 +720,7 @@ RasterStats Renderer::Impl::raster(const Scene& scene, const Camera& cam, std::v
   rs.screen_triangles = S;
   cl::Buffer tris;
   fill_screen(fr, fr.full, "raster", S, tris, nullptr);
+  if (S) snap_depths(fr, tris, S, "raster");
   const uint32_t npix = W * H;
   cl::Buffer depth = rt.alloc(size_t(npix) * 4, "z-buffer depth");
   cl::Buffer pix = rt.alloc(size_t(npix) * 4, "z-buffer ids");

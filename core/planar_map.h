@@ -58,6 +58,11 @@ struct ScreenTriangles {
   std::vector<int32_t> xy;         // 6 per triangle: grid coordinates, y down
   std::vector<double> depth;       // 3 per triangle: nearness (larger is closer), affine on screen
   std::vector<uint32_t> mesh, triangle;
+  // Per triangle: k when its depth plane was snapped to integers over 2^k (depth * 2^k is an
+  // integer at each vertex, and crossing lines between two such triangles are exact), else
+  // kFreePlane (docs/NUMERICS.md §2 "Depth planes").
+  static constexpr int32_t kFreePlane = INT32_MIN;
+  std::vector<int32_t> plane_k;
   size_t size() const { return mesh.size(); }
 };
 

@@ -1,9 +1,10 @@
 /* Stage: penetrating geometry (which SVGPU forbids). Where two screen triangles overlap on the
  * screen and their depth planes cross inside the overlap, the front surface switches along the
- * projected intersection line. That line becomes a clipping line for both triangles, snapped to
- * two grid points on it; and inside the overlap the two triangles are ordered by the side of
- * that one snapped line, not by a depth comparison, so both make the same decision at every
- * point: no overlap and no hole, with the error bounded by the snap (docs/NUMERICS.md).
+ * projected intersection line. That line becomes a clipping line for both triangles: exact, the
+ * difference of their integer depth planes (transform.cl snap_depth_planes), or, where a plane
+ * could not be snapped, rounded to integers; and inside the overlap the two triangles are
+ * ordered by the side of that one line, not by a depth comparison, so both make the same
+ * decision at every point: no overlap and no hole (docs/NUMERICS.md §2).
  *
  * Pairs that do not cross are ordered once for their whole overlap: by the sign of the depth
  * difference where it leaves the tie band, else by the tie rule. */
@@ -65,6 +66,26 @@ inline bool share_vertex(const VmScreenTri* a, const VmScreenTri* b) {
   return false;
 }
 
+/* The integer depth plane of a snapped triangle (transform.cl snap_depth_planes): 2^k q(x, y) =
+ * A x + B y + C at grid point (x, y). The vertices' values N_i = 2^k q_i are integers; A det =
+ * (N1 - N0) dy2 - (N2 - N0) dy1 is formed exactly (i128) and divided in double, which lands
+ * within 2^-22 of the integer A (|A| <= 2^29, two roundings of 2^-53), and the result is
+ * verified against the vertices exactly. |C| <= 2^52 + 2 * 2^29 * 2^22 = 2^53. */
+inline bool int_plane(const VmScreenTri* t, long* A, long* B, long* C) {
+  if (t->plane_k == VM_PLANE_FREE) return false;
+  long n0 = (long)ldexp(t->q[0], t->plane_k), n1 = (long)ldexp(t->q[1], t->plane_k) - n0,
+       n2 = (long)ldexp(t->q[2], t->plane_k) - n0;
+  long dx1 = t->x[1] - t->x[0], dy1 = t->y[1] - t->y[0], dx2 = t->x[2] - t->x[0], dy2 = t->y[2] - t->y[0];
+  double det = (double)(dx1 * dy2 - dx2 * dy1);
+  long a = (long)rint(i128_to_double(i128_sub(i128_mul64(n1, dy2), i128_mul64(n2, dy1))) / det);
+  long b = (long)rint(i128_to_double(i128_sub(i128_mul64(n2, dx1), i128_mul64(n1, dx2))) / det);
+  if (n1 != a * dx1 + b * dy1 || n2 != a * dx2 + b * dy2) return false;
+  *A = a;
+  *B = b;
+  *C = n0 - a * t->x[0] - b * t->y[0];
+  return true;
+}
+
 inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* line, int search) {
   /* Exact separating axes on the grid first: most pairs that get here are mesh neighbours whose
    * footprints only touch (an edge or a corner in common). */
@@ -107,7 +128,17 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
                              ? VM_REL_A_FRONT
                              : VM_REL_B_FRONT);
   }
-  /* d(x, y) = A x + B y + C, zero on the intersection line. It is rounded to an integer line
+  /* Both depth planes snapped with the same k: their difference is the exact crossing line,
+   * 2^k d(x, y) = (Aa - Ab) x + (Ba - Bb) y + (Ca - Cb), |a|, |b| <= 2^30, |c| <= 2^54 (the
+   * budget of NUMERICS §1), positive where a is in front. */
+  long Aa, Ba, Ca, Ab, Bb, Cb;
+  if (a->plane_k == b->plane_k && int_plane(a, &Aa, &Ba, &Ca) && int_plane(b, &Ab, &Bb, &Cb)) {
+    line->a = (int)(Aa - Ab);
+    line->b = (int)(Ba - Bb);
+    line->c = Ca - Cb;
+    return VM_REL_CROSS;
+  }
+  /* Otherwise d(x, y) = A x + B y + C, zero on the intersection line, is rounded to an integer line
    * (a, b, c): along the axis u on which its slope m is <= 1 (v the other coordinate), the line
    * n v + p u + c = 0 with n within `search` of VM_SNAP_N = 2^23, p = round(m n), and c putting
    * it on the true line at the overlap's centre column uc to within 1/(2n). Its error over the

@@ -1,7 +1,8 @@
-/* Exact 2D predicates on the grid (DESIGN §3, docs/NUMERICS.md).
+/* Exact 2D predicates on the grid (DESIGN §3, docs/NUMERICS.md §1).
  * Grid coordinates are below 2^22, so a line through two grid points has |a|,|b| <= 2^23 and
- * |c| <= 2^46; products of two coefficients fit in 64 bits, and the 3x3 determinants that
- * decide the side of an intersection vertex fit in 128 bits. No epsilon anywhere. */
+ * |c| <= 2^46; an exact crossing line has |a|, |b| <= 2^30 and |c| <= 2^54. Products of two
+ * coefficients fit in 64 bits, and the 3x3 determinants that decide the side of an
+ * intersection vertex fit in 128 bits. No epsilon anywhere. */
 
 typedef struct {
   long a, b, c;
@@ -74,7 +75,7 @@ inline Line3 line_reversed(Line3 L) {
   return R;
 }
 
-/* Exact side of a grid point: |a*x|, |b*y| <= 2^45, |c| <= 2^46. */
+/* Exact side of a grid point: |a*x|, |b*y| <= 2^52, |c| <= 2^54. */
 inline long line_eval_point(Line3 L, long x, long y) { return L.a * x + L.b * y + L.c; }
 
 inline long orient_points(long x0, long y0, long x1, long y1, long x2, long y2) {
@@ -82,8 +83,8 @@ inline long orient_points(long x0, long y0, long x1, long y1, long x2, long y2) 
 }
 
 /* Side of the vertex Li ^ Lj with respect to Lm: sign(det[Li; Lj; Lm]) * sign(w) where the
- * vertex is (X, Y, w) = Li x Lj and w = ai*bj - aj*bi. Each 2x2 minor is below 2^47, each
- * product with a c below 2^93, the sum below 2^95. Li and Lj must not be parallel. */
+ * vertex is (X, Y, w) = Li x Lj and w = ai*bj - aj*bi. Each 2x2 minor is below 2^61, each
+ * product with a c below 2^115, the sum below 2^117. Li and Lj must not be parallel. */
 inline int vertex_side(Line3 Li, Line3 Lj, Line3 Lm) {
   long m_jm = Lj.a * Lm.b - Lm.a * Lj.b;
   long m_im = Li.a * Lm.b - Lm.a * Li.b;
@@ -112,7 +113,7 @@ inline int line_side_fine(Line3 L, long px, long py) {
 
 /* A point where occlusion decides: a fine-grid point (px, py) / 2^VM_POINT_BITS, or, for a
  * cell thinner than the fine grid, an exact rational point (X / W, Y / W) with W > 0
- * (occlude.cl exact_interior_point; coordinates below 2^167 over 2^143, §1 of NUMERICS). */
+ * (occlude.cl exact_interior_point; coordinates below 2^209 over 2^185, §1 of NUMERICS). */
 typedef struct {
   long px, py;
   int exact;
@@ -134,7 +135,7 @@ inline VmSample sample_fine(long px, long py) {
   return s;
 }
 
-/* Exact side of a rational point: a*X + b*Y + c*W, each term below 2^191 (NUMERICS §1). */
+/* Exact side of a rational point: a*X + b*Y + c*W, each term below 2^239 (NUMERICS §1). */
 inline int line_side_exact(Line3 L, i256 X, i256 Y, i256 W) {
   i256 s = i256_add(i256_mul64(X, L.a), i256_mul64(Y, L.b));
   return i256_sign(i256_add(s, i256_mul64(W, L.c)));

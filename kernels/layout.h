@@ -36,7 +36,11 @@ typedef uint64_t vm_u64;
 
 /* A triangle after transform, clipping, culling and snapping. Vertices are on the grid (y down)
  * and ordered so that orient(v0, v1, v2) > 0. q is the nearness (1/w for perspective, -z_ndc
- * for orthographic): larger is closer and it is affine on the screen. */
+ * for orthographic): larger is closer and it is affine on the screen. After snap_depth_planes,
+ * plane_k = k means q[i] = N_i / 2^k with N_i = A (x_i - x_0) + B (y_i - y_0) + N_0 for integers
+ * |A|, |B| <= 2^VM_PLANE_SLOPE_BITS and |N_i| <= 2^VM_PLANE_VALUE_BITS: the depth plane is an
+ * integer plane over 2^k, so the crossing line of two such triangles is exact (crossing.cl).
+ * VM_PLANE_FREE: the plane could not be snapped within that budget; q is as transformed. */
 typedef struct {
   vm_i32 x[3];
   vm_i32 y[3];
@@ -44,8 +48,15 @@ typedef struct {
   vm_u32 tri; /* source triangle within its mesh */
   double q[3];
   vm_u32 src; /* global input triangle index (row in the uploaded index buffer) */
-  vm_u32 pad;
+  vm_i32 plane_k;
 } VmScreenTri;
+
+/* Depth planes snapped to integers over 2^k (docs/NUMERICS.md §2 "Depth planes"). */
+#define VM_PLANE_FREE (-0x7fffffff)
+#define VM_PLANE_SLOPE_BITS 29
+#define VM_PLANE_VALUE_BITS 52
+/* Relative depth error the frame's k aims at: 2^-VM_PLANE_FIDELITY_BITS of max |q| per triangle. */
+#define VM_PLANE_FIDELITY_BITS 24
 
 /* A silhouette edge: a segment between two grid points with the nearness at each end. */
 typedef struct {
@@ -55,7 +66,8 @@ typedef struct {
 
 /* A directed line a*x + b*y + c = 0 on the grid; a fragment's interior is on its positive side.
  * An edge's line goes through two grid points (|a|, |b| <= 2^23, |c| <= 2^46); a crossing line
- * is the true intersection line rounded to integers (max(|a|, |b|) <= 2^23, |c| <= 2^47). */
+ * is exact between two snapped depth planes (|a|, |b| <= 2^30, |c| <= 2^54), else the true
+ * intersection line rounded to integers (max(|a|, |b|) <= 2^23, |c| <= 2^47). */
 typedef struct {
   vm_i32 a, b;
   vm_i64 c;

@@ -37,7 +37,7 @@ inline bool interior_point(__global const VmLine* L, uint n, long* px, long* py)
   return false;
 }
 
-/* The vertex Li ^ Lj exactly, as (X / W, Y / W) with W > 0: |X|, |Y| < 2^71, W < 2^47 (§1 of
+/* The vertex Li ^ Lj exactly, as (X / W, Y / W) with W > 0: |X|, |Y| < 2^85, W < 2^61 (§1 of
  * NUMERICS). False when the lines are parallel. */
 inline bool vertex_exact(Line3 Li, Line3 Lj, i128* X, i128* Y, long* W) {
   long w = Li.a * Lj.b - Lj.a * Li.b;
@@ -62,7 +62,7 @@ inline int floor_div_exact(i256 X, i256 W) {
  * grid units: three lines that nearly meet, e.g. at a triple point): an exact rational point
  * strictly inside, the centroid of a fan triangle of its exact vertices,
  *   (X0 Wa Wb + Xa W0 Wb + Xb W0 Wa) / (3 W0 Wa Wb),
- * numerators below 2^167 and denominator below 2^143. Every candidate is checked exactly
+ * numerators below 2^209 and denominator below 2^185. Every candidate is checked exactly
  * against every line, so a cell of positive area always gets one (some fan triangle of a
  * convex polygon has positive area, and its centroid is strictly inside); false means the
  * cell has no interior. */
@@ -113,7 +113,7 @@ inline bool covers(__global const VmScreenTri* o, long px, long py) {
 }
 
 /* Exact: is the rational point (X / W, Y / W) inside or on the boundary of o? Each term below
- * 2^23 * 2^168. */
+ * 2^23 * 2^210. */
 inline bool covers_exact(__global const VmScreenTri* o, i256 X, i256 Y, i256 W) {
   for (int i = 0; i < 3; ++i) {
     int j = i == 2 ? 0 : i + 1;

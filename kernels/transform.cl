@@ -53,6 +53,85 @@ inline void clip_edge(double4 a, float3 ba, double4 b, float3 bb, int k, double4
   *bp = ba + (bb - ba) * (float)t;
 }
 
+/* Depth planes snapped to integers (docs/NUMERICS.md §2 "Depth planes"). Every screen
+ * triangle's nearness plane becomes q = N(x, y) / 2^k with N(x, y) = N_0 + A (x - x_0) +
+ * B (y - y_0), integers |A|, |B| <= 2^VM_PLANE_SLOPE_BITS, |N_i| <= 2^VM_PLANE_VALUE_BITS at
+ * the vertices, one k for the frame (for each bucket under --memory-budget). Then the line
+ * where two planes cross is an integer line, exactly: no rounding, no snap band, and three
+ * crossing lines of three planes meet in one point. A vertex's depth moves by at most
+ * (1 + |x - x_0| + |y - y_0|) / 2^(k+1), the rounding of A, B and N_0.
+ *
+ * k comes from three reductions, each a max of a biased value (the buffer starts at 0):
+ *   ex[0] = VM_PLANE_BIAS - min over T of the largest k at which T's slopes fit,
+ *   ex[1] = VM_PLANE_BIAS + max over T of the smallest k that keeps T's depth error within
+ *           2^-VM_PLANE_FIDELITY_BITS of its largest |q| (of 1 for orthographic views),
+ *   ex[2] = VM_PLANE_BIAS - min over T of the largest k at which T's values fit.
+ * k = min(values, max(slopes, fidelity)): every slope fits unless that would cost some triangle
+ * its fidelity; then the steepest triangles keep their transformed depths (VM_PLANE_FREE) and
+ * their crossing lines are rounded as before. */
+#define VM_PLANE_BIAS 4096
+
+/* atomic_max only when it would raise the value: the maxima settle after a few triangles, and
+ * a plain read (the value only grows) spares the rest the atomic. */
+inline void raise_to(__global int* p, int v) {
+  if (v > *(volatile __global int*)p) atomic_max(p, v);
+}
+
+inline void note_depth_exponents(const VmScreenTri* tp, int ortho, __global int* ex) {
+  VmScreenTri t = *tp;
+  DepthPlane p = depth_plane(&t);
+  double g = fmax(fabs(p.gx), fabs(p.gy));
+  double m = fmax(fmax(fabs(t.q[0]), fabs(t.q[1])), fabs(t.q[2]));
+  if (!isfinite(g) || !isfinite(m)) return;
+  /* |A| = |2^k g| < 2^(k + ilogb(g) + 1) <= 2^VM_PLANE_SLOPE_BITS */
+  if (g > 0) raise_to(&ex[0], VM_PLANE_BIAS - (VM_PLANE_SLOPE_BITS - 1 - ilogb(g)));
+  if (m > 0) {
+    /* Orthographic nearness is -z_ndc in [-1, 1], and a surface may sit at 0: its scale is 1. */
+    double scale = ortho ? 1.0 : m;
+    long w = 0;
+    for (int j = 1; j < 3; ++j) w = max(w, (long)abs(t.x[j] - t.x[0]) + (long)abs(t.y[j] - t.y[0]));
+    /* (1 + w) / 2^(k+1) <= 2^-F scale  <=>  2^k >= (1 + w) 2^(F-1) / scale */
+    double need = ldexp((double)(1 + w) / scale, VM_PLANE_FIDELITY_BITS - 1);
+    raise_to(&ex[1], VM_PLANE_BIAS + ilogb(need) + 1);
+    /* |N_i| <= 2^k m + (1 + w) / 2 < 2^(k + ilogb(m) + 1) + 2^23 <= 2^VM_PLANE_VALUE_BITS */
+    raise_to(&ex[2], VM_PLANE_BIAS - (VM_PLANE_VALUE_BITS - 2 - ilogb(m)));
+  }
+}
+
+/* Without buckets, over the screen triangles; under --memory-budget clip_cells notes every
+ * screen triangle of the frame instead, so that all buckets share one k. */
+__kernel void depth_exponents(__global const VmScreenTri* tris, uint n, int ortho, __global int* ex) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  VmScreenTri t = tris[i];
+  note_depth_exponents(&t, ortho, ex);
+}
+
+inline int depth_exponent(__global const int* ex) {
+  int slopes = VM_PLANE_BIAS - ex[0], fidelity = ex[1] - VM_PLANE_BIAS, values = VM_PLANE_BIAS - ex[2];
+  return clamp(min(values, max(slopes, fidelity)), -1000, 1000);
+}
+
+__kernel void snap_depth_planes(__global VmScreenTri* tris, uint n, __global const int* ex) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  int k = depth_exponent(ex);
+  VmScreenTri t = tris[i];
+  DepthPlane p = depth_plane(&t);
+  double A = rint(ldexp(p.gx, k)), B = rint(ldexp(p.gy, k)), N0 = rint(ldexp(t.q[0], k));
+  const double slope_lim = (double)(1L << VM_PLANE_SLOPE_BITS);
+  const long value_lim = 1L << VM_PLANE_VALUE_BITS;
+  if (!(fabs(A) <= slope_lim && fabs(B) <= slope_lim && fabs(N0) <= (double)value_lim)) return;
+  long a = (long)A, b = (long)B, N[3];
+  N[0] = (long)N0;
+  for (int j = 1; j < 3; ++j) {
+    N[j] = N[0] + a * (long)(t.x[j] - t.x[0]) + b * (long)(t.y[j] - t.y[0]);
+    if (N[j] > value_lim || N[j] < -value_lim) return;
+  }
+  for (int j = 0; j < 3; ++j) tris[i].q[j] = ldexp((double)N[j], -k); /* exact: |N| <= 2^52 */
+  tris[i].plane_k = k;
+}
+
 #define VM_CLIP_MAXV 9
 
 /* Clips input triangle t and emits its snapped, non-degenerate, non-culled fan triangles.
@@ -66,7 +145,7 @@ inline uint clip_triangle(uint t, __global const uint* idx, __global const doubl
                           __global const uint* mesh_cull, uint width, uint height, int ortho,
                           int4 region, int write, uint base, __global VmScreenTri* out,
                           __global float* bary_out, VmGrid cells, __global uint* hist,
-                          __global ushort4* box_out) {
+                          __global ushort4* box_out, __global int* depth_ex) {
   double4 p[VM_CLIP_MAXV], np[VM_CLIP_MAXV];
   float3 b[VM_CLIP_MAXV], nb[VM_CLIP_MAXV];
   int n = 3;
@@ -136,10 +215,17 @@ inline uint clip_triangle(uint t, __global const uint* idx, __global const doubl
         for (int cx = r.x; cx <= r.z; ++cx) atomic_inc(&hist[cy * cells.tiles_x + cx]);
       box = (int4)(min(box.x, bx0), min(box.y, by0), max(box.z, bx1), max(box.w, by1));
     }
+    if (o < 0) {
+      int tmp = c1; c1 = c2; c2 = tmp;
+    }
+    if (depth_ex) {
+      VmScreenTri s;
+      s.x[0] = X[a]; s.y[0] = Y[a]; s.q[0] = Q[a];
+      s.x[1] = X[c1]; s.y[1] = Y[c1]; s.q[1] = Q[c1];
+      s.x[2] = X[c2]; s.y[2] = Y[c2]; s.q[2] = Q[c2];
+      note_depth_exponents(&s, ortho, depth_ex);
+    }
     if (write) {
-      if (o < 0) {
-        int tmp = c1; c1 = c2; c2 = tmp;
-      }
       VmScreenTri s;
       s.x[0] = X[a]; s.y[0] = Y[a]; s.q[0] = Q[a];
       s.x[1] = X[c1]; s.y[1] = Y[c1]; s.q[1] = Q[c1];
@@ -147,7 +233,7 @@ inline uint clip_triangle(uint t, __global const uint* idx, __global const doubl
       s.mesh = tri_mesh[t];
       s.tri = tri_local[t];
       s.src = t;
-      s.pad = 0;
+      s.plane_k = VM_PLANE_FREE;
       out[base + count] = s;
       if (bary_out) {
         __global float* bo = bary_out + 9 * (base + count);
@@ -185,7 +271,7 @@ __kernel void clip_count(__global const uint* idx, uint ntri, __global const dou
   VmGrid none = {0, 0, 0, 0};
   counts[t] = box_meets(boxes, use_boxes, t, region)
                   ? clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho,
-                                  region, 0, 0, 0, 0, none, 0, 0)
+                                  region, 0, 0, 0, 0, none, 0, 0, 0)
                   : 0;
 }
 
@@ -200,7 +286,7 @@ __kernel void clip_fill(__global const uint* idx, uint ntri, __global const doub
   if (!box_meets(boxes, use_boxes, t, region)) return;
   VmGrid none = {0, 0, 0, 0};
   clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho, region, 1,
-                offsets[t], out, want_bary ? bary_out : 0, none, 0, 0);
+                offsets[t], out, want_bary ? bary_out : 0, none, 0, 0, 0);
 }
 
 /* For planning buckets: per-cell counts of the screen triangles whose box touches each cell
@@ -209,9 +295,10 @@ __kernel void clip_fill(__global const uint* idx, uint ntri, __global const doub
 __kernel void clip_cells(__global const uint* idx, uint ntri, __global const double4* clip,
                          __global const uint* tri_mesh, __global const uint* tri_local,
                          __global const uint* mesh_cull, uint width, uint height, int ortho,
-                         int4 region, VmGrid cells, __global uint* hist, __global ushort4* boxes) {
+                         int4 region, VmGrid cells, __global uint* hist, __global ushort4* boxes,
+                         __global int* depth_ex) {
   uint t = get_global_id(0);
   if (t >= ntri) return;
   clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho, region, 0, 0, 0,
-                0, cells, hist, boxes);
+                0, cells, hist, boxes, depth_ex);
 }

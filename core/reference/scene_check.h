@@ -38,6 +38,14 @@ struct SceneFigures {
   // crossing lines. snap_band: the widest band, pixels.
   std::optional<double> area_error_outside_band, snap_band;
   std::optional<size_t> wrong_outside_band;
+  // Crossing pairs in the reference, and those with a rounded line (a depth plane that could not
+  // be snapped to integers): only these can leave snap-band cells. free_planes: screen triangles
+  // whose depth plane was not snapped (ScreenTriangles::plane_k).
+  std::optional<size_t> crossing_pairs, rounded_crossing_pairs;
+  // Covered but visible in no triangle in the reference (a cyclic tie-rule order), relative to
+  // the visible area: left out of wrong_source and the outside-band figures.
+  std::optional<double> tie_cycle_area;
+  size_t free_planes = 0;
   std::optional<double> reference_ms;     // exact_visibility + compare_with_reference
   std::optional<double> overlap_area, coverage_error, outside_area;
   std::optional<size_t> overlap_pairs, outside_source, degenerate, nonconvex;

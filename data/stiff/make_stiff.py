@@ -227,6 +227,28 @@ def main():
           ("touch", [[(130, 40, 20), (220, 130, 20), (240, 20, 20)], [(85, 130, 5), (20, 200, 5), (60, 240, 5)]])]
     write("vertex_on_edge", [bg] + ve, ORTHO, "vertices of one mesh exactly on the edges of another")
 
+    # Ten coplanar triangles (test_random.cpp, coplanar kind, seed 5). After vertex snapping their
+    # depth planes differ: some pairs tie (ordered by the tie rule over their whole overlap), others
+    # cross beyond the band, and where both meet the pairwise order is cyclic: the exact reference
+    # has no answer there (tie_cycle_area, docs/NUMERICS.md §3).
+    tc = [
+        [(-0.25, 0.0, -0.25), (0.75, -0.5, -0.25), (-0.75, -0.25, -0.25)],
+        [(0.25, 0.75, -0.25), (-0.75, 0.25, -0.25), (0.25, 0.5, -0.25)],
+        [(0.25, 0.0, -0.25), (0.5, 0.0, -0.25), (-0.75, 1.0, -0.25)],
+        [(0.5, -1.0, -0.25), (-0.75, -0.5, -0.25), (-0.25, -0.25, -0.25)],
+        [(0.75, -0.75, -0.25), (0.5, -0.75, -0.25), (-1.0, 0.25, -0.25)],
+        [(1.0, 1.0, -0.25), (0.25, 0.25, -0.25), (-0.75, -1.0, -0.25)],
+        [(-0.25, 0.75, -0.25), (0.75, -0.5, -0.25), (-1.0, 0.0, -0.25)],
+        [(0.75, 0.25, -0.25), (-0.75, -0.75, -0.25), (-1.0, -0.75, -0.25)],
+        [(0.25, -0.5, -0.25), (1.0, 0.25, -0.25), (0.0, -0.5, -0.25)],
+        [(-0.25, 0.75, -0.25), (-0.25, -0.25, -0.25), (0.5, 0.25, -0.25)],
+    ]
+    camtc = {"type": "orthographic", "eye": [0.13578527558693249, -0.25823597666731046, 3.8860112442737655],
+             "target": [-0.17150966287419567, 0.013197640818983725, -0.08746272154176707], "up": [0, 1, 0],
+             "ortho_height": 2.7148667951055456, "near": 2.7138039582726803, "far": 5.570515354275117,
+             "width": 256, "height": 256}
+    write("tie_cycle", [("m0", tc)], camtc, "ten coplanar triangles whose tie and crossing orders are cyclic", shared=False)
+
 
 if __name__ == "__main__":
     main()
