@@ -66,26 +66,6 @@ inline bool share_vertex(const VmScreenTri* a, const VmScreenTri* b) {
   return false;
 }
 
-/* The integer depth plane of a snapped triangle (transform.cl snap_depth_planes): 2^k q(x, y) =
- * A x + B y + C at grid point (x, y). The vertices' values N_i = 2^k q_i are integers; A det =
- * (N1 - N0) dy2 - (N2 - N0) dy1 is formed exactly (i128) and divided in double, which lands
- * within 2^-22 of the integer A (|A| <= 2^29, two roundings of 2^-53), and the result is
- * verified against the vertices exactly. |C| <= 2^52 + 2 * 2^29 * 2^22 = 2^53. */
-inline bool int_plane(const VmScreenTri* t, long* A, long* B, long* C) {
-  if (t->plane_k == VM_PLANE_FREE) return false;
-  long n0 = (long)ldexp(t->q[0], t->plane_k), n1 = (long)ldexp(t->q[1], t->plane_k) - n0,
-       n2 = (long)ldexp(t->q[2], t->plane_k) - n0;
-  long dx1 = t->x[1] - t->x[0], dy1 = t->y[1] - t->y[0], dx2 = t->x[2] - t->x[0], dy2 = t->y[2] - t->y[0];
-  double det = (double)(dx1 * dy2 - dx2 * dy1);
-  long a = (long)rint(i128_to_double(i128_sub(i128_mul64(n1, dy2), i128_mul64(n2, dy1))) / det);
-  long b = (long)rint(i128_to_double(i128_sub(i128_mul64(n2, dx1), i128_mul64(n1, dx2))) / det);
-  if (n1 != a * dx1 + b * dy1 || n2 != a * dx2 + b * dy2) return false;
-  *A = a;
-  *B = b;
-  *C = n0 - a * t->x[0] - b * t->y[0];
-  return true;
-}
-
 inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* line, int search) {
   /* Exact separating axes on the grid first: most pairs that get here are mesh neighbours whose
    * footprints only touch (an edge or a corner in common). */

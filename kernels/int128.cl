@@ -34,8 +34,13 @@ inline int i128_sign(i128 a) {
   return (a.hi != 0 || a.lo != 0) ? 1 : 0;
 }
 
+/* Converted through the magnitude: hi * 2^64 + lo with a negative hi would cancel (-1 is
+ * -2^64 + (2^64 - 1), and the second term rounds to 2^64), losing up to 2^12. */
 inline double i128_to_double(i128 a) {
-  return (double)a.hi * 18446744073709551616.0 + (double)a.lo;
+  bool neg = a.hi < 0;
+  i128 u = neg ? i128_neg(a) : a;
+  double r = (double)(ulong)u.hi * 18446744073709551616.0 + (double)u.lo;
+  return neg ? -r : r;
 }
 
 /* Signed 256-bit integers, two's complement in four 64-bit limbs (w[0] lowest), for the exact

@@ -128,8 +128,13 @@ __kernel void snap_depth_planes(__global VmScreenTri* tris, uint n, __global con
     N[j] = N[0] + a * (long)(t.x[j] - t.x[0]) + b * (long)(t.y[j] - t.y[0]);
     if (N[j] > value_lim || N[j] < -value_lim) return;
   }
-  for (int j = 0; j < 3; ++j) tris[i].q[j] = ldexp((double)N[j], -k); /* exact: |N| <= 2^52 */
-  tris[i].plane_k = k;
+  for (int j = 0; j < 3; ++j) t.q[j] = ldexp((double)N[j], -k); /* exact: |N| <= 2^52 */
+  t.plane_k = k;
+  /* What crossing.cl will read back must be this plane, or the triangle stays free (the
+   * reference takes plane_k as the promise of an exact line). */
+  long ra, rb, rc;
+  if (!int_plane(&t, &ra, &rb, &rc) || ra != a || rb != b) return;
+  tris[i] = t;
 }
 
 #define VM_CLIP_MAXV 9

@@ -62,6 +62,17 @@ TEST_P(RandomScenes, MatchReference) {
   for (int i = 0; i < count; ++i) check_seed(uint64_t(GetParam()) * 100000 + uint64_t(i));
 }
 
+// Seeds beyond CI's range that once failed, kept: 200167 (clustered) had a fragment 1e-5 grid
+// units off its exact crossing line, because i128_to_double lost up to 2^12 on small negative
+// values and a depth plane's recovery (geometry.cl int_plane) fell back to a rounded line that
+// the reference took for exact (wrong_outside_band 1).
+TEST(RandomScenesRegressions, MatchReference) {
+  for (uint64_t seed : {200167}) {
+    check_seed(seed, false);
+    check_seed(seed, true);
+  }
+}
+
 TEST(RandomScenesCoplanar, CoplanarMatchReference) {
   for (uint64_t seed = 0; seed < 40; ++seed) check_seed(seed, true);
 }
