@@ -113,14 +113,7 @@ TEST(DepthPlanes, OneExponentAcrossBuckets) {
   for (int j = 0; j <= n; ++j)
     for (int i = 0; i <= n; ++i)
       for (double c : {256.0 * i / n, 256.0 * j / n, 0.05 * i}) floor_mesh.positions.push_back(float(c));
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      uint32_t a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
-      floor_mesh.indices.insert(floor_mesh.indices.end(), {a, b, d, a, d, c});
-      floor_mesh.face_ids.push_back(2 * (j * n + i));
-      floor_mesh.face_ids.push_back(2 * (j * n + i) + 1);
-    }
-  floor_mesh.source_triangles = 2 * n * n;
+  test_support::add_grid_triangles(floor_mesh, n);
   s.meshes.push_back(std::move(floor_mesh));
   Camera cam = test_support::ortho_view_256(s);
   cam.width = cam.height = 2048;

@@ -12,6 +12,7 @@
 
 #include "core/cl_runtime.h"
 #include "core/pipeline.h"
+#include "tests/support/triangle_scene.h"
 #include "kernels/layout.h"
 
 namespace {
@@ -328,14 +329,7 @@ Scene grid_surface(int n, double fold) {
       m.positions.push_back(float(v - 0.5));
       m.positions.push_back(float(std::cos(u * fold) * 0.4 - 0.2 * v));
     }
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      uint32_t a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
-      m.indices.insert(m.indices.end(), {a, b, d, a, d, c});
-      m.face_ids.push_back(2 * (j * n + i));
-      m.face_ids.push_back(2 * (j * n + i) + 1);
-    }
-  m.source_triangles = 2 * n * n;
+  test_support::add_grid_triangles(m, n);
   s.meshes.push_back(m);
   return s;
 }

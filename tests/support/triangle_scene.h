@@ -1,6 +1,7 @@
 // Small helpers shared by the tests that build scenes triangle by triangle.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <utility>
 
@@ -19,6 +20,19 @@ inline void add_triangle(Scene& s, const std::string& name, const double (&p)[3]
   m.face_ids = {0};
   m.source_triangles = 1;
   s.meshes.push_back(std::move(m));
+}
+
+// Indices of a regular grid of (n + 1) x (n + 1) vertices, row by row: two triangles per cell,
+// with face ids and the source triangle count.
+inline void add_grid_triangles(Mesh& m, int n) {
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      uint32_t a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+      m.indices.insert(m.indices.end(), {a, b, d, a, d, c});
+      m.face_ids.push_back(2 * (j * n + i));
+      m.face_ids.push_back(2 * (j * n + i) + 1);
+    }
+  m.source_triangles = 2 * n * n;
 }
 
 // World units = pixels: a 256x256 orthographic view down -z onto [0, 256]^2, near and far
