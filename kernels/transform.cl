@@ -56,7 +56,7 @@ inline void clip_edge(double4 a, float3 ba, double4 b, float3 bb, int k, double4
 /* Depth planes snapped to integers (docs/NUMERICS.md §2 "Depth planes"). Every screen
  * triangle's nearness plane becomes q = N(x, y) / 2^k with N(x, y) = N_0 + A (x - x_0) +
  * B (y - y_0), integers |A|, |B| <= 2^VM_PLANE_SLOPE_BITS, |N_i| <= 2^VM_PLANE_VALUE_BITS at
- * the vertices, one k for the frame (for each bucket under --memory-budget). Then the line
+ * the vertices, one k for the frame (shared by all buckets under --memory-budget). Then the line
  * where two planes cross is an integer line, exactly: no rounding, no snap band, and three
  * crossing lines of three planes meet in one point. A vertex's depth moves by at most
  * (1 + |x - x_0| + |y - y_0|) / 2^(k+1), the rounding of A, B and N_0.
