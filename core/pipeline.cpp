@@ -17,6 +17,8 @@
 
 namespace vismap {
 
+static_assert(ScreenTriangles::kFreePlane == VM_PLANE_FREE, "one sentinel for a free depth plane");
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -621,7 +623,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
         }
         screen->mesh.push_back(t.mesh);
         screen->triangle.push_back(t.tri);
-        screen->plane_k.push_back(t.plane_k == VM_PLANE_FREE ? ScreenTriangles::kFreePlane : t.plane_k);
+        screen->plane_k.push_back(t.plane_k);
       }
     }
     if (use_boxes) {

@@ -61,7 +61,7 @@ struct ScreenTriangles {
   // Per triangle: k when its depth plane was snapped to integers over 2^k (depth * 2^k is an
   // integer at each vertex, and crossing lines between two such triangles are exact), else
   // kFreePlane (docs/NUMERICS.md §2 "Depth planes").
-  static constexpr int32_t kFreePlane = INT32_MIN;
+  static constexpr int32_t kFreePlane = -0x7fffffff;  // VM_PLANE_FREE (kernels/layout.h)
   std::vector<int32_t> plane_k;
   size_t size() const { return mesh.size(); }
 };

@@ -77,11 +77,10 @@ inline void raise_to(__global int* p, int v) {
   if (v > *(volatile __global int*)p) atomic_max(p, v);
 }
 
-inline void note_depth_exponents(const VmScreenTri* tp, int ortho, __global int* ex) {
-  VmScreenTri t = *tp;
-  DepthPlane p = depth_plane(&t);
+inline void note_depth_exponents(const VmScreenTri* t, int ortho, __global int* ex) {
+  DepthPlane p = depth_plane(t);
   double g = fmax(fabs(p.gx), fabs(p.gy));
-  double m = fmax(fmax(fabs(t.q[0]), fabs(t.q[1])), fabs(t.q[2]));
+  double m = fmax(fmax(fabs(t->q[0]), fabs(t->q[1])), fabs(t->q[2]));
   if (!isfinite(g) || !isfinite(m)) return;
   /* |A| = |2^k g| < 2^(k + ilogb(g) + 1) <= 2^VM_PLANE_SLOPE_BITS */
   if (g > 0) raise_to(&ex[0], VM_PLANE_BIAS - (VM_PLANE_SLOPE_BITS - 1 - ilogb(g)));
@@ -89,7 +88,7 @@ inline void note_depth_exponents(const VmScreenTri* tp, int ortho, __global int*
     /* Orthographic nearness is -z_ndc in [-1, 1], and a surface may sit at 0: its scale is 1. */
     double scale = ortho ? 1.0 : m;
     long w = 0;
-    for (int j = 1; j < 3; ++j) w = max(w, (long)abs(t.x[j] - t.x[0]) + (long)abs(t.y[j] - t.y[0]));
+    for (int j = 1; j < 3; ++j) w = max(w, (long)abs(t->x[j] - t->x[0]) + (long)abs(t->y[j] - t->y[0]));
     /* (1 + w) / 2^(k+1) <= 2^-F scale  <=>  2^k >= (1 + w) 2^(F-1) / scale */
     double need = ldexp((double)(1 + w) / scale, VM_PLANE_FIDELITY_BITS - 1);
     raise_to(&ex[1], VM_PLANE_BIAS + ilogb(need) + 1);
@@ -223,18 +222,12 @@ inline uint clip_triangle(uint t, __global const uint* idx, __global const doubl
     if (o < 0) {
       int tmp = c1; c1 = c2; c2 = tmp;
     }
-    if (depth_ex) {
-      VmScreenTri s;
-      s.x[0] = X[a]; s.y[0] = Y[a]; s.q[0] = Q[a];
-      s.x[1] = X[c1]; s.y[1] = Y[c1]; s.q[1] = Q[c1];
-      s.x[2] = X[c2]; s.y[2] = Y[c2]; s.q[2] = Q[c2];
-      note_depth_exponents(&s, ortho, depth_ex);
-    }
+    VmScreenTri s;
+    s.x[0] = X[a]; s.y[0] = Y[a]; s.q[0] = Q[a];
+    s.x[1] = X[c1]; s.y[1] = Y[c1]; s.q[1] = Q[c1];
+    s.x[2] = X[c2]; s.y[2] = Y[c2]; s.q[2] = Q[c2];
+    if (depth_ex) note_depth_exponents(&s, ortho, depth_ex);
     if (write) {
-      VmScreenTri s;
-      s.x[0] = X[a]; s.y[0] = Y[a]; s.q[0] = Q[a];
-      s.x[1] = X[c1]; s.y[1] = Y[c1]; s.q[1] = Q[c1];
-      s.x[2] = X[c2]; s.y[2] = Y[c2]; s.q[2] = Q[c2];
       s.mesh = tri_mesh[t];
       s.tri = tri_local[t];
       s.src = t;

@@ -37,7 +37,9 @@ TEST_P(RealMeshes, WithinTolerance) {
   EXPECT_EQ(check::over_tolerance(f), std::vector<std::string>{}) << check::to_json(f).dump();
   // No wrong-source fragment, also where surfaces penetrate (the teapot: 153 crossing pairs,
   // all exact lines between integer depth planes; 5 band cells before them).
-  if (c.reference) EXPECT_EQ(*f.wrong_source, 0u) << check::to_json(f).dump();
+  if (c.reference) {
+    EXPECT_EQ(*f.wrong_source, 0u) << check::to_json(f).dump();
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(

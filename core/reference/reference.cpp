@@ -308,8 +308,10 @@ ReferenceResult exact_visibility(const ScreenTriangles& screen) {
   if (n > 0) {
     PSet covered;
     covered.join(tri.begin(), tri.end());
+    std::vector<PolyH> parts;
+    for (const PSet& v : impl->visible) v.polygons_with_holes(std::back_inserter(parts));
     PSet seen;
-    for (const PSet& v : impl->visible) seen.join(v);
+    seen.join(parts.begin(), parts.end());
     covered.difference(seen);
     r.tie_cycle_area = CGAL::to_double(area(covered)) / (double(impl->gs) * impl->gs);
     impl->tie_cycles = std::move(covered);
