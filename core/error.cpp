@@ -14,6 +14,7 @@ const char* to_string(InputErrorKind k) {
     case InputErrorKind::BadScene: return "bad_scene";
     case InputErrorKind::BadCamera: return "bad_camera";
     case InputErrorKind::TooLarge: return "too_large";
+    case InputErrorKind::TimeLimit: return "time_limit";
   }
   return "unknown";
 }

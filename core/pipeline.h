@@ -23,6 +23,9 @@ struct RenderOptions {
   // is rendered in buckets (rectangles of whole pixels, each clipped exactly), one at a time.
   uint64_t memory_budget = 0;
   std::function<void(double)> progress;  // called with a fraction in [0,1], if set
+  // Seconds of host wall time the render may take; 0: no limit. Checked between launches: past
+  // it the render stops with InputError TimeLimit and nothing is returned.
+  double time_limit_s = 0;
 };
 
 struct StageStat {

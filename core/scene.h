@@ -40,6 +40,9 @@ struct Scene {
 
 struct LoadOptions {
   uint64_t max_triangles = 0;       // 0: no limit; otherwise a larger scene is InputError TooLarge
+  // 0: no limit; otherwise the bytes a load may hold as input (a .gz file's inflated bytes, a
+  // scene file's referenced files together) are capped here: past it, InputError TooLarge.
+  uint64_t max_bytes = 0;
 };
 
 // Loads any supported file by extension: .gltf .glb (tinygltf), .ply .obj .off .stl (OpenMesh),
