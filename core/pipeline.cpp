@@ -11,6 +11,7 @@
 #endif
 
 #include "core/cl_runtime.h"
+#include "core/clock.h"
 #include "core/error.h"
 #include "core/map_build.h"
 #include "core/mesh_topology.h"
@@ -20,12 +21,6 @@ namespace vismap {
 static_assert(ScreenTriangles::kFreePlane == VM_PLANE_FREE, "one sentinel for a free depth plane");
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 uint32_t next_pow2(uint64_t v) {
   uint64_t p = 1;

@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "core/output.h"
+#include "core/clock.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "server/protocol.h"
@@ -37,12 +38,6 @@ namespace http = beast::http;
 namespace websocket = beast::websocket;
 using tcp = net::ip::tcp;
 using nlohmann::json;
-using Clock = std::chrono::steady_clock;
-
-static double ms_since(Clock::time_point t) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-}
-
 static std::chrono::milliseconds seconds(double s) {
   return std::chrono::milliseconds(static_cast<int64_t>(s * 1000));
 }

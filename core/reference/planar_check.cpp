@@ -1,6 +1,7 @@
 // check_planar_map and pixel_compare (docs/CHECKS.md). Exact predicates from exact_geom.h; the
 // union of the screen triangles comes from reference.cpp (the CGAL translation unit).
 #include "core/reference/planar_check.h"
+#include "core/clock.h"
 
 #include <algorithm>
 #include <chrono>
@@ -61,11 +62,6 @@ double AreaSum::value() const {
 using namespace detail;
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 uint64_t source_key(uint32_t mesh, uint32_t tri) { return (uint64_t(mesh) << 32) | tri; }
 

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/clock.h"
 #include "core/reference/exact_geom.h"
 #include "core/reference/planar_check.h"
 #include "kernels/layout.h"
@@ -27,11 +28,6 @@ using Point = K::Point_2;
 using Poly = CGAL::Polygon_2<K>;
 using PolyH = CGAL::Polygon_with_holes_2<K>;
 using PSet = CGAL::Polygon_set_2<K>;
-using Clock = std::chrono::steady_clock;
-
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 uint64_t source_key(uint32_t mesh, uint32_t tri) { return (uint64_t(mesh) << 32) | tri; }
 
 mpq_class to_mpq(const FT& v) {

@@ -1,4 +1,5 @@
 #include "core/reference/scene_check.h"
+#include "core/clock.h"
 
 #include <algorithm>
 #include <chrono>
@@ -8,13 +9,6 @@
 #include "core/reference/planar_check.h"
 
 namespace vismap::check {
-
-namespace {
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-}  // namespace
 
 SceneFigures check_scene(Renderer& renderer, const Scene& scene, const Camera& camera,
                          const SceneCheckOptions& o, PlanarMap* map_out, ScreenTriangles* screen_out) {
