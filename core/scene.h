@@ -43,6 +43,11 @@ struct LoadOptions {
   // 0: no limit; otherwise the bytes a load may hold as input (a .gz file's inflated bytes, a
   // scene file's referenced files together) are capped here: past it, InputError TooLarge.
   uint64_t max_bytes = 0;
+  // Empty: any path. Otherwise every file the load opens (the scene itself and what a scene file
+  // references) must resolve (realpath, symlinks followed) inside this directory, else
+  // InputError FileNotFound naming the path as given. Non-regular files (FIFOs, devices,
+  // directories) are refused in every case.
+  std::string confine_to;
 };
 
 // Loads any supported file by extension: .gltf .glb (tinygltf), .ply .obj .off .stl (OpenMesh),
