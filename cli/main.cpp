@@ -149,6 +149,11 @@ int cmd_render(int argc, char** argv) {
                  static_cast<unsigned long long>(st.fragments),
                  static_cast<unsigned long long>(st.visible_fragments), st.clip_rounds, st.host_syncs,
                  st.peak_device_bytes / 1e6, st.allocated_device_bytes / 1e6);
+    std::fprintf(stderr, "entangled pairs %llu, crossing entries %llu, thin fragments %llu, deep tournaments %llu\n",
+                 static_cast<unsigned long long>(st.entangled_pairs),
+                 static_cast<unsigned long long>(st.crossing_lines),
+                 static_cast<unsigned long long>(st.thin_fragments),
+                 static_cast<unsigned long long>(st.deep_tournaments));
     if (a.memory_budget)
       std::fprintf(stderr, "memory budget %.1f MB: %u bucket(s), each planned under %.1f MB of work\n",
                    a.memory_budget / 1e6, st.buckets, st.bucket_work_bytes / 1e6);

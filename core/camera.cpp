@@ -6,7 +6,6 @@
 #include <string>
 
 #include "core/error.h"
-#include "core/scene.h"
 
 namespace vismap {
 
@@ -15,21 +14,35 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr uint32_t kMaxViewport = 16384;
 
-Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-Vec3 add(const Vec3& a, const Vec3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
-Vec3 scale(const Vec3& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
-double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+Vec3 sub(const Vec3& a, const Vec3& b) {
+  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+Vec3 add(const Vec3& a, const Vec3& b) {
+  return {a[0] + b[0], a[1] + b[1], a[2] + b[2]};
+}
+Vec3 scale(const Vec3& a, double s) {
+  return {a[0] * s, a[1] * s, a[2] * s};
+}
+double dot(const Vec3& a, const Vec3& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 Vec3 cross(const Vec3& a, const Vec3& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
-double length(const Vec3& a) { return std::sqrt(dot(a, a)); }
-Vec3 normalize(const Vec3& a) { return scale(a, 1.0 / length(a)); }
+double length(const Vec3& a) {
+  return std::sqrt(dot(a, a));
+}
+Vec3 normalize(const Vec3& a) {
+  return scale(a, 1.0 / length(a));
+}
 bool finite(const Vec3& a) {
   return std::isfinite(a[0]) && std::isfinite(a[1]) && std::isfinite(a[2]);
 }
 
 // Element (row r, column c) of a column-major matrix.
-double& at(Mat4& m, int r, int c) { return m[c * 4 + r]; }
+double& at(Mat4& m, int r, int c) {
+  return m[c * 4 + r];
+}
 
 Mat4 identity() {
   Mat4 m{};
@@ -112,7 +125,9 @@ Mat4 Camera::projection_matrix() const {
   return m;
 }
 
-Mat4 Camera::view_projection() const { return multiply(projection_matrix(), view()); }
+Mat4 Camera::view_projection() const {
+  return multiply(projection_matrix(), view());
+}
 
 void Camera::validate() const {
   if (!finite(eye) || !finite(target) || !finite(up))
@@ -143,30 +158,7 @@ void Camera::validate() const {
                ", far " + std::to_string(far_plane) + ")");
 }
 
-Bounds scene_bounds(const Scene& s) {
-  // Only vertices that triangles use: stray unused vertices must not move the framing.
-  Bounds b;
-  for (const Mesh& m : s.meshes) {
-    const size_t nv = m.vertex_count();
-    for (uint32_t i : m.indices) {
-      if (i >= nv) continue;  // the loader reports bad indices; bounds just skip them
-      const float* p = &m.positions[3 * size_t(i)];
-      if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
-      for (int k = 0; k < 3; ++k) {
-        if (b.empty) {
-          b.lo[k] = b.hi[k] = p[k];
-        } else {
-          b.lo[k] = std::min(b.lo[k], double(p[k]));
-          b.hi[k] = std::max(b.hi[k], double(p[k]));
-        }
-      }
-      b.empty = false;
-    }
-  }
-  return b;
-}
-
-Camera frame_scene(const Scene& s, uint32_t width, uint32_t height) {
+Camera frame_bounds(const Bounds& b, uint32_t width, uint32_t height) {
   Camera c;
   c.projection = Camera::Projection::Perspective;
   c.width = width;
@@ -174,7 +166,7 @@ Camera frame_scene(const Scene& s, uint32_t width, uint32_t height) {
   c.up = {0, 1, 0};
   Vec3 centre;
   double r;
-  bounding_sphere(scene_bounds(s), centre, r);
+  bounding_sphere(b, centre, r);
   // A point (or empty) scene still needs a non-degenerate camera: any radius works, pick one
   // proportional to the coordinates so that far-from-origin points keep their precision.
   if (!(r > 0) || !std::isfinite(r)) r = std::max(1e-6 * length(centre), 1.0);
@@ -194,11 +186,11 @@ Camera frame_scene(const Scene& s, uint32_t width, uint32_t height) {
   return c;
 }
 
-void fit_near_far(Camera& c, const Scene& s) {
+void fit_near_far(Camera& c, const Bounds& b) {
   if (c.near_plane > 0 && c.far_plane > 0) return;
   Vec3 centre;
   double r;
-  bounding_sphere(scene_bounds(s), centre, r);
+  bounding_sphere(b, centre, r);
   const Vec3 view = sub(c.target, c.eye);
   const double vl = length(view);
   // Depth of the sphere's centre along the view direction; the planes are perpendicular to it.

@@ -18,14 +18,14 @@ struct Camera {
   Vec3 eye{0, 0, 1};
   Vec3 target{0, 0, 0};
   Vec3 up{0, 1, 0};
-  double fov_y_deg = 35.0;     // perspective: vertical field of view in degrees
-  double ortho_height = 2.0;   // orthographic: height of the view volume in world units
-  double near_plane = 0.0;     // <= 0: chosen from the scene bounds
-  double far_plane = 0.0;      // <= 0: chosen from the scene bounds
-  uint32_t width = 1024;       // viewport in pixels
+  double fov_y_deg = 35.0;    // perspective: vertical field of view in degrees
+  double ortho_height = 2.0;  // orthographic: height of the view volume in world units
+  double near_plane = 0.0;    // <= 0: chosen from the scene bounds
+  double far_plane = 0.0;     // <= 0: chosen from the scene bounds
+  uint32_t width = 1024;      // viewport in pixels
   uint32_t height = 1024;
 
-  Mat4 view() const;           // gluLookAt(eye, target, up)
+  Mat4 view() const;               // gluLookAt(eye, target, up)
   Mat4 projection_matrix() const;  // gluPerspective / glOrtho with aspect width/height
   Mat4 view_projection() const;    // projection * view
   // Throws InputError(BadCamera) when eye == target, up is parallel to the view direction,
@@ -38,15 +38,13 @@ struct Bounds {
   bool empty = true;
 };
 
-struct Scene;
-Bounds scene_bounds(const Scene& s);
+// A camera that frames the bounds: looks at their centre from the +Z side along
+// normalize(0.6, 0.35, 1) (the benchmark's view direction), distance chosen so the bounding
+// sphere fits the vertical and horizontal field of view; near/far from the sphere. For a scene,
+// frame_scene (core/scene.h).
+Camera frame_bounds(const Bounds& b, uint32_t width, uint32_t height);
 
-// A camera that frames the whole scene: looks at the bounds' centre from the +Z side along
-// normalize(0.6, 0.35, 1) (the benchmark's view direction), distance chosen so the bounding sphere
-// fits the vertical and horizontal field of view; near/far from the sphere.
-Camera frame_scene(const Scene& s, uint32_t width, uint32_t height);
-
-// Fills near/far when they are <= 0, from the scene bounds as seen from the camera.
-void fit_near_far(Camera& c, const Scene& s);
+// Fills near/far when they are <= 0, from the bounds as seen from the camera.
+void fit_near_far(Camera& c, const Bounds& b);
 
 }  // namespace vismap

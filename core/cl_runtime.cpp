@@ -15,15 +15,44 @@ namespace vismap {
 
 namespace {
 
-// Concatenation order of the embedded sources: shared layout first, then one file per stage.
-const char* const kProgramFiles[] = {
-    "kernels/layout.h",  "kernels/int128.cl",     "kernels/geometry.cl",
-    "kernels/scan.cl",   "kernels/bin.cl",  "kernels/transform.cl", "kernels/crossing.cl",
-    "kernels/silhouette.cl", "kernels/clip.cl",   "kernels/occlude.cl",
-    "kernels/emit.cl",   "kernels/zbuffer.cl",
-};
+constexpr size_t kLocal = 64;
 
-constexpr size_t kScanWg = 256, kScanBlock = 256 * 8, kLocal = 64;
+const char* cl_error_name(cl_int err) {
+  switch (err) {
+    case CL_OUT_OF_RESOURCES:
+      return "CL_OUT_OF_RESOURCES";
+    case CL_OUT_OF_HOST_MEMORY:
+      return "CL_OUT_OF_HOST_MEMORY";
+    case CL_MEM_OBJECT_ALLOCATION_FAILURE:
+      return "CL_MEM_OBJECT_ALLOCATION_FAILURE";
+    case CL_INVALID_VALUE:
+      return "CL_INVALID_VALUE";
+    case CL_INVALID_MEM_OBJECT:
+      return "CL_INVALID_MEM_OBJECT";
+    case CL_INVALID_KERNEL:
+      return "CL_INVALID_KERNEL";
+    case CL_INVALID_ARG_INDEX:
+      return "CL_INVALID_ARG_INDEX";
+    case CL_INVALID_ARG_VALUE:
+      return "CL_INVALID_ARG_VALUE";
+    case CL_INVALID_ARG_SIZE:
+      return "CL_INVALID_ARG_SIZE";
+    case CL_INVALID_KERNEL_ARGS:
+      return "CL_INVALID_KERNEL_ARGS";
+    case CL_INVALID_WORK_GROUP_SIZE:
+      return "CL_INVALID_WORK_GROUP_SIZE";
+    case CL_INVALID_WORK_ITEM_SIZE:
+      return "CL_INVALID_WORK_ITEM_SIZE";
+    case CL_INVALID_GLOBAL_WORK_SIZE:
+      return "CL_INVALID_GLOBAL_WORK_SIZE";
+    case CL_INVALID_BUFFER_SIZE:
+      return "CL_INVALID_BUFFER_SIZE";
+    case CL_INVALID_COMMAND_QUEUE:
+      return "CL_INVALID_COMMAND_QUEUE";
+    default:
+      return "OpenCL error";
+  }
+}
 
 std::string lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -36,8 +65,10 @@ uint64_t fnv1a(const std::string& s, uint64_t h = 1469598103934665603ull) {
 }
 
 std::filesystem::path cache_dir() {
-  if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return std::filesystem::path(x) / "vismap";
-  if (const char* h = std::getenv("HOME"); h && *h) return std::filesystem::path(h) / ".cache" / "vismap";
+  if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x)
+    return std::filesystem::path(x) / "vismap";
+  if (const char* h = std::getenv("HOME"); h && *h)
+    return std::filesystem::path(h) / ".cache" / "vismap";
   return {};
 }
 
@@ -90,7 +121,8 @@ Found pick(const std::string& requested) {
         lower(f.info.platform).find(want) != std::string::npos)
       return f;
   std::string names;
-  for (const Found& f : all) names += "\n  " + f.info.id + " " + f.info.platform + " / " + f.info.name;
+  for (const Found& f : all)
+    names += "\n  " + f.info.id + " " + f.info.platform + " / " + f.info.name;
   throw DeviceError("no OpenCL device matches '" + spec + "'; devices:" + names);
 }
 
@@ -110,17 +142,15 @@ ClRuntime::ClRuntime(const std::string& device_spec) {
   ctx_ = cl::Context(device_);
   queue_ = cl::CommandQueue(ctx_, device_, CL_QUEUE_PROFILING_ENABLE);
   const char* blocks = std::getenv("VISMAP_HOST_BLOCKS");
-  host_blocks_ = (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) && !(blocks && std::string(blocks) == "0");
+  host_blocks_ = (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) &&
+                 !(blocks && std::string(blocks) == "0");
   scratch_total_ = cl::Buffer(ctx_, CL_MEM_READ_WRITE, sizeof(uint32_t));
 }
 
 std::string program_source() {
   std::string source;
-  for (const char* f : kProgramFiles) {
-    auto it = kernel_sources().find(f);
-    if (it == kernel_sources().end()) throw DeviceError(std::string("missing embedded kernel ") + f);
-    source += "/* ---- " + std::string(f) + " ---- */\n" + it->second + "\n";
-  }
+  for (const auto& [file, text] : kernel_sources())
+    source += "/* ---- " + file + " ---- */\n" + text + "\n";
   return source;
 }
 
@@ -128,13 +158,15 @@ void ClRuntime::build(uint32_t maxl) {
   if (maxl == maxl_ && program_()) return;
   const std::string source = program_source();
   std::string options = "-cl-std=CL1.2 -DVM_MAXL=" + std::to_string(maxl);
-  if (const char* extra = std::getenv("VISMAP_CL_OPTIONS"); extra && *extra) options += std::string(" ") + extra;
-  uint64_t key = fnv1a(source, fnv1a(options, fnv1a(info_.platform + "|" + info_.name + "|" +
-                                                    info_.version + "|" +
-                                                    device_.getInfo<CL_DRIVER_VERSION>())));
+  if (const char* extra = std::getenv("VISMAP_CL_OPTIONS"); extra && *extra)
+    options += std::string(" ") + extra;
+  uint64_t key =
+      fnv1a(source, fnv1a(options, fnv1a(info_.platform + "|" + info_.name + "|" + info_.version +
+                                         "|" + device_.getInfo<CL_DRIVER_VERSION>())));
   char hex[17];
   std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(key));
-  std::filesystem::path dir = cache_dir(), file = dir.empty() ? dir : dir / (std::string(hex) + ".bin");
+  std::filesystem::path dir = cache_dir(),
+                        file = dir.empty() ? dir : dir / (std::string(hex) + ".bin");
 
   cl::Program program;
   bool built = false;
@@ -166,7 +198,8 @@ void ClRuntime::build(uint32_t maxl) {
           std::filesystem::path tmp = file;
           tmp += ".tmp" + std::to_string(::getpid());
           std::ofstream(tmp, std::ios::binary)
-              .write(reinterpret_cast<const char*>(bins[0].data()), static_cast<std::streamsize>(bins[0].size()));
+              .write(reinterpret_cast<const char*>(bins[0].data()),
+                     static_cast<std::streamsize>(bins[0].size()));
           std::filesystem::rename(tmp, file);
         }
       } catch (...) {
@@ -179,25 +212,43 @@ void ClRuntime::build(uint32_t maxl) {
   kernels_.clear();
 }
 
-cl::Kernel& ClRuntime::kernel(const char* name) {
+ClRuntime::Kernel& ClRuntime::kernel(const char* name) {
   auto it = kernels_.find(name);
   if (it != kernels_.end()) return it->second;
   try {
-    return kernels_.emplace(name, cl::Kernel(program_, name)).first->second;
+    Kernel k{cl::Kernel(program_, name)};
+    k.args = k.k.getInfo<CL_KERNEL_NUM_ARGS>();
+    return kernels_.emplace(name, std::move(k)).first->second;
   } catch (const cl::Error& e) {
     throw DeviceError(std::string("kernel '") + name + "' not found in the program: " + e.what());
   }
 }
 
-void ClRuntime::enqueue(const char* stage, const char* name, cl::Kernel& k, size_t n, size_t local) {
+void ClRuntime::check_arity(const Kernel& k, Stage stage, const char* name, size_t given) const {
+  if (given != k.args)
+    throw DeviceError(std::string("launch of ") + name + " (stage " + stage_name(stage) +
+                      ") with " + std::to_string(given) + " arguments; the kernel takes " +
+                      std::to_string(k.args));
+}
+
+void ClRuntime::throw_arg_error(Stage stage, const char* name, cl_uint arg, cl_int err) const {
+  throw DeviceError(std::string("launch of ") + name + " (stage " + stage_name(stage) +
+                    "): argument " + std::to_string(arg) + " refused: " + cl_error_name(err) +
+                    " (" + std::to_string(err) + ") on " + info_.name);
+}
+
+void ClRuntime::enqueue(Stage stage, const char* name, cl::Kernel& k, size_t n, size_t local) {
   size_t l = local ? local : kLocal;
   size_t global = (n + l - 1) / l * l;
   cl::Event ev;
-  cl_int err = queue_.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(global), cl::NDRange(l),
-                                          nullptr, &ev);
-  if (err != CL_SUCCESS)
-    throw DeviceError(std::string("launch of ") + name + " (stage " + stage + ", " +
-                      std::to_string(n) + " items) failed: error " + std::to_string(err));
+  try {
+    queue_.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(global), cl::NDRange(l), nullptr,
+                                &ev);
+  } catch (const cl::Error& e) {
+    throw DeviceError(std::string("launch of ") + name + " (stage " + stage_name(stage) + ", " +
+                      std::to_string(n) + " items) failed: " + cl_error_name(e.err()) + " (" +
+                      std::to_string(e.err()) + ") on " + info_.name);
+  }
   launches_.push_back({stage, name, ev});
 }
 
@@ -218,7 +269,9 @@ void* take_host_block(size_t& bytes) {
   return p;
 }
 
-void give_host_block(void* p) { std::free(p); }
+void give_host_block(void* p) {
+  std::free(p);
+}
 
 struct LiveRecord {
   std::shared_ptr<std::atomic<uint64_t>> live;
@@ -258,19 +311,26 @@ cl::Buffer ClRuntime::alloc(size_t bytes, const char* what) {
   }
 }
 
-void ClRuntime::fill_u32(cl::Buffer& b, uint32_t value, size_t count, const char* stage) {
+void ClRuntime::fill_u32(cl::Buffer& b, uint32_t value, size_t count, Stage stage) {
   if (count == 0) return;
   cl::Event ev;
-  queue_.enqueueFillBuffer(b, value, 0, count * sizeof(uint32_t), nullptr, &ev);
+  try {
+    queue_.enqueueFillBuffer(b, value, 0, count * sizeof(uint32_t), nullptr, &ev);
+  } catch (const cl::Error& e) {
+    throw DeviceError(std::string("fill of ") + std::to_string(count) + " words (stage " +
+                      stage_name(stage) + ") failed: " + cl_error_name(e.err()) + " (" +
+                      std::to_string(e.err()) + ")");
+  }
   launches_.push_back({stage, "fill", ev});
 }
 
-void ClRuntime::scan_level(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
-  uint32_t blocks = static_cast<uint32_t>((n + kScanBlock - 1) / kScanBlock);
+void ClRuntime::scan_level(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
+  uint32_t blocks = static_cast<uint32_t>((n + VM_SCAN_BLOCK - 1) / VM_SCAN_BLOCK);
   cl::Buffer sums = alloc(blocks * sizeof(uint32_t), "scan block sums");
-  cl::Kernel& k = kernel("scan_blocks");
-  set_args(k, 0, counts, offsets, n, sums);
-  enqueue(stage, "scan_blocks", k, size_t(blocks) * kScanWg, kScanWg);
+  Kernel& k = kernel("scan_blocks");
+  check_arity(k, stage, "scan_blocks", 4);
+  set_args(k, stage, "scan_blocks", 0, counts, offsets, n, sums);
+  enqueue(stage, "scan_blocks", k.k, size_t(blocks) * VM_SCAN_WG, VM_SCAN_WG);
   if (blocks > 1) {
     cl::Buffer sum_offsets = alloc(blocks * sizeof(uint32_t), "scan block offsets");
     scan_level(stage, sums, sum_offsets, blocks);
@@ -278,11 +338,12 @@ void ClRuntime::scan_level(const char* stage, cl::Buffer& counts, cl::Buffer& of
   }
 }
 
-void ClRuntime::scan_to(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n,
+void ClRuntime::scan_to(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n,
                         cl::Buffer& totals, uint32_t slot) {
   if (n == 0) {
     cl::Event ev;
-    queue_.enqueueFillBuffer(totals, uint32_t(0), slot * sizeof(uint32_t), sizeof(uint32_t), nullptr, &ev);
+    queue_.enqueueFillBuffer(totals, uint32_t(0), slot * sizeof(uint32_t), sizeof(uint32_t),
+                             nullptr, &ev);
     launches_.push_back({stage, "fill", ev});
     return;
   }
@@ -290,7 +351,7 @@ void ClRuntime::scan_to(const char* stage, cl::Buffer& counts, cl::Buffer& offse
   launch(stage, "scan_total", 1, counts, offsets, n, totals, slot);
 }
 
-uint32_t ClRuntime::scan(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
+uint32_t ClRuntime::scan(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
   if (n == 0) return 0;
   scan_level(stage, counts, offsets, n);
   launch(stage, "scan_total", 1, counts, offsets, n, scratch_total_, 0u);
@@ -310,16 +371,19 @@ void ClRuntime::reset_profile() {
   syncs_ = 0;
 }
 
-std::map<std::string, std::pair<double, uint32_t>> ClRuntime::collect_profile() {
+ClRuntime::StageTimes ClRuntime::collect_profile() {
   queue_.finish();
-  std::map<std::string, std::pair<double, uint32_t>> out;
+  StageTimes out{};
   for (Launch& l : launches_) {
     cl_ulong s = l.event.getProfilingInfo<CL_PROFILING_COMMAND_START>();
     cl_ulong e = l.event.getProfilingInfo<CL_PROFILING_COMMAND_END>();
-    for (auto* slot : {&out[l.stage], &kernel_profile_[l.stage + "/" + l.name]}) {
-      slot->first += (e - s) * 1e-6;
-      slot->second += 1;
-    }
+    const double ms = (e - s) * 1e-6;
+    StageTime& st = out[static_cast<size_t>(l.stage)];
+    st.ms += ms;
+    st.launches += 1;
+    auto& k = kernel_profile_[std::string(stage_name(l.stage)) + "/" + l.name];
+    k.first += ms;
+    k.second += 1;
   }
   launches_.clear();
   return out;

@@ -4,7 +4,7 @@
 #pragma once
 
 #include <CL/opencl.hpp>
-
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <map>
@@ -12,14 +12,19 @@
 #include <string>
 #include <vector>
 
-#include "core/pipeline.h"
+#include "core/device.h"
+#include "core/stages/stage.h"
+#include "kernels/layout.h"
 
 namespace vismap {
 
-const std::map<std::string, std::string>& kernel_sources();  // generated at build time
+// The embedded kernel files (path, text) in the program's order: CMakeLists.txt's
+// VISMAP_KERNEL_FILES, the shared layout first, then helpers, then one file per stage.
+const std::vector<std::pair<std::string, std::string>>&
+kernel_sources();  // generated at build time
 
 // The OpenCL C program every device builds: the embedded kernel files, concatenated in
-// dependency order. Built with "-cl-std=CL1.2 -DVM_MAXL=<lines per fragment>".
+// that order. Built with "-cl-std=CL1.2 -DVM_MAXL=<lines per fragment>".
 std::string program_source();
 
 class ClRuntime {
@@ -33,18 +38,24 @@ class ClRuntime {
   // Builds (or loads from the cache) the program with -DVM_MAXL=maxl; kernels by name.
   void build(uint32_t maxl);
   uint32_t maxl() const { return maxl_; }
-  cl::Kernel& kernel(const char* name);
+  struct Kernel {
+    cl::Kernel k;
+    cl_uint args = 0;  // CL_KERNEL_NUM_ARGS
+  };
+  Kernel& kernel(const char* name);
 
   // Enqueues kernel `name` over n work-items (rounded up to the work-group multiple) with the
-  // given arguments, recording its event under `stage`.
+  // given arguments, recording its event under `stage`. The argument count must be the
+  // kernel's (CL_KERNEL_NUM_ARGS); any failure is a DeviceError naming kernel and stage.
   template <class... Args>
-  void launch(const char* stage, const char* name, size_t n, const Args&... args) {
+  void launch(Stage stage, const char* name, size_t n, const Args&... args) {
     if (n == 0) return;
-    cl::Kernel& k = kernel(name);
-    set_args(k, 0, args...);
-    enqueue(stage, name, k, n, 0);
+    Kernel& k = kernel(name);
+    check_arity(k, stage, name, sizeof...(Args));
+    set_args(k, stage, name, 0, args...);
+    enqueue(stage, name, k.k, n, 0);
   }
-  void enqueue(const char* stage, const char* name, cl::Kernel& k, size_t n, size_t local);
+  void enqueue(Stage stage, const char* name, cl::Kernel& k, size_t n, size_t local);
 
   cl::Buffer alloc(size_t bytes, const char* what);
   template <class T>
@@ -53,24 +64,31 @@ class ClRuntime {
     if (!v.empty()) queue_.enqueueWriteBuffer(b, CL_TRUE, 0, v.size() * sizeof(T), v.data());
     return b;
   }
-  void fill_u32(cl::Buffer& b, uint32_t value, size_t count, const char* stage);
+  void fill_u32(cl::Buffer& b, uint32_t value, size_t count, Stage stage);
   // Blocking read: the host waits for the queue to drain and the copy (one round trip, ~50 us
   // on PoCL here, ~16-19 us on an H100). Counted: host_syncs() since reset_profile().
   void read(const cl::Buffer& b, size_t offset, size_t bytes, void* dst);
   uint32_t host_syncs() const { return syncs_; }
 
   // Exclusive scan of n counts into offsets (device), returning the total (one read back).
-  uint32_t scan(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n);
+  uint32_t scan(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n);
   // Same, without reading back: the total lands in totals[slot].
-  void scan_to(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n,
-               cl::Buffer& totals, uint32_t slot);
+  void scan_to(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n, cl::Buffer& totals,
+               uint32_t slot);
 
-  // Profiling: per-stage event times since the last reset (waits for the queue).
+  // Profiling: per-stage event times since the last collect (waits for the queue).
+  struct StageTime {
+    double ms = 0;
+    uint32_t launches = 0;
+  };
+  using StageTimes = std::array<StageTime, kStageCount>;
   void reset_profile();
-  std::map<std::string, std::pair<double, uint32_t>> collect_profile();
+  StageTimes collect_profile();
   // The same event times per "stage/kernel" (fills are "stage/fill"), summed over every
   // collect_profile() since reset_profile().
-  const std::map<std::string, std::pair<double, uint32_t>>& kernel_profile() const { return kernel_profile_; }
+  const std::map<std::string, std::pair<double, uint32_t>>& kernel_profile() const {
+    return kernel_profile_;
+  }
   // Device memory: the sum of every allocation since reset_allocated() (an upper bound), and
   // the most held at once since reset_peak() (a buffer's bytes count until the runtime releases
   // it, which may be after its last handle goes).
@@ -81,12 +99,19 @@ class ClRuntime {
 
  private:
   template <class A, class... Rest>
-  void set_args(cl::Kernel& k, cl_uint i, const A& a, const Rest&... rest) {
-    k.setArg(i, a);
-    set_args(k, i + 1, rest...);
+  void set_args(Kernel& k, Stage stage, const char* name, cl_uint i, const A& a,
+                const Rest&... rest) {
+    try {
+      k.k.setArg(i, a);
+    } catch (const cl::Error& e) {
+      throw_arg_error(stage, name, i, e.err());
+    }
+    set_args(k, stage, name, i + 1, rest...);
   }
-  void set_args(cl::Kernel&, cl_uint) {}
-  void scan_level(const char* stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n);
+  void set_args(Kernel&, Stage, const char*, cl_uint) {}
+  void check_arity(const Kernel& k, Stage stage, const char* name, size_t given) const;
+  [[noreturn]] void throw_arg_error(Stage stage, const char* name, cl_uint arg, cl_int err) const;
+  void scan_level(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n);
 
   DeviceInfo info_;
   cl::Platform platform_;
@@ -95,9 +120,9 @@ class ClRuntime {
   cl::CommandQueue queue_;
   cl::Program program_;
   uint32_t maxl_ = 0;
-  std::map<std::string, cl::Kernel> kernels_;
+  std::map<std::string, Kernel> kernels_;
   struct Launch {
-    std::string stage;
+    Stage stage;
     const char* name;  // kernel name, or "fill" (string literals only)
     cl::Event event;
   };
@@ -106,7 +131,8 @@ class ClRuntime {
   uint64_t allocated_ = 0;
   // Shared with the release callbacks, which may run after the runtime is gone.
   std::shared_ptr<std::atomic<uint64_t>> live_ = std::make_shared<std::atomic<uint64_t>>(0);
-  bool host_blocks_ = false;  // large buffers on host blocks: CPU devices, unless $VISMAP_HOST_BLOCKS=0
+  bool host_blocks_ =
+      false;  // large buffers on host blocks: CPU devices, unless $VISMAP_HOST_BLOCKS=0
   uint64_t peak_ = 0;
   uint32_t syncs_ = 0;
   cl::Buffer scratch_total_;

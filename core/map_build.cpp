@@ -11,7 +11,9 @@ struct L3 {
   int64_t a, b, c;
 };
 
-L3 coeffs(const VmLine& l) { return {l.a, l.b, l.c}; }
+L3 coeffs(const VmLine& l) {
+  return {l.a, l.b, l.c};
+}
 
 __int128 round_div(__int128 num, __int128 den) {  // round(num / den), den > 0, ties up
   __int128 n2 = 2 * num + den, d2 = 2 * den;
@@ -57,7 +59,8 @@ double to_pixels(__int128 num, __int128 w, uint32_t grid_scale) {
     else if (n2 >= (2 * q + 1) * w)
       ++q;
     else
-      return static_cast<double>(static_cast<int64_t>(q)) / (double(grid_scale) * double(1 << kBits));
+      return static_cast<double>(static_cast<int64_t>(q)) /
+             (double(grid_scale) * double(1 << kBits));
   }
   q = round_div(num * (__int128(1) << kBits), w);  // the estimate was far off: divide
   return static_cast<double>(static_cast<int64_t>(q)) / (double(grid_scale) * double(1 << kBits));
@@ -73,7 +76,8 @@ void build_planar_map(const VisibleFragments& frags, bool exact, bool orthograph
   for (const VmFragMeta& m : frags.meta) nverts += m.nlines;
   // Called once per bucket: grow geometrically, not to the exact size each time.
   auto grow = [](auto& v, size_t more) {
-    if (v.size() + more > v.capacity()) v.reserve(std::max(v.size() + more, v.capacity() + v.capacity() / 2));
+    if (v.size() + more > v.capacity())
+      v.reserve(std::max(v.size() + more, v.capacity() + v.capacity() / 2));
   };
   grow(map.xy, 2 * nverts);
   grow(map.offsets, frags.meta.size());

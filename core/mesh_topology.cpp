@@ -27,7 +27,9 @@ std::vector<uint32_t> weld_by_position(const Mesh& m) {
   std::vector<uint32_t> weld(nv);
   uint32_t id = 0;
   for (size_t i = 0; i < nv; ++i) {
-    if (i > 0 && (keys[i].x != keys[i - 1].x || keys[i].y != keys[i - 1].y || keys[i].z != keys[i - 1].z)) ++id;
+    if (i > 0 &&
+        (keys[i].x != keys[i - 1].x || keys[i].y != keys[i - 1].y || keys[i].z != keys[i - 1].z))
+      ++id;
     weld[keys[i].v] = id;
   }
   return weld;

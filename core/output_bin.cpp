@@ -27,13 +27,17 @@ static_assert(sizeof(float) == 4 && std::numeric_limits<float>::is_iec559, "IEEE
 void put_u32(char* p, uint32_t v) {
   for (int i = 0; i < 4; ++i) p[i] = char((v >> (8 * i)) & 0xFF);
 }
-void put_f32(char* p, float v) { put_u32(p, std::bit_cast<uint32_t>(v)); }
+void put_f32(char* p, float v) {
+  put_u32(p, std::bit_cast<uint32_t>(v));
+}
 uint32_t get_u32(const char* p) {
   uint32_t v = 0;
   for (int i = 0; i < 4; ++i) v |= uint32_t(static_cast<unsigned char>(p[i])) << (8 * i);
   return v;
 }
-float get_f32(const char* p) { return std::bit_cast<float>(get_u32(p)); }
+float get_f32(const char* p) {
+  return std::bit_cast<float>(get_u32(p));
+}
 
 [[noreturn]] void malformed(InputErrorKind kind, const std::string& element, int64_t index,
                             const std::string& msg) {
@@ -77,8 +81,8 @@ std::string write_bin(const PlanarMap& map, const Scene& scene) {
     if (n < 3) continue;
     const uint64_t id = detail::global_triangle_id(map, scene, base, f);
     if (id > 0xFFFFFFFFull)
-      throw InputError(InputErrorKind::TooLarge, "binary writer",
-                       scene.meshes[map.mesh[f]].name, "fragment", int64_t(f),
+      throw InputError(InputErrorKind::TooLarge, "binary writer", scene.meshes[map.mesh[f]].name,
+                       "fragment", int64_t(f),
                        "global triangle id " + std::to_string(id) + " exceeds 32 bits");
     for (uint32_t i = 1; i + 1 < n; ++i, ++k) {
       const uint32_t v[3] = {b, b + i, b + i + 1};
@@ -102,9 +106,9 @@ BinFrame read_bin(const std::string& bytes) {
   using K = InputErrorKind;
   const size_t size = bytes.size();
   if (size < kHeaderBytes)
-    malformed(K::Truncated, "header", -1,
-              std::to_string(size) + " bytes, the header alone needs " +
-                  std::to_string(kHeaderBytes));
+    malformed(
+        K::Truncated, "header", -1,
+        std::to_string(size) + " bytes, the header alone needs " + std::to_string(kHeaderBytes));
   const char* p = bytes.data();
   if (std::memcmp(p, kMagic, 4) != 0) malformed(K::ParseError, "header", -1, "magic is not VMAP");
   BinFrame fr;
@@ -128,9 +132,9 @@ BinFrame read_bin(const std::string& bytes) {
     int s = 0;
     while (ends[s] <= size) ++s;
     malformed(K::Truncated, "section", -1,
-              std::string(names[s]) + " ends at byte " + std::to_string(ends[s]) + " but the frame" +
-                  " has " + std::to_string(size) + " bytes (" + std::to_string(t) +
-                  " triangles need " + std::to_string(need) + ")");
+              std::string(names[s]) + " ends at byte " + std::to_string(ends[s]) +
+                  " but the frame" + " has " + std::to_string(size) + " bytes (" +
+                  std::to_string(t) + " triangles need " + std::to_string(need) + ")");
   }
   if (size > need)
     malformed(K::ParseError, "frame", -1,
@@ -147,7 +151,8 @@ BinFrame read_bin(const std::string& bytes) {
   fr.triangle_id.resize(t);
   for (uint64_t i = 0; i < 6 * t; ++i) {
     fr.xy[i] = get_f32(pos + 4 * i);
-    if (!std::isfinite(fr.xy[i])) malformed(K::ParseError, "triangle", int64_t(i / 6), "non-finite position");
+    if (!std::isfinite(fr.xy[i]))
+      malformed(K::ParseError, "triangle", int64_t(i / 6), "non-finite position");
   }
   for (uint64_t i = 0; i < t; ++i) {
     fr.mesh[i] = get_u32(mesh + 4 * i);
@@ -158,7 +163,8 @@ BinFrame read_bin(const std::string& bytes) {
     fr.inv_w.resize(3 * t);
     for (uint64_t i = 0; i < 9 * t; ++i) {
       fr.bary[i] = get_f32(bary + 4 * i);
-      if (!std::isfinite(fr.bary[i])) malformed(K::ParseError, "triangle", int64_t(i / 9), "non-finite barycentric");
+      if (!std::isfinite(fr.bary[i]))
+        malformed(K::ParseError, "triangle", int64_t(i / 9), "non-finite barycentric");
     }
     for (uint64_t i = 0; i < 3 * t; ++i) {
       fr.inv_w[i] = get_f32(inv_w + 4 * i);

@@ -9,7 +9,8 @@ namespace vismap::detail {
 // Checks that the planar map is self-consistent and refers to existing meshes and triangles:
 // offsets non-decreasing and ending at vertex_count(), per-fragment arrays sized to
 // fragment_count(), mesh and triangle in range, coordinates finite and within 1e9 pixels,
-// (fragments with fewer than 3 vertices are allowed: writers skip them), attributes either absent or sized per vertex. Throws InputError naming the fragment.
+// (fragments with fewer than 3 vertices are allowed: writers skip them), attributes either absent
+// or sized per vertex. Throws InputError naming the fragment.
 void check_map(const PlanarMap& map, const Scene& scene, const char* writer);
 
 // Global source triangle id of fragment f (Scene::triangle_id_base + Mesh::face_ids).

@@ -9,8 +9,8 @@
 // of its vertices (a T-junction: an occluder's edge against the fragments it hides) would round
 // off that edge and open a gap up to 1/200 px wide, which crispEdges (Fill::Id) shows as
 // background specks; there it is inserted into the neighbour's edge (conform_t_junctions), and
-// Fill::Shade strokes such edges instead (below). See svg_number(). Why 2 decimals, not 3: 1/100 px is far
-// below what anyone sees even zoomed 10x (the binary format keeps full float precision for
+// Fill::Shade strokes such edges instead (below). See svg_number(). Why 2 decimals, not 3: 1/100 px
+// is far below what anyone sees even zoomed 10x (the binary format keeps full float precision for
 // programs), and it saves a byte per number: ~6 bytes per triangle, which is what keeps a
 // 60k-fragment bunny under 3 MB.
 //
@@ -62,7 +62,9 @@ struct Q {
   bool operator==(const Q& o) const { return x == o.x && y == o.y; }
 };
 
-int64_t quantize(double v) { return std::llround(v * kScale); }
+int64_t quantize(double v) {
+  return std::llround(v * kScale);
+}
 
 // Prints q/kUnit: "-1.25", ".5", "-.05", "3", "0".
 size_t format_units(int64_t q, char* buf) {
@@ -138,12 +140,23 @@ std::string xml_escape(const std::string& s) {
     const unsigned char c = static_cast<unsigned char>(s[i]);
     if (c < 0x80) {
       switch (c) {
-        case '<': r += "&lt;"; break;
-        case '>': r += "&gt;"; break;
-        case '&': r += "&amp;"; break;
-        case '"': r += "&quot;"; break;
-        case '\'': r += "&apos;"; break;
-        default: r += (c < 0x20 && c != '\t' && c != '\n' && c != '\r') ? '?' : char(c);
+        case '<':
+          r += "&lt;";
+          break;
+        case '>':
+          r += "&gt;";
+          break;
+        case '&':
+          r += "&amp;";
+          break;
+        case '"':
+          r += "&quot;";
+          break;
+        case '\'':
+          r += "&apos;";
+          break;
+        default:
+          r += (c < 0x20 && c != '\t' && c != '\n' && c != '\r') ? '?' : char(c);
       }
       ++i;
       continue;
@@ -373,7 +386,8 @@ void conform_t_junctions(QuantizedMap& q, size_t fragments) {
       if (open.frag[j] == f) continue;
       for (Q p : {open.edge[j].a, open.edge[j].b}) {
         if (near(p, e.a) || near(p, e.b)) continue;
-        if (std::find(q.v.begin() + q.off[f], q.v.begin() + q.off[f + 1], p) != q.v.begin() + q.off[f + 1])
+        if (std::find(q.v.begin() + q.off[f], q.v.begin() + q.off[f + 1], p) !=
+            q.v.begin() + q.off[f + 1])
           continue;
         const double t = (double(p.x - e.a.x) * dx + double(p.y - e.a.y) * dy) / len2;
         if (t > 0 && t < 1) insert[open.id[k]].push_back({t, p});
@@ -389,7 +403,8 @@ void conform_t_junctions(QuantizedMap& q, size_t fragments) {
       auto it = insert.find(i);
       if (it == insert.end()) continue;
       auto& pts = it->second;
-      std::sort(pts.begin(), pts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+      std::sort(pts.begin(), pts.end(),
+                [](const auto& a, const auto& b) { return a.first < b.first; });
       for (size_t m = 0; m < pts.size(); ++m)
         if (!(pts[m].second == r.v.back())) r.v.push_back(pts[m].second);
     }
@@ -451,10 +466,14 @@ void write_fragment(PathData& d, const QuantizedMap& q, size_t f, bool use_flags
     d.close();
     return;
   }
-  if (unshared == 1) {  // open polygon whose implicit closing segment is the (longest) unshared edge
+  if (unshared ==
+      1) {  // open polygon whose implicit closing segment is the (longest) unshared edge
     for (uint32_t i = 0; i < n; ++i) {
       const Q p = at(longest + 1 + i);
-      if (i == 0) d.move(p); else d.line(p);
+      if (i == 0)
+        d.move(p);
+      else
+        d.line(p);
     }
     return;
   }
@@ -516,12 +535,13 @@ std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& ca
   std::string out;
   out.reserve(64 + q.v.size() * 12 + nf * 16);
   const std::string w = std::to_string(map.width), h = std::to_string(map.height);
-  out += "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 " + w + " " + h +
-         "\" width=\"" + w + "\" height=\"" + h + "\"";
+  out += "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 " + w + " " + h + "\" width=\"" +
+         w + "\" height=\"" + h + "\"";
   if (shade) {
-    out += ">\n<style>path{vector-effect:non-scaling-stroke}</style>\n"
-           "<g fill=\"currentColor\" stroke=\"currentColor\" stroke-width=\"1\" "
-           "stroke-linejoin=\"bevel\">\n";
+    out +=
+        ">\n<style>path{vector-effect:non-scaling-stroke}</style>\n"
+        "<g fill=\"currentColor\" stroke=\"currentColor\" stroke-width=\"1\" "
+        "stroke-linejoin=\"bevel\">\n";
   } else {
     out += " shape-rendering=\"crispEdges\">\n";
   }

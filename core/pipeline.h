@@ -9,16 +9,17 @@
 #include <vector>
 
 #include "core/camera.h"
+#include "core/device.h"
 #include "core/planar_map.h"
 #include "core/scene.h"
 
 namespace vismap {
 
 struct RenderOptions {
-  bool attributes = false;          // barycentrics + 1/w per vertex (binary output, clients)
-  bool exact = false;               // exact homogeneous vertices (checks)
+  bool attributes = false;  // barycentrics + 1/w per vertex (binary output, clients)
+  bool exact = false;       // exact homogeneous vertices (checks)
   bool keep_screen_triangles = false;
-  uint32_t tile_pixels = 0;         // 0: chosen from the input
+  uint32_t tile_pixels = 0;  // 0: chosen from the input
   // Device memory (bytes) the render may hold at once; 0: no limit. Over the limit the screen
   // is rendered in buckets (rectangles of whole pixels, each clipped exactly), one at a time.
   uint64_t memory_budget = 0;
@@ -30,46 +31,39 @@ struct RenderOptions {
 
 struct StageStat {
   std::string name;
-  double ms = 0;                    // summed OpenCL event time of the stage's kernels
+  double ms = 0;  // summed OpenCL event time of the stage's kernels
   uint64_t items_in = 0, items_out = 0;
   uint32_t launches = 0;
 };
 
 struct RenderStats {
   std::vector<StageStat> stages;
-  std::vector<StageStat> kernels;   // the same times per "stage/kernel" ("stage/fill": fills)
-  double pipeline_ms = 0;           // host wall time of render(), upload included
+  std::vector<StageStat> kernels;  // the same times per "stage/kernel" ("stage/fill": fills)
+  double pipeline_ms = 0;          // host wall time of render(), upload included
   double upload_ms = 0;
   // Counts are summed over buckets: a triangle over several buckets counts in each.
   uint64_t input_triangles = 0, screen_triangles = 0, silhouette_edges = 0;
-  uint64_t entangled_pairs = 0;     // screen-triangle pairs that cross or tie (coplanar)
-  uint64_t crossing_lines = 0;      // clipping entries those pairs add (lines and partner edges)
+  uint64_t entangled_pairs = 0;  // screen-triangle pairs that cross or tie (coplanar)
+  uint64_t crossing_lines = 0;   // clipping entries those pairs add (lines and partner edges)
   uint64_t fragments = 0, visible_fragments = 0;
-  uint64_t thin_fragments = 0;      // thinner than the fine sample grid: decided at exact points
-  uint64_t sliver_fragments = 0;    // fragments without interior (zero area; dropped)
-  uint64_t peak_device_bytes = 0;   // most device memory held at once (scene upload included)
+  uint64_t thin_fragments = 0;     // thinner than the fine sample grid: decided at exact points
+  uint64_t deep_tournaments = 0;   // fragments decided by a tournament of > VM_TOUR_MAX triangles
+  uint64_t sliver_fragments = 0;   // fragments without interior (zero area; dropped)
+  uint64_t peak_device_bytes = 0;  // most device memory held at once (scene upload included)
   uint64_t allocated_device_bytes = 0;  // sum of every allocation during the render
-  uint32_t clip_rounds = 0;         // summed over buckets
-  uint32_t host_syncs = 0;          // blocking reads (host waits for the device), upload excluded
-  uint32_t buckets = 1;             // screen rectangles rendered one after another
-  uint32_t tile_pixels = 0;         // bin tile side used (the last bucket's when there are several)
-  uint64_t bucket_work_bytes = 0;   // the estimate each bucket was planned to stay under
+  uint32_t clip_rounds = 0;             // summed over buckets
+  uint32_t host_syncs = 0;         // blocking reads (host waits for the device), upload excluded
+  uint32_t buckets = 1;            // screen rectangles rendered one after another
+  uint32_t tile_pixels = 0;        // bin tile side used (the last bucket's when there are several)
+  uint64_t bucket_work_bytes = 0;  // the estimate each bucket was planned to stay under
 };
 
 // The floor of issue 5: a plain z-buffer id raster of the same scene on the same device.
 struct RasterStats {
-  double ms = 0;                    // host wall time (scene upload excluded)
-  double kernels_ms = 0;            // OpenCL event time: transform, clip, snap, clear, 2 passes
+  double ms = 0;          // host wall time (scene upload excluded)
+  double kernels_ms = 0;  // OpenCL event time: transform, clip, snap, clear, 2 passes
   uint64_t screen_triangles = 0;
 };
-
-struct DeviceInfo {
-  std::string platform, name, version;
-  bool is_gpu = false;
-  std::string id;                   // "P:D" platform and device index
-};
-
-std::vector<DeviceInfo> list_devices();
 
 // Tells the C allocator to keep freed memory for reuse instead of handing it back to the kernel
 // (large blocks from the heap, not fresh mmaps; the heap's top trimmed only beyond 512 MiB).
@@ -95,7 +89,8 @@ class Renderer {
   // One sample per pixel centre (row-major, y down): the global input triangle index
   // (Renderer's upload order: meshes in scene order) of the nearest triangle, or 0xffffffff.
   // Not exact: it is the time to beat, not a reference.
-  RasterStats raster_ids(const Scene& scene, const Camera& camera, std::vector<uint32_t>* ids = nullptr);
+  RasterStats raster_ids(const Scene& scene, const Camera& camera,
+                         std::vector<uint32_t>* ids = nullptr);
 
  private:
   struct Impl;

@@ -1,5 +1,8 @@
 #include "core/scene.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace vismap {
 
 size_t Scene::triangle_count() const {
@@ -16,6 +19,37 @@ std::vector<uint64_t> Scene::triangle_id_base() const {
     b += meshes[i].source_triangles;
   }
   return base;
+}
+
+Bounds scene_bounds(const Scene& s) {
+  // Only vertices that triangles use: stray unused vertices must not move the framing.
+  Bounds b;
+  for (const Mesh& m : s.meshes) {
+    const size_t nv = m.vertex_count();
+    for (uint32_t i : m.indices) {
+      if (i >= nv) continue;  // the loader reports bad indices; bounds just skip them
+      const float* p = &m.positions[3 * size_t(i)];
+      if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
+      for (int k = 0; k < 3; ++k) {
+        if (b.empty) {
+          b.lo[k] = b.hi[k] = p[k];
+        } else {
+          b.lo[k] = std::min(b.lo[k], double(p[k]));
+          b.hi[k] = std::max(b.hi[k], double(p[k]));
+        }
+      }
+      b.empty = false;
+    }
+  }
+  return b;
+}
+
+Camera frame_scene(const Scene& s, uint32_t width, uint32_t height) {
+  return frame_bounds(scene_bounds(s), width, height);
+}
+
+void fit_near_far(Camera& c, const Scene& s) {
+  fit_near_far(c, scene_bounds(s));
 }
 
 }  // namespace vismap

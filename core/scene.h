@@ -13,15 +13,15 @@
 namespace vismap {
 
 struct Mesh {
-  std::string name;                 // for messages: the file's mesh/node/group name or the file stem
-  std::vector<float> positions;     // x,y,z per vertex, world space (node/instance transforms applied)
-  std::vector<uint32_t> indices;    // 3 per triangle, into positions
+  std::string name;              // for messages: the file's mesh/node/group name or the file stem
+  std::vector<float> positions;  // x,y,z per vertex, world space (node/instance transforms applied)
+  std::vector<uint32_t> indices;  // 3 per triangle, into positions
   // For each kept triangle, its place in the source's face order (a polygon with k corners counts
   // as k-2 fan triangles). Degenerate triangles are dropped, so ids can skip; --fill id uses these.
   std::vector<uint32_t> face_ids;
-  uint32_t source_triangles = 0;    // triangles in the source before dropping (ids run 0..this-1)
+  uint32_t source_triangles = 0;  // triangles in the source before dropping (ids run 0..this-1)
   std::array<float, 3> color{0.8f, 0.8f, 0.8f};  // linear RGB base color in [0,1]
-  bool soup = false;                // true when vertices are not shared (match edges by position)
+  bool soup = false;  // true when vertices are not shared (match edges by position)
 
   size_t vertex_count() const { return positions.size() / 3; }
   size_t triangle_count() const { return indices.size() / 3; }
@@ -38,8 +38,14 @@ struct Scene {
   std::vector<uint64_t> triangle_id_base() const;
 };
 
+// The box of the vertices that triangles use (stray unused vertices do not move the framing).
+Bounds scene_bounds(const Scene& s);
+// frame_bounds and fit_near_far (core/camera.h) over scene_bounds(s).
+Camera frame_scene(const Scene& s, uint32_t width, uint32_t height);
+void fit_near_far(Camera& c, const Scene& s);
+
 struct LoadOptions {
-  uint64_t max_triangles = 0;       // 0: no limit; otherwise a larger scene is InputError TooLarge
+  uint64_t max_triangles = 0;  // 0: no limit; otherwise a larger scene is InputError TooLarge
   // 0: no limit; otherwise the bytes a load may hold as input (a .gz file's inflated bytes, a
   // scene file's referenced files together) are capped here: past it, InputError TooLarge.
   uint64_t max_bytes = 0;

@@ -24,7 +24,9 @@ __kernel void edge_bbox(__global const VmEdge* edges, uint n, __global int4* bb)
 }
 
 /* Tiles are powers of two wide: a shift, not a division, in the hottest loops. */
-inline int tile_coord(int v, int shift, int count) { return clamp(v >> shift, 0, count - 1); }
+inline int tile_coord(int v, int shift, int count) {
+  return clamp(v >> shift, 0, count - 1);
+}
 
 /* The tiles (x0, y0, x1, y1, inclusive) that a grid box touches. */
 inline int4 tile_range(int4 b, VmGrid g) {
@@ -62,18 +64,24 @@ inline void sort_list(__global uint* a, int n) {
       int child = 2 * root + 1;
       if (child + 1 < n && a[child] < a[child + 1]) ++child;
       if (a[root] >= a[child]) break;
-      uint tmp = a[root]; a[root] = a[child]; a[child] = tmp;
+      uint tmp = a[root];
+      a[root] = a[child];
+      a[child] = tmp;
       root = child;
     }
   }
   for (int end = n - 1; end > 0; --end) {
-    uint tmp = a[0]; a[0] = a[end]; a[end] = tmp;
+    uint tmp = a[0];
+    a[0] = a[end];
+    a[end] = tmp;
     int root = 0;
     while (2 * root + 1 < end) {
       int child = 2 * root + 1;
       if (child + 1 < end && a[child] < a[child + 1]) ++child;
       if (a[root] >= a[child]) break;
-      uint t2 = a[root]; a[root] = a[child]; a[child] = t2;
+      uint t2 = a[root];
+      a[root] = a[child];
+      a[child] = t2;
       root = child;
     }
   }
@@ -88,8 +96,12 @@ inline void sort_list(__global uint* a, int n) {
 #define VM_LEAF_CROWDED 256 /* a tile with more entries than this may split */
 #endif
 
-inline uint leaf_depth(uint tl) { return tl & 15u; }
-inline uint leaf_first(uint tl) { return tl >> 4; }
+inline uint leaf_depth(uint tl) {
+  return tl & 15u;
+}
+inline uint leaf_first(uint tl) {
+  return tl >> 4;
+}
 
 /* Leaf coordinate of grid coordinate v inside the tile starting at origin (clamped to it). */
 inline int leaf_coord(int v, int origin, int leaf_shift, int n) {
@@ -231,7 +243,9 @@ __kernel void leaf_sort_classes(uint ntiles, __global const uint* tile_leaf,
 }
 
 /* The classes (bit mask) whose entries an item of class c must pair with in a leaf. */
-inline uint partner_classes(uint c) { return c == 0 ? 15u : c == 1 ? 5u : c == 2 ? 3u : 1u; }
+inline uint partner_classes(uint c) {
+  return c == 0 ? 15u : c == 1 ? 5u : c == 2 ? 3u : 1u;
+}
 
 /* Where class c begins in a leaf's list, from its class starts (class 4: the end). */
 inline uint class_begin(uint4 cs, uint c) {

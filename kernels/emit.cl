@@ -12,5 +12,6 @@ __kernel void emit_visible(__global const VmFragMeta* meta, __global const VmLin
   VmFragMeta m = meta[i];
   out_meta[o] = m;
   out_src[o] = (uint2)(tris[m.tri].mesh, tris[m.tri].tri);
-  for (uint j = 0; j < m.nlines; ++j) out_lines[(size_t)o * VM_MAXL + j] = lines[(size_t)i * VM_MAXL + j];
+  for (uint j = 0; j < m.nlines; ++j)
+    out_lines[(size_t)o * VM_MAXL + j] = lines[(size_t)i * VM_MAXL + j];
 }

@@ -33,7 +33,9 @@ inline VmLine vm_line(Line3 L) {
   return l;
 }
 
-inline VmLine vm_line_of(int x0, int y0, int x1, int y1) { return vm_line(line_of(x0, y0, x1, y1)); }
+inline VmLine vm_line_of(int x0, int y0, int x1, int y1) {
+  return vm_line(line_of(x0, y0, x1, y1));
+}
 
 /* The line of an edge record: a segment's through its two points; an infinite crossing line
  * (q0 = +inf) keeps its coefficients in the point fields: a, b in (x0, y0), c in (x1, y1) as
@@ -50,7 +52,10 @@ inline Line3 edge_line(VmEdge e) {
 /* A partner's edge as an entry: a segment always in front (q0 = q1 = DBL_MAX). */
 inline VmEdge segment_edge(int x0, int y0, int x1, int y1) {
   VmEdge e;
-  e.x0 = x0; e.y0 = y0; e.x1 = x1; e.y1 = y1;
+  e.x0 = x0;
+  e.y0 = y0;
+  e.x1 = x1;
+  e.y1 = y1;
   e.q0 = DBL_MAX;
   e.q1 = DBL_MAX;
   return e;
@@ -76,7 +81,9 @@ inline Line3 line_reversed(Line3 L) {
 }
 
 /* Exact side of a grid point: |a*x|, |b*y| <= 2^52, |c| <= 2^54. */
-inline long line_eval_point(Line3 L, long x, long y) { return L.a * x + L.b * y + L.c; }
+inline long line_eval_point(Line3 L, long x, long y) {
+  return L.a * x + L.b * y + L.c;
+}
 
 inline long orient_points(long x0, long y0, long x1, long y1, long x2, long y2) {
   return (x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0);
@@ -113,7 +120,7 @@ inline int line_side_fine(Line3 L, long px, long py) {
 
 /* A point where occlusion decides: a fine-grid point (px, py) / 2^VM_POINT_BITS, or, for a
  * cell thinner than the fine grid, an exact rational point (X / W, Y / W) with W > 0
- * (occlude.cl exact_interior_point; coordinates below 2^209 over 2^185, §1 of NUMERICS). */
+ * (occlusion.cl exact_interior_point; coordinates below 2^209 over 2^185, §1 of NUMERICS). */
 typedef struct {
   long px, py;
   int exact;
@@ -193,7 +200,8 @@ inline bool int_plane(const VmScreenTri* t, long* A, long* B, long* C) {
   if (t->plane_k == VM_PLANE_FREE) return false;
   long n0 = (long)ldexp(t->q[0], t->plane_k), n1 = (long)ldexp(t->q[1], t->plane_k) - n0,
        n2 = (long)ldexp(t->q[2], t->plane_k) - n0;
-  long dx1 = t->x[1] - t->x[0], dy1 = t->y[1] - t->y[0], dx2 = t->x[2] - t->x[0], dy2 = t->y[2] - t->y[0];
+  long dx1 = t->x[1] - t->x[0], dy1 = t->y[1] - t->y[0], dx2 = t->x[2] - t->x[0],
+       dy2 = t->y[2] - t->y[0];
   double det = (double)(dx1 * dy2 - dx2 * dy1);
   long a = (long)rint(i128_to_double(i128_sub(i128_mul64(n1, dy2), i128_mul64(n2, dy1))) / det);
   long b = (long)rint(i128_to_double(i128_sub(i128_mul64(n2, dx1), i128_mul64(n1, dx2))) / det);

@@ -27,7 +27,9 @@ inline i128 i128_neg(i128 a) {
   return r;
 }
 
-inline i128 i128_sub(i128 a, i128 b) { return i128_add(a, i128_neg(b)); }
+inline i128 i128_sub(i128 a, i128 b) {
+  return i128_add(a, i128_neg(b));
+}
 
 inline int i128_sign(i128 a) {
   if (a.hi < 0) return -1;
@@ -44,7 +46,7 @@ inline double i128_to_double(i128 a) {
 }
 
 /* Signed 256-bit integers, two's complement in four 64-bit limbs (w[0] lowest), for the exact
- * rational sample point of a cell thinner than the fine grid (occlude.cl): products of a 64-bit
+ * rational sample point of a cell thinner than the fine grid (occlusion.cl): products of a 64-bit
  * value with up to 2^191 stay below 2^255. Only what that slow path needs. */
 typedef struct {
   ulong w[4];
@@ -87,7 +89,9 @@ inline i256 i256_neg(i256 a) {
   return r;
 }
 
-inline i256 i256_sub(i256 a, i256 b) { return i256_add(a, i256_neg(b)); }
+inline i256 i256_sub(i256 a, i256 b) {
+  return i256_add(a, i256_neg(b));
+}
 
 inline int i256_sign(i256 a) {
   if ((long)a.w[3] < 0) return -1;

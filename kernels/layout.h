@@ -39,7 +39,7 @@ typedef uint64_t vm_u64;
  * for orthographic): larger is closer and it is affine on the screen. After snap_depth_planes,
  * plane_k = k means q[i] = N_i / 2^k with N_i = A (x_i - x_0) + B (y_i - y_0) + N_0 for integers
  * |A|, |B| <= 2^VM_PLANE_SLOPE_BITS and |N_i| <= 2^VM_PLANE_VALUE_BITS: the depth plane is an
- * integer plane over 2^k, so the crossing line of two such triangles is exact (crossing.cl).
+ * integer plane over 2^k, so the crossing line of two such triangles is exact (crossings.cl).
  * VM_PLANE_FREE: the plane could not be snapped within that budget; q is as transformed. */
 typedef struct {
   vm_i32 x[3];
@@ -90,10 +90,36 @@ typedef struct {
   vm_i32 tile_shift;
 } VmGrid;
 
-/* Status flags a kernel can raise (read back by the host). */
+/* Supporting lines per fragment: the program is built with -DVM_MAXL=<n> by the host
+ * (ClRuntime::build), which doubles it and runs the clipping again when a fragment needs more. */
+#ifndef VM_MAXL
+#define VM_MAXL 16
+#endif
+
+/* The frame's totals buffer: a few words every stage may raise or count into, read back by the
+ * host (one small read per clip round brings all of them). */
+#define VM_TOTAL_STATUS 0  /* VM_STATUS_* flags */
+#define VM_TOTAL_SLIVERS 1 /* fragments without interior, dropped (occlusion.cl occlude_thin) */
+#define VM_TOTAL_NEXT 2    /* the next clip round's queue length (clip.cl, scan_to) */
+#define VM_TOTAL_DONE 3    /* fragments a clip round finished (scan_to) */
+#define VM_TOTAL_THIN 4    /* fragments thinner than the fine sample grid (occlusion.cl occlude) */
+#define VM_TOTAL_DEEP 5    /* tournaments of more than VM_TOUR_MAX triangles (occlude_deep) */
+#define VM_TOTAL_PAIRS 6   /* entangled pairs (crossings.cl cross_pairs, scan_to) */
+#define VM_TOTAL_SLOTS 7
+
+/* Status flags a kernel can raise in totals[VM_TOTAL_STATUS] (read back by the host). */
 #define VM_STATUS_LINES_OVERFLOW 1u
 #define VM_STATUS_HASH_FULL 2u
 #define VM_STATUS_PAIRS_OVERFLOW 4u
+
+/* Crossing pairs a screen triangle keeps in its inline scratch slots in the first traversal
+ * (crossings.cl cross_pairs); a triangle with more traverses again into exact space. */
+#define VM_PAIRS_INLINE 4
+
+/* The exclusive scan (scan.cl): VM_SCAN_WG work-items per group, VM_SCAN_PER_ITEM counts each. */
+#define VM_SCAN_WG 256
+#define VM_SCAN_PER_ITEM 8
+#define VM_SCAN_BLOCK (VM_SCAN_WG * VM_SCAN_PER_ITEM)
 
 #ifndef __OPENCL_VERSION__
 static_assert(sizeof(VmScreenTri) == 64, "VmScreenTri layout");
@@ -102,6 +128,14 @@ static_assert(sizeof(VmEdge) == 32, "VmEdge layout");
 static_assert(sizeof(VmLine) == 16, "VmLine layout");
 static_assert(sizeof(VmFragMeta) == 16, "VmFragMeta layout");
 static_assert(sizeof(VmGrid) == 16, "VmGrid layout");
+/* The host reads the totals as VM_TOTAL_SLOTS words, launches scan_blocks with VM_SCAN_WG items
+ * a group (its reqd_work_group_size) and VM_SCAN_BLOCK counts a group, and sizes the pair
+ * scratch by VM_PAIRS_INLINE. */
+static_assert(VM_TOTAL_STATUS == 0 && VM_TOTAL_SLOTS == 7, "totals slots 0..6");
+static_assert(VM_TOTAL_DEEP == VM_TOTAL_THIN + 1, "occlusion reads both in one read");
+static_assert(VM_SCAN_BLOCK == VM_SCAN_WG * VM_SCAN_PER_ITEM && (VM_SCAN_WG & (VM_SCAN_WG - 1)) == 0,
+              "scan blocks of a power-of-two work-group");
+static_assert(VM_PAIRS_INLINE >= 1, "inline pair slots");
 #endif
 
 #endif

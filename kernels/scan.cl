@@ -2,9 +2,7 @@
  * queue's compaction. Two levels: scan_blocks scans VM_SCAN_BLOCK items per work-group and
  * writes each block's total; the host scans the block totals the same way (recursively) and
  * scan_add adds each block's offset. out[n] receives the grand total when n_total_slot is set. */
-#define VM_SCAN_WG 256
-#define VM_SCAN_PER_ITEM 8
-#define VM_SCAN_BLOCK (VM_SCAN_WG * VM_SCAN_PER_ITEM)
+/* VM_SCAN_WG, VM_SCAN_PER_ITEM and VM_SCAN_BLOCK: layout.h (the host launches by them). */
 
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_blocks(
     __global const uint* in, __global uint* out, uint n, __global uint* block_sums) {

@@ -8,19 +8,26 @@ __kernel void transform_vertices(__global const float* pos, uint nv, __constant 
   if (i >= nv) return;
   double x = pos[3 * i], y = pos[3 * i + 1], z = pos[3 * i + 2];
   /* column-major 4x4, as OpenGL */
-  clip[i] = (double4)(m[0] * x + m[4] * y + m[8] * z + m[12], m[1] * x + m[5] * y + m[9] * z + m[13],
-                      m[2] * x + m[6] * y + m[10] * z + m[14], m[3] * x + m[7] * y + m[11] * z + m[15]);
+  clip[i] =
+      (double4)(m[0] * x + m[4] * y + m[8] * z + m[12], m[1] * x + m[5] * y + m[9] * z + m[13],
+                m[2] * x + m[6] * y + m[10] * z + m[14], m[3] * x + m[7] * y + m[11] * z + m[15]);
 }
 
 /* Signed distance to clip plane k (inside >= 0): near, far, left, right, bottom, top. */
 inline double plane_dist(double4 p, int k) {
   switch (k) {
-    case 0: return p.z + p.w;
-    case 1: return p.w - p.z;
-    case 2: return p.x + p.w;
-    case 3: return p.w - p.x;
-    case 4: return p.y + p.w;
-    default: return p.w - p.y;
+    case 0:
+      return p.z + p.w;
+    case 1:
+      return p.w - p.z;
+    case 2:
+      return p.x + p.w;
+    case 3:
+      return p.w - p.x;
+    case 4:
+      return p.y + p.w;
+    default:
+      return p.w - p.y;
   }
 }
 
@@ -35,19 +42,35 @@ inline bool clip_before(double4 a, double4 b) {
  * that two triangles sharing the edge get bit-identical points, then put exactly on the plane. */
 inline void clip_edge(double4 a, float3 ba, double4 b, float3 bb, int k, double4* p, float3* bp) {
   if (clip_before(b, a)) {
-    double4 t4 = a; a = b; b = t4;
-    float3 t3 = ba; ba = bb; bb = t3;
+    double4 t4 = a;
+    a = b;
+    b = t4;
+    float3 t3 = ba;
+    ba = bb;
+    bb = t3;
   }
   double da = plane_dist(a, k), db = plane_dist(b, k);
   double t = da / (da - db);
   double4 r = a + (b - a) * t;
   switch (k) {
-    case 0: r.z = -r.w; break;
-    case 1: r.z = r.w; break;
-    case 2: r.x = -r.w; break;
-    case 3: r.x = r.w; break;
-    case 4: r.y = -r.w; break;
-    default: r.y = r.w; break;
+    case 0:
+      r.z = -r.w;
+      break;
+    case 1:
+      r.z = r.w;
+      break;
+    case 2:
+      r.x = -r.w;
+      break;
+    case 3:
+      r.x = r.w;
+      break;
+    case 4:
+      r.y = -r.w;
+      break;
+    default:
+      r.y = r.w;
+      break;
   }
   *p = r;
   *bp = ba + (bb - ba) * (float)t;
@@ -88,7 +111,8 @@ inline void note_depth_exponents(const VmScreenTri* t, int ortho, __global int* 
     /* Orthographic nearness is -z_ndc in [-1, 1], and a surface may sit at 0: its scale is 1. */
     double scale = ortho ? 1.0 : m;
     long w = 0;
-    for (int j = 1; j < 3; ++j) w = max(w, (long)abs(t->x[j] - t->x[0]) + (long)abs(t->y[j] - t->y[0]));
+    for (int j = 1; j < 3; ++j)
+      w = max(w, (long)abs(t->x[j] - t->x[0]) + (long)abs(t->y[j] - t->y[0]));
     /* (1 + w) / 2^(k+1) <= 2^-F scale  <=>  2^k >= (1 + w) 2^(F-1) / scale */
     double need = ldexp((double)(1 + w) / scale, VM_PLANE_FIDELITY_BITS - 1);
     raise_to(&ex[1], VM_PLANE_BIAS + ilogb(need) + 1);
@@ -99,7 +123,8 @@ inline void note_depth_exponents(const VmScreenTri* t, int ortho, __global int* 
 
 /* Without buckets, over the screen triangles; under --memory-budget clip_cells notes every
  * screen triangle of the frame instead, so that all buckets share one k. */
-__kernel void depth_exponents(__global const VmScreenTri* tris, uint n, int ortho, __global int* ex) {
+__kernel void depth_exponents(__global const VmScreenTri* tris, uint n, int ortho,
+                              __global int* ex) {
   uint i = get_global_id(0);
   if (i >= n) return;
   VmScreenTri t = tris[i];
@@ -107,7 +132,8 @@ __kernel void depth_exponents(__global const VmScreenTri* tris, uint n, int orth
 }
 
 inline int depth_exponent(__global const int* ex) {
-  int slopes = VM_PLANE_BIAS - ex[0], fidelity = ex[1] - VM_PLANE_BIAS, values = VM_PLANE_BIAS - ex[2];
+  int slopes = VM_PLANE_BIAS - ex[0], fidelity = ex[1] - VM_PLANE_BIAS,
+      values = VM_PLANE_BIAS - ex[2];
   return clamp(min(values, max(slopes, fidelity)), -1000, 1000);
 }
 
@@ -129,7 +155,7 @@ __kernel void snap_depth_planes(__global VmScreenTri* tris, uint n, __global con
   }
   for (int j = 0; j < 3; ++j) t.q[j] = ldexp((double)N[j], -k); /* exact: |N| <= 2^52 */
   t.plane_k = k;
-  /* What crossing.cl will read back must be this plane, or the triangle stays free (the
+  /* What crossings.cl will read back must be this plane, or the triangle stays free (the
    * reference takes plane_k as the promise of an exact line). */
   long ra, rb, rc;
   if (!int_plane(&t, &ra, &rb, &rc) || ra != a || rb != b) return;
@@ -220,12 +246,20 @@ inline uint clip_triangle(uint t, __global const uint* idx, __global const doubl
       box = (int4)(min(box.x, bx0), min(box.y, by0), max(box.z, bx1), max(box.w, by1));
     }
     if (o < 0) {
-      int tmp = c1; c1 = c2; c2 = tmp;
+      int tmp = c1;
+      c1 = c2;
+      c2 = tmp;
     }
     VmScreenTri s;
-    s.x[0] = X[a]; s.y[0] = Y[a]; s.q[0] = Q[a];
-    s.x[1] = X[c1]; s.y[1] = Y[c1]; s.q[1] = Q[c1];
-    s.x[2] = X[c2]; s.y[2] = Y[c2]; s.q[2] = Q[c2];
+    s.x[0] = X[a];
+    s.y[0] = Y[a];
+    s.q[0] = Q[a];
+    s.x[1] = X[c1];
+    s.y[1] = Y[c1];
+    s.q[1] = Q[c1];
+    s.x[2] = X[c2];
+    s.y[2] = Y[c2];
+    s.q[2] = Q[c2];
     if (depth_ex) note_depth_exponents(&s, ortho, depth_ex);
     if (write) {
       s.mesh = tri_mesh[t];
@@ -268,8 +302,8 @@ __kernel void clip_count(__global const uint* idx, uint ntri, __global const dou
   if (t >= ntri) return;
   VmGrid none = {0, 0, 0, 0};
   counts[t] = box_meets(boxes, use_boxes, t, region)
-                  ? clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho,
-                                  region, 0, 0, 0, 0, none, 0, 0, 0)
+                  ? clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height,
+                                  ortho, region, 0, 0, 0, 0, none, 0, 0, 0)
                   : 0;
 }
 

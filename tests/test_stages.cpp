@@ -11,7 +11,9 @@
 #include <set>
 
 #include "core/cl_runtime.h"
+#include "core/error.h"
 #include "core/pipeline.h"
+#include "core/stages/bin.h"
 #include "tests/support/triangle_scene.h"
 #include "kernels/layout.h"
 
@@ -40,7 +42,7 @@ TEST(Stages, ScanMatchesHost) {
     std::vector<uint32_t> c(n);
     for (auto& x : c) x = rng() % 5;
     cl::Buffer in = rt.upload(c, "counts"), out = rt.alloc(n * 4, "offsets");
-    uint32_t total = rt.scan("test", in, out, n);
+    uint32_t total = rt.scan(Stage::Test, in, out, n);
     std::vector<uint32_t> expect(n);
     std::exclusive_scan(c.begin(), c.end(), expect.begin(), 0u);
     EXPECT_EQ(total, expect.back() + c.back()) << n;
@@ -68,34 +70,13 @@ TEST(Stages, AdaptiveLeavesListEveryBoxAndOwnEveryPairOnce) {
   }
   const uint32_t n = uint32_t(boxes.size()), ntiles = tiles_x * tiles_y;
   cl::Buffer bb = rt.upload(boxes, "boxes");
-  cl::Buffer count = rt.alloc(ntiles * 4, "c"), offset = rt.alloc(ntiles * 4, "o"),
-             cursor = rt.alloc(ntiles * 4, "k");
-  rt.fill_u32(count, 0, ntiles, "test");
-  rt.fill_u32(cursor, 0, ntiles, "test");
-  cl::Buffer tile_leaf = rt.alloc(ntiles * 4, "tl"), per_tile = rt.alloc(ntiles * 4, "pt"),
-             first = rt.alloc(ntiles * 4, "f");
-  rt.launch("test", "leaf_identity", ntiles, ntiles, tile_leaf);  // the coarse pass: a leaf per tile
-  rt.launch("test", "leaf_bin", n, bb, n, g, tile_leaf, count, count, count, count, cl_int(0));
-  uint32_t entries = rt.scan("test", count, offset, ntiles);
-  cl::Buffer list = rt.alloc(entries * 4, "list");
-  rt.launch("test", "leaf_bin", n, bb, n, g, tile_leaf, count, offset, cursor, list, cl_int(1));
-  rt.launch("test", "bin_depth", ntiles, offset, count, ntiles, bb, g, list, tile_leaf, per_tile);
-  const uint32_t nleaves = rt.scan("test", per_tile, first, ntiles);
-  rt.launch("test", "bin_pack", ntiles, ntiles, first, tile_leaf);
+  // The bin stage's own host code (core/stages/bin.cpp): coarse pass, depths, leaves.
+  stages::Leaves lv = stages::bin_leaves(rt, bb, n, g);
+  const uint32_t nleaves = lv.leaves, lentries = lv.entries;
   ASSERT_GT(nleaves, ntiles) << "the crowded tile should split";
-  cl::Buffer lcount = rt.alloc(nleaves * 4, "lc"), loffset = rt.alloc(nleaves * 4, "lo"),
-             lcursor = rt.alloc(nleaves * 4, "lk");
-  rt.fill_u32(lcount, 0, nleaves, "test");
-  rt.fill_u32(lcursor, 0, nleaves, "test");
-  rt.launch("test", "leaf_bin", n, bb, n, g, tile_leaf, lcount, lcount, lcount, lcount, cl_int(0));
-  const uint32_t lentries = rt.scan("test", lcount, loffset, nleaves);
-  cl::Buffer llist = rt.alloc(lentries * 4, "ll");
-  rt.launch("test", "leaf_bin", n, bb, n, g, tile_leaf, lcount, loffset, lcursor, llist, cl_int(1));
-  cl::Buffer cstart = rt.alloc(nleaves * sizeof(cl_uint4), "cs");
-  rt.launch("test", "leaf_sort_classes", ntiles, ntiles, tile_leaf, loffset, lcount, llist, cstart);
-  auto tl = read<uint32_t>(rt, tile_leaf, ntiles), loff = read<uint32_t>(rt, loffset, nleaves);
-  auto got = read<uint32_t>(rt, llist, lentries);
-  auto cs = read<cl_uint4>(rt, cstart, nleaves);
+  auto tl = read<uint32_t>(rt, lv.tile_leaf, ntiles), loff = read<uint32_t>(rt, lv.offset, nleaves);
+  auto got = read<uint32_t>(rt, lv.list, lentries);
+  auto cs = read<cl_uint4>(rt, lv.class_start, nleaves);
 
   // Host model: leaf coordinates per tile, an item's leaves, its class in a leaf.
   auto tc = [](int v, int count) { return std::clamp(v >> 6, 0, count - 1); };
@@ -374,6 +355,34 @@ TEST(Stages, HostSyncsAreOnePerClipRoundPlusAFewPerStage) {
     EXPECT_GT(stats.host_syncs, stats.clip_rounds) << "fold " << fold;
     EXPECT_LE(stats.host_syncs, stats.clip_rounds + 14) << "fold " << fold;
   }
+}
+
+
+// Launch errors name the kernel and the stage: a wrong argument count is caught before anything
+// is set (CL_KERNEL_NUM_ARGS), and an argument the runtime refuses names its index.
+TEST(Stages, LaunchErrorsNameKernelAndStage) {
+  ClRuntime& rt = runtime();
+  cl::Buffer b = rt.alloc(64, "b");
+  try {
+    rt.launch(Stage::Bin, "leaf_identity", 4, cl_uint(4));  // takes (ntiles, tile_leaf)
+    FAIL() << "a launch with too few arguments must throw";
+  } catch (const DeviceError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("leaf_identity"), std::string::npos) << m;
+    EXPECT_NE(m.find("stage bin"), std::string::npos) << m;
+    EXPECT_NE(m.find("1 arguments; the kernel takes 2"), std::string::npos) << m;
+  }
+  try {
+    rt.launch(Stage::Clip, "leaf_identity", 4, b, b);  // a buffer where a uint goes
+    FAIL() << "an argument of the wrong size must throw";
+  } catch (const DeviceError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("leaf_identity"), std::string::npos) << m;
+    EXPECT_NE(m.find("stage clip"), std::string::npos) << m;
+    EXPECT_NE(m.find("argument 0"), std::string::npos) << m;
+  }
+  rt.launch(Stage::Test, "leaf_identity", 4, cl_uint(4), b);  // the right call still works
+  rt.queue().finish();
 }
 
 }  // namespace

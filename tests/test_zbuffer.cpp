@@ -1,4 +1,4 @@
-// The z-buffer floor (Renderer::raster_ids, kernels/zbuffer.cl): the plain id raster the
+// The z-buffer floor (Renderer::raster_ids, kernels/raster.cl): the plain id raster the
 // pipeline's time is compared against in bench/. It must see the same scene as the pipeline.
 #include <gtest/gtest.h>
 

@@ -23,7 +23,8 @@ inline i128 to_i128(const Int128Parts& p) {
 }
 inline Big big(i128 v) {
   bool neg = v < 0;
-  unsigned __int128 m = neg ? -static_cast<unsigned __int128>(v) : static_cast<unsigned __int128>(v);
+  unsigned __int128 m =
+      neg ? -static_cast<unsigned __int128>(v) : static_cast<unsigned __int128>(v);
   Big r = Big(static_cast<uint64_t>(m >> 64));
   r <<= 64;
   r += static_cast<uint64_t>(m);
@@ -31,7 +32,8 @@ inline Big big(i128 v) {
 }
 inline mpz_class mpz(i128 v) {
   bool neg = v < 0;
-  unsigned __int128 m = neg ? -static_cast<unsigned __int128>(v) : static_cast<unsigned __int128>(v);
+  unsigned __int128 m =
+      neg ? -static_cast<unsigned __int128>(v) : static_cast<unsigned __int128>(v);
   mpz_class r = static_cast<unsigned long>(static_cast<uint64_t>(m >> 64));
   r <<= 64;
   r += static_cast<unsigned long>(static_cast<uint64_t>(m));

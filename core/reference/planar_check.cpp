@@ -1,7 +1,6 @@
 // check_planar_map and pixel_compare (docs/CHECKS.md). Exact predicates from exact_geom.h; the
 // union of the screen triangles comes from reference.cpp (the CGAL translation unit).
 #include "core/reference/planar_check.h"
-#include "core/clock.h"
 
 #include <algorithm>
 #include <chrono>
@@ -12,6 +11,7 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "core/clock.h"
 #include "core/reference/exact_geom.h"
 #include "kernels/layout.h"
 
@@ -29,8 +29,8 @@ std::vector<QPoint> clip_left(const std::vector<QPoint>& poly, const QPoint& a, 
     if (sgn(s[i]) >= 0) out.push_back(poly[i]);
     if ((sgn(s[i]) > 0 && sgn(s[j]) < 0) || (sgn(s[i]) < 0 && sgn(s[j]) > 0)) {
       mpq_class t = s[i] / (s[i] - s[j]);
-      out.push_back(QPoint{poly[i].x + t * (poly[j].x - poly[i].x),
-                           poly[i].y + t * (poly[j].y - poly[i].y)});
+      out.push_back(
+          QPoint{poly[i].x + t * (poly[j].x - poly[i].x), poly[i].y + t * (poly[j].y - poly[i].y)});
     }
   }
   return out;
@@ -38,7 +38,8 @@ std::vector<QPoint> clip_left(const std::vector<QPoint>& poly, const QPoint& a, 
 
 mpq_class convex_intersection_area2(const std::vector<QPoint>& p, const std::vector<QPoint>& q) {
   std::vector<QPoint> r = p;
-  for (size_t i = 0, n = q.size(); i < n && r.size() >= 3; ++i) r = clip_left(r, q[i], q[(i + 1) % n]);
+  for (size_t i = 0, n = q.size(); i < n && r.size() >= 3; ++i)
+    r = clip_left(r, q[i], q[(i + 1) % n]);
   if (r.size() < 3) return 0;
   return area2(r);
 }
@@ -63,7 +64,9 @@ using namespace detail;
 
 namespace {
 
-uint64_t source_key(uint32_t mesh, uint32_t tri) { return (uint64_t(mesh) << 32) | tri; }
+uint64_t source_key(uint32_t mesh, uint32_t tri) {
+  return (uint64_t(mesh) << 32) | tri;
+}
 
 // The map's fragments as exact homogeneous polygons in grid units, consecutive duplicate
 // vertices removed.
@@ -82,7 +85,8 @@ Fragments load_fragments(const PlanarMap& map, uint32_t screen_gs, bool use_exac
   Fragments fr;
   fr.gs = map.grid_scale ? map.grid_scale : (screen_gs ? screen_gs : 1);
   size_t nv = map.vertex_count();
-  fr.exact = use_exact && map.hx.size() == nv && map.hy.size() == nv && map.hw.size() == nv && nv > 0;
+  fr.exact =
+      use_exact && map.hx.size() == nv && map.hy.size() == nv && map.hw.size() == nv && nv > 0;
   size_t nf = map.fragment_count();
   fr.begin.assign(1, 0);
   fr.bad.assign(nf, 0);
@@ -241,8 +245,12 @@ void for_each_box_pair(const std::vector<Box>& boxes, const std::vector<uint32_t
   uint32_t gx = static_cast<uint32_t>(std::min(4096.0, std::floor(w / cell) + 1));
   uint32_t gy = static_cast<uint32_t>(std::min(4096.0, std::floor(h / cell) + 1));
   double sx = gx / (w > 0 ? w : 1), sy = gy / (h > 0 ? h : 1);
-  auto cx = [&](double x) { return std::min<uint32_t>(gx - 1, static_cast<uint32_t>(std::max(0.0, (x - all.x0) * sx))); };
-  auto cy = [&](double y) { return std::min<uint32_t>(gy - 1, static_cast<uint32_t>(std::max(0.0, (y - all.y0) * sy))); };
+  auto cx = [&](double x) {
+    return std::min<uint32_t>(gx - 1, static_cast<uint32_t>(std::max(0.0, (x - all.x0) * sx)));
+  };
+  auto cy = [&](double y) {
+    return std::min<uint32_t>(gy - 1, static_cast<uint32_t>(std::max(0.0, (y - all.y0) * sy)));
+  };
   std::vector<uint32_t> start(size_t(gx) * gy + 1, 0), items;
   for (int pass = 0; pass < 2; ++pass) {  // count, scan, fill
     std::vector<uint32_t> fill;
@@ -256,8 +264,10 @@ void for_each_box_pair(const std::vector<Box>& boxes, const std::vector<uint32_t
       for (uint32_t y = cy(b.y0); y <= cy(b.y1); ++y)
         for (uint32_t x = cx(b.x0); x <= cx(b.x1); ++x) {
           size_t c = size_t(y) * gx + x;
-          if (pass == 0) ++start[c + 1];
-          else items[fill[c]++] = i;
+          if (pass == 0)
+            ++start[c + 1];
+          else
+            items[fill[c]++] = i;
         }
     }
     if (pass == 1) {
@@ -297,7 +307,9 @@ bool in_triangle(const HPoint* t, const HPoint& p) {
   return orient(t[0], t[1], p) >= 0 && orient(t[1], t[2], p) >= 0 && orient(t[2], t[0], p) >= 0;
 }
 
-double to_pixels2(const AreaSum& twice, uint32_t gs) { return twice.value() / 2 / (double(gs) * gs); }
+double to_pixels2(const AreaSum& twice, uint32_t gs) {
+  return twice.value() / 2 / (double(gs) * gs);
+}
 
 }  // namespace
 
@@ -308,8 +320,8 @@ bool CheckReport::ok(double coverage_tolerance) const {
 
 std::string CheckReport::summary() const {
   std::ostringstream o;
-  o << "planar map check (" << (exact ? "exact vertices" : "rounded vertices") << "): "
-    << fragments << " fragments, " << screen_triangles << " screen triangles\n"
+  o << "planar map check (" << (exact ? "exact vertices" : "rounded vertices") << "): " << fragments
+    << " fragments, " << screen_triangles << " screen triangles\n"
     << "  degenerate " << degenerate << ", non-convex " << nonconvex << "\n"
     << "  output area " << output_area << " px^2, union area " << union_area
     << " px^2, coverage error " << coverage_error << "\n"
@@ -361,7 +373,8 @@ CheckReport check_planar_map(const PlanarMap& map, const ScreenTriangles& screen
       if (separated_by_edges(fr.poly(a), fr.count(a), fr.poly(b), fr.count(b)) ||
           separated_by_edges(fr.poly(b), fr.count(b), fr.poly(a), fr.count(a)))
         return;
-      mpq_class a2 = convex_intersection_area2(to_q(fr.poly(a), fr.count(a)), to_q(fr.poly(b), fr.count(b)));
+      mpq_class a2 =
+          convex_intersection_area2(to_q(fr.poly(a), fr.count(a)), to_q(fr.poly(b), fr.count(b)));
       if (sgn(a2) > 0) {
         ++r.overlap_pairs;
         overlap.add(a2);
@@ -425,7 +438,7 @@ CheckReport check_planar_map(const PlanarMap& map, const ScreenTriangles& screen
 
 namespace {
 
-// The tie rule pair by pair, as the pipeline applies it (kernels/crossing.cl pair_relation) and
+// The tie rule pair by pair, as the pipeline applies it (kernels/crossings.cl pair_relation) and
 // the reference does (reference.cpp): over the overlap of the two footprints the depth
 // difference d = depth_a - depth_b; +1: a in front over all of it, -1: b in front, 0: the
 // planes cross beyond the band (decide point by point).
@@ -442,7 +455,8 @@ int pair_order(const ScreenTriangles& s, size_t a, size_t b) {
     y0 = v[1];
   };
   std::vector<std::pair<double, double>> poly;
-  for (int k = 0; k < 3; ++k) poly.push_back({double(s.xy[6 * a + 2 * k]), double(s.xy[6 * a + 2 * k + 1])});
+  for (int k = 0; k < 3; ++k)
+    poly.push_back({double(s.xy[6 * a + 2 * k]), double(s.xy[6 * a + 2 * k + 1])});
   const int32_t* w = &s.xy[6 * b];
   double orient = double(w[2] - w[0]) * (w[5] - w[1]) - double(w[3] - w[1]) * (w[4] - w[0]);
   for (int e = 0; e < 3 && !poly.empty(); ++e) {
@@ -517,7 +531,8 @@ PixelReport pixel_compare(const PlanarMap& map, const ScreenTriangles& screen, u
   // Sample (i, j) is at ((2i+1)·width·gs, (2j+1)·height·gs) / (2n) grid units: exact as HPoint.
   const double sx = double(map.width) * gs / n, sy = double(map.height) * gs / n;
   auto sample = [&](uint32_t i, uint32_t j) {
-    return make_point(i128(2 * i + 1) * map.width * gs, i128(2 * j + 1) * map.height * gs, i128(2) * n);
+    return make_point(i128(2 * i + 1) * map.width * gs, i128(2 * j + 1) * map.height * gs,
+                      i128(2) * n);
   };
   auto range = [&](double lo, double hi, double s, uint32_t& a, uint32_t& b) {
     double fa = std::ceil(lo / s - 0.5 - 1e-9), fb = std::floor(hi / s - 0.5 + 1e-9);
@@ -540,7 +555,8 @@ PixelReport pixel_compare(const PlanarMap& map, const ScreenTriangles& screen, u
     const HPoint* p = &st.tri[3 * t];
     double x0 = std::min({p[0].x, p[1].x, p[2].x}), x1 = std::max({p[0].x, p[1].x, p[2].x});
     double y0 = std::min({p[0].y, p[1].y, p[2].y}), y1 = std::max({p[0].y, p[1].y, p[2].y});
-    for (int k = 0; k < 3; ++k) mark_edge(near, n, sx, sy, p[k].x, p[k].y, p[(k + 1) % 3].x, p[(k + 1) % 3].y);
+    for (int k = 0; k < 3; ++k)
+      mark_edge(near, n, sx, sy, p[k].x, p[k].y, p[(k + 1) % 3].x, p[(k + 1) % 3].y);
     uint32_t i0, i1, j0, j1;
     if (!range(x0, x1, sx, i0, i1) || !range(y0, y1, sy, j0, j1)) continue;
     // Depth plane from the original vertex order.
@@ -583,7 +599,8 @@ PixelReport pixel_compare(const PlanarMap& map, const ScreenTriangles& screen, u
     size_t m = fr.count(f);
     if (m < 3) continue;
     Box b = bbox(p, m);
-    for (size_t k = 0; k < m; ++k) mark_edge(near, n, sx, sy, p[k].x, p[k].y, p[(k + 1) % m].x, p[(k + 1) % m].y);
+    for (size_t k = 0; k < m; ++k)
+      mark_edge(near, n, sx, sy, p[k].x, p[k].y, p[(k + 1) % m].x, p[(k + 1) % m].y);
     uint32_t i0, i1, j0, j1;
     if (!range(b.x0, b.x1, sx, i0, i1) || !range(b.y0, b.y1, sy, j0, j1)) continue;
     uint64_t key = source_key(map.mesh[f], map.triangle[f]);

@@ -7,8 +7,8 @@
 
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <map>
 #include <sstream>
 #include <stdexcept>
@@ -28,7 +28,9 @@ using Point = K::Point_2;
 using Poly = CGAL::Polygon_2<K>;
 using PolyH = CGAL::Polygon_with_holes_2<K>;
 using PSet = CGAL::Polygon_set_2<K>;
-uint64_t source_key(uint32_t mesh, uint32_t tri) { return (uint64_t(mesh) << 32) | tri; }
+uint64_t source_key(uint32_t mesh, uint32_t tri) {
+  return (uint64_t(mesh) << 32) | tri;
+}
 
 mpq_class to_mpq(const FT& v) {
   std::ostringstream os;
@@ -41,7 +43,8 @@ mpq_class to_mpq(const FT& v) {
 // Exactly, from 32-bit pieces (each an exact double).
 FT to_ft(detail::i128 v) {
   bool neg = v < 0;
-  unsigned __int128 m = neg ? -static_cast<unsigned __int128>(v) : static_cast<unsigned __int128>(v);
+  unsigned __int128 m =
+      neg ? -static_cast<unsigned __int128>(v) : static_cast<unsigned __int128>(v);
   FT r = 0;
   for (int k = 3; k >= 0; --k) r = r * FT(4294967296.0) + FT(double(uint32_t(m >> (32 * k))));
   return neg ? -r : r;
@@ -92,9 +95,11 @@ Poly clip_halfplane(const Poly& tri, const FT& a, const FT& b, const FT& c) {
     size_t j = (i + 1) % n;
     CGAL::Sign si = CGAL::sign(s[i]), sj = CGAL::sign(s[j]);
     if (si != CGAL::NEGATIVE) out.push_back(tri[i]);
-    if ((si == CGAL::POSITIVE && sj == CGAL::NEGATIVE) || (si == CGAL::NEGATIVE && sj == CGAL::POSITIVE)) {
+    if ((si == CGAL::POSITIVE && sj == CGAL::NEGATIVE) ||
+        (si == CGAL::NEGATIVE && sj == CGAL::POSITIVE)) {
       FT t = s[i] / (s[i] - s[j]);
-      out.push_back(Point(tri[i].x() + t * (tri[j].x() - tri[i].x()), tri[i].y() + t * (tri[j].y() - tri[i].y())));
+      out.push_back(Point(tri[i].x() + t * (tri[j].x() - tri[i].x()),
+                          tri[i].y() + t * (tri[j].y() - tri[i].y())));
     }
   }
   return out;
@@ -156,7 +161,7 @@ struct ReferenceResult::Impl {
 
 namespace {
 
-// The pipeline rounds a crossing line to integers (crossing.cl pair_relation): along the axis u
+// The pipeline rounds a crossing line to integers (crossings.cl pair_relation): along the axis u
 // on which the true line's slope m is <= 1, the line n v + p u + c = 0 with n >= 2^23 - 255,
 // p = round(m n), and c = round(the exact c at the overlap's rounded centre column uc). So at
 // every u of the overlap its v is within |c - c_exact| / n + |p / n - m| |u - uc|
@@ -168,8 +173,8 @@ namespace {
 // v units. The band is the part of the overlap within that
 // many v units of the exact line: outside every band the map must be exactly right
 // (docs/NUMERICS.md §2), inside one a cell may lie wholly on the wrong side of the true line.
-Poly snap_band(const Poly& overlap, const Poly& to, const Poly& tt, const Plane& po, const Plane& pt,
-               double* half_width) {
+Poly snap_band(const Poly& overlap, const Poly& to, const Poly& tt, const Plane& po,
+               const Plane& pt, double* half_width) {
   FT a = po.a - pt.a, b = po.b - pt.b, c = po.c - pt.c;
   bool along_x = CGAL::abs(b) >= CGAL::abs(a);
   FT q = CGAL::abs(along_x ? b : a);
@@ -180,7 +185,8 @@ Poly snap_band(const Poly& overlap, const Poly& to, const Poly& tt, const Plane&
   }
   for (const Poly* p : {&to, &tt})
     for (size_t i = 0; i < p->size(); ++i)
-      xy = std::max(xy, std::abs(CGAL::to_double((*p)[i].x())) + std::abs(CGAL::to_double((*p)[i].y())));
+      xy = std::max(
+          xy, std::abs(CGAL::to_double((*p)[i].x())) + std::abs(CGAL::to_double((*p)[i].y())));
   const double n_min = double((1 << 23) - 255);
   double h = (umax - umin) / 2 + 1.5;
   double scale = 0;
@@ -197,7 +203,7 @@ Poly snap_band(const Poly& overlap, const Poly& to, const Poly& tt, const Plane&
 }
 
 // Is the pipeline's crossing line of t and o exact? When both depth planes were snapped to
-// integers over the same 2^k (transform.cl snap_depth_planes), crossing.cl pair_relation takes
+// integers over the same 2^k (transform.cl snap_depth_planes), crossings.cl pair_relation takes
 // their difference as the line: no snap band.
 bool exact_line(const ScreenTriangles& screen, size_t t, size_t o) {
   if (screen.plane_k.size() != screen.size()) return false;
@@ -218,13 +224,14 @@ ReferenceResult exact_visibility(const ScreenTriangles& screen) {
     tri[t] = screen_triangle(screen, t);
     plane[t] = depth_plane(screen, t);
     const int32_t* v = &screen.xy[6 * t];
-    box[t] = {std::min({v[0], v[2], v[4]}), std::min({v[1], v[3], v[5]}), std::max({v[0], v[2], v[4]}),
-              std::max({v[1], v[3], v[5]})};
+    box[t] = {std::min({v[0], v[2], v[4]}), std::min({v[1], v[3], v[5]}),
+              std::max({v[0], v[2], v[4]}), std::max({v[1], v[3], v[5]})};
   }
   // Bounding-box filter: sweep over x.
   std::vector<uint32_t> by_x(n);
   for (size_t t = 0; t < n; ++t) by_x[t] = uint32_t(t);
-  std::sort(by_x.begin(), by_x.end(), [&](uint32_t a, uint32_t b) { return box[a][0] < box[b][0]; });
+  std::sort(by_x.begin(), by_x.end(),
+            [&](uint32_t a, uint32_t b) { return box[a][0] < box[b][0]; });
 
   ReferenceResult r;
   std::vector<Poly> bands;
@@ -236,7 +243,8 @@ ReferenceResult exact_visibility(const ScreenTriangles& screen) {
     std::vector<Poly> occluders;
     for (uint32_t o : by_x) {
       if (box[o][0] >= box[t][2]) break;
-      if (o == t || box[o][2] <= box[t][0] || box[o][1] >= box[t][3] || box[o][3] <= box[t][1]) continue;
+      if (o == t || box[o][2] <= box[t][0] || box[o][1] >= box[t][3] || box[o][3] <= box[t][1])
+        continue;
       FT a = plane[o].a - plane[t].a, b = plane[o].b - plane[t].b, c = plane[o].c - plane[t].c;
       uint64_t ko = source_key(screen.mesh[o], screen.triangle[o]);
       // The tie rule (DESIGN §3), pair by pair as the pipeline applies it: over the overlap R of
@@ -269,7 +277,8 @@ ReferenceResult exact_visibility(const ScreenTriangles& screen) {
         continue;
       }
       Poly part = clip_halfplane(tri[o], a, b, c);
-      if (part.size() >= 3 && part.is_simple() && !CGAL::is_zero(part.area())) occluders.push_back(part);
+      if (part.size() >= 3 && part.is_simple() && !CGAL::is_zero(part.area()))
+        occluders.push_back(part);
       if (t < o) ++r.crossing_pairs;
       if (t < o && !exact_line(screen, t, o)) {
         ++r.rounded_crossing_pairs;
@@ -299,7 +308,7 @@ ReferenceResult exact_visibility(const ScreenTriangles& screen) {
   // only through the tie rule, when a pair ordered by one side of the band over its whole
   // overlap (exactly in front of each other by less than the band somewhere) and crossings
   // with a third surface at that place make the order at a point cyclic. There the definition
-  // has no answer (the pipeline's tournament picks one, occlude.cl wins_cycle); such regions
+  // has no answer (the pipeline's tournament picks one, occlusion.cl wins_cycle); such regions
   // are reported and left out of what must be exact (docs/NUMERICS.md §3).
   if (n > 0) {
     PSet covered;
@@ -327,11 +336,13 @@ ReferenceReport compare_with_reference(const PlanarMap& map, const ScreenTriangl
   r.exact = map.hx.size() == nv && map.hy.size() == nv && map.hw.size() == nv && nv > 0;
   uint32_t gs = ref.gs;
   if (map.grid_scale && map.grid_scale != gs)
-    throw std::invalid_argument("compare_with_reference: map and screen triangles differ in grid_scale");
+    throw std::invalid_argument(
+        "compare_with_reference: map and screen triangles differ in grid_scale");
 
   // visible(source): union of its screen triangles' visible regions.
   std::map<uint64_t, PSet> visible;
-  for (size_t t = 0; t < screen.size(); ++t) visible[source_key(screen.mesh[t], screen.triangle[t])].join(ref.visible[t]);
+  for (size_t t = 0; t < screen.size(); ++t)
+    visible[source_key(screen.mesh[t], screen.triangle[t])].join(ref.visible[t]);
 
   std::map<uint64_t, PSet> output;
   FT total_visible = 0, xor_area = 0, xor_outside = 0;
@@ -352,11 +363,14 @@ ReferenceReport compare_with_reference(const PlanarMap& map, const ScreenTriangl
       } else {
         q = Point(FT(map.xy[2 * v]) * FT(int(gs)), FT(map.xy[2 * v + 1]) * FT(int(gs)));
       }
-      if (p.size() > 0 && (p.vertices_end() - 1)->x() == q.x() && (p.vertices_end() - 1)->y() == q.y()) continue;
+      if (p.size() > 0 && (p.vertices_end() - 1)->x() == q.x() &&
+          (p.vertices_end() - 1)->y() == q.y())
+        continue;
       p.push_back(q);
     }
     while (p.size() > 1 && p[0] == p[p.size() - 1]) p.erase(p.vertices_end() - 1);
-    if (p.size() < 3 || !p.is_simple() || CGAL::is_zero(p.area())) continue;  // check_planar_map counts these
+    if (p.size() < 3 || !p.is_simple() || CGAL::is_zero(p.area()))
+      continue;  // check_planar_map counts these
     if (p.orientation() == CGAL::CLOCKWISE) p.reverse_orientation();
     uint64_t key = source_key(map.mesh[f], map.triangle[f]);
     output[key].join(p);
@@ -381,7 +395,8 @@ ReferenceReport compare_with_reference(const PlanarMap& map, const ScreenTriangl
     if (out > a / 2) ++r.wrong_source;
     if (r.exact ? CGAL::is_positive(out) : out > a * 1e-9) ++r.partly_outside;
     // Is what is left all inside snap bands?
-    if (CGAL::is_positive(out) && CGAL::is_positive(outside_bands(std::move(wrong)))) ++r.wrong_outside_band;
+    if (CGAL::is_positive(out) && CGAL::is_positive(outside_bands(std::move(wrong))))
+      ++r.wrong_outside_band;
   }
   for (auto& [key, vis] : visible) {
     total_visible += area(vis);

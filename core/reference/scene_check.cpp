@@ -1,17 +1,18 @@
 #include "core/reference/scene_check.h"
-#include "core/clock.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 
+#include "core/clock.h"
 #include "core/reference/planar_check.h"
 
 namespace vismap::check {
 
 SceneFigures check_scene(Renderer& renderer, const Scene& scene, const Camera& camera,
-                         const SceneCheckOptions& o, PlanarMap* map_out, ScreenTriangles* screen_out) {
+                         const SceneCheckOptions& o, PlanarMap* map_out,
+                         ScreenTriangles* screen_out) {
   SceneFigures f;
   RenderOptions ro;
   ro.exact = true;
@@ -27,8 +28,10 @@ SceneFigures check_scene(Renderer& renderer, const Scene& scene, const Camera& c
   f.fragments = map.fragment_count();
   f.thin_fragments = st.thin_fragments;
   f.sliver_fragments = st.sliver_fragments;
+  f.deep_tournaments = st.deep_tournaments;
   f.crossing_lines = st.crossing_lines;
-  f.free_planes = size_t(std::count(screen.plane_k.begin(), screen.plane_k.end(), ScreenTriangles::kFreePlane));
+  f.free_planes =
+      size_t(std::count(screen.plane_k.begin(), screen.plane_k.end(), ScreenTriangles::kFreePlane));
 
   double perimeter = 0;  // grid units
   for (size_t t = 0; t < screen.size(); ++t)
@@ -64,7 +67,8 @@ SceneFigures check_scene(Renderer& renderer, const Scene& scene, const Camera& c
     f.snap_band = cmp.snap_band;
     f.crossing_pairs = ref.crossing_pairs;
     f.rounded_crossing_pairs = ref.rounded_crossing_pairs;
-    f.tie_cycle_area = ref.total_visible_area > 0 ? ref.tie_cycle_area / ref.total_visible_area : 0.0;
+    f.tie_cycle_area =
+        ref.total_visible_area > 0 ? ref.tie_cycle_area / ref.total_visible_area : 0.0;
   }
   if (o.pixels) {
     PixelReport px = pixel_compare(map, screen, o.pixels);
@@ -99,7 +103,8 @@ std::vector<std::string> over_tolerance(const SceneFigures& f, const Tolerances&
   // Only rounded crossing lines (a depth plane not snapped to integers) leave snap-level error;
   // without the reference, every crossing line is assumed to be one.
   const bool crossing =
-      (f.rounded_crossing_pairs ? *f.rounded_crossing_pairs > 0 : f.crossing_lines > 0) && !t.strict;
+      (f.rounded_crossing_pairs ? *f.rounded_crossing_pairs > 0 : f.crossing_lines > 0) &&
+      !t.strict;
   // Tie cycles (covered, no answer in the reference) count in area_error; they are allowed
   // for, unless --strict.
   const double cycles = t.strict ? 0.0 : f.tie_cycle_area.value_or(0.0);
@@ -122,8 +127,10 @@ std::vector<std::string> over_tolerance(const SceneFigures& f, const Tolerances&
 nlohmann::ordered_json to_json(const SceneFigures& f) {
   nlohmann::ordered_json j;
   auto put = [&](const char* k, const auto& v) {
-    if (v) j[k] = *v;
-    else j[k] = nullptr;
+    if (v)
+      j[k] = *v;
+    else
+      j[k] = nullptr;
   };
   put("area_error", f.area_error);
   put("overlap_area", f.overlap_area);
@@ -153,6 +160,7 @@ nlohmann::ordered_json to_json(const SceneFigures& f) {
   j["fragments"] = f.fragments;
   j["thin_fragments"] = f.thin_fragments;
   j["sliver_fragments"] = f.sliver_fragments;
+  j["deep_tournaments"] = f.deep_tournaments;
   j["crossing_lines"] = f.crossing_lines;
   put("crossing_pairs", f.crossing_pairs);
   put("rounded_crossing_pairs", f.rounded_crossing_pairs);
@@ -184,7 +192,8 @@ std::pair<uint32_t, uint32_t> ReversedScene::original(uint32_t mesh, uint32_t tr
   return {mesh_of[mesh], tri_count[mesh] - 1 - tri};
 }
 
-std::vector<CanonicalFragment> canonical_fragments(const PlanarMap& map, const ReversedScene* rename) {
+std::vector<CanonicalFragment> canonical_fragments(const PlanarMap& map,
+                                                   const ReversedScene* rename) {
   std::vector<CanonicalFragment> out;
   out.reserve(map.fragment_count());
   for (size_t f = 0; f < map.fragment_count(); ++f) {

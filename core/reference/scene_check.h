@@ -4,12 +4,11 @@
 #pragma once
 
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "core/camera.h"
 #include "core/pipeline.h"
@@ -30,8 +29,9 @@ struct SceneCheckOptions {
 struct SceneFigures {
   size_t input_triangles = 0, screen_triangles = 0, fragments = 0, thin_fragments = 0,
          sliver_fragments = 0;
-  size_t crossing_lines = 0;              // clipping lines from penetrating pairs (snapped)
-  double pipeline_ms = 0;                 // Renderer::render wall time
+  size_t deep_tournaments = 0;  // fragments decided by occlude_deep (> VM_TOUR_MAX competitors)
+  size_t crossing_lines = 0;  // clipping lines from penetrating pairs (snapped)
+  double pipeline_ms = 0;     // Renderer::render wall time
   std::optional<double> area_error, xor_area, visible_area;  // vs the exact reference
   std::optional<size_t> wrong_source, partly_outside;
   // The same outside the crossing pairs' snap bands (ReferenceReport): exact with or without
@@ -46,7 +46,7 @@ struct SceneFigures {
   // the visible area: left out of wrong_source and the outside-band figures.
   std::optional<double> tie_cycle_area;
   size_t free_planes = 0;
-  std::optional<double> reference_ms;     // exact_visibility + compare_with_reference
+  std::optional<double> reference_ms;  // exact_visibility + compare_with_reference
   std::optional<double> overlap_area, coverage_error, outside_area;
   std::optional<size_t> overlap_pairs, outside_source, degenerate, nonconvex;
   std::optional<double> invariants_ms;
@@ -64,14 +64,14 @@ struct SceneFigures {
 // fragments on the wrong side of a crossing line (their area is in area_error), but outside the
 // crossing pairs' snap bands the map is still exact (area_error_outside_band, wrong_outside_band).
 struct Tolerances {
-  double exact = 1e-12;         // coverage_error always, area_error without crossing lines
-                                // (rounding of the final quotient and the 2^-96 fixed-point sums)
-  double snap_factor = 1.0;     // with crossing lines: <= snap_factor * snap_area_bound
+  double exact = 1e-12;      // coverage_error always, area_error without crossing lines
+                             // (rounding of the final quotient and the 2^-96 fixed-point sums)
+  double snap_factor = 1.0;  // with crossing lines: <= snap_factor * snap_area_bound
   double overlap_area = 0;
-  size_t wrong_source = 0;      // without crossing lines; wrong_outside_band always
-  double pixel_error = 1e-3;    // interior samples
+  size_t wrong_source = 0;    // without crossing lines; wrong_outside_band always
+  double pixel_error = 1e-3;  // interior samples
   size_t outside_source = 0;
-  bool strict = false;          // `--strict`: no snap-level allowance for crossing lines either
+  bool strict = false;  // `--strict`: no snap-level allowance for crossing lines either
 };
 
 // The figures over tolerance, as "name value > tolerance" strings; empty when all pass.
@@ -96,7 +96,7 @@ ReversedScene reverse_order(const Scene& scene);
 // A map as a sorted list of fragments in canonical form (source ids, then the rounded vertices
 // starting at the smallest), to compare maps up to fragment order. `rename` maps source ids.
 using CanonicalFragment = std::vector<double>;
-std::vector<CanonicalFragment> canonical_fragments(
-    const PlanarMap& map, const ReversedScene* rename = nullptr);
+std::vector<CanonicalFragment> canonical_fragments(const PlanarMap& map,
+                                                   const ReversedScene* rename = nullptr);
 
 }  // namespace vismap::check

@@ -204,7 +204,7 @@ inline bool pair_line_of(uint a, uint b, __global const VmEdge* edges, uint nsil
  * triangles that reach every other one through "hides") is a single triangle where one is
  * unhidden, else a cycle, of which the member in front at the cycle's centre (below) is
  * visible. Every triangle at the point computes the same tournament, so exactly one is visible
- * there; the triple-point entries (crossing.cl) make the answer the same over each fragment.
+ * there; the triple-point entries (crossings.cl) make the answer the same over each fragment.
  * Returns whether t is the visible one. */
 inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris,
                        const VmSample* smp, __global const VmEdge* edges, uint nsil,
@@ -219,7 +219,10 @@ inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris
       VmScreenTri B = tris[ids[j]];
       if (A.mesh == B.mesh && A.tri == B.tri) {
         /* pieces of one source: they only meet on a shared edge; the lower index is in front */
-        if (ids[i] < ids[j]) beats[i] |= (ulong)1 << j; else beats[j] |= (ulong)1 << i;
+        if (ids[i] < ids[j])
+          beats[i] |= (ulong)1 << j;
+        else
+          beats[j] |= (ulong)1 << i;
         continue;
       }
       if (hides(ids[i], ids[j], &A, &B, smp, edges, nsil, cross_offset, cross_count, partner))
@@ -250,7 +253,10 @@ inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris
   for (uint v = 0; v < n; ++v)
     if (top & ((ulong)1 << v)) {
       uint j = k++;
-      while (j > 0 && mem[j - 1] > ids[v]) { mem[j] = mem[j - 1]; --j; }
+      while (j > 0 && mem[j - 1] > ids[v]) {
+        mem[j] = mem[j - 1];
+        --j;
+      }
       mem[j] = ids[v];
     }
   /* The cycle lies near the triple points of its members: c = the mean of the intersections
@@ -263,11 +269,13 @@ inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris
     for (uint b = 0; b < k; ++b) {
       if (b == a) continue;
       Line3 L1;
-      if (!pair_line_of(mem[a], mem[b], edges, nsil, cross_offset, cross_count, partner, &L1)) continue;
+      if (!pair_line_of(mem[a], mem[b], edges, nsil, cross_offset, cross_count, partner, &L1))
+        continue;
       for (uint d = b + 1; d < k; ++d) {
         if (d == a) continue;
         Line3 L2;
-        if (!pair_line_of(mem[a], mem[d], edges, nsil, cross_offset, cross_count, partner, &L2)) continue;
+        if (!pair_line_of(mem[a], mem[d], edges, nsil, cross_offset, cross_count, partner, &L2))
+          continue;
         if (L1.a * L2.b - L2.a * L1.b == 0) continue;
         c += vertex_approx(L1, L2);
         ++nc;
@@ -281,20 +289,32 @@ inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris
     for (uint a = 1; a < k; ++a) {
       VmScreenTri A = tris[mem[a]];
       double qa = tri_depth_at(&A, c.x, c.y);
-      if (qa > qb) { best = mem[a]; qb = qa; }
+      if (qa > qb) {
+        best = mem[a];
+        qb = qa;
+      }
     }
   }
   return best == t;
 }
 
+/* occlude() leaves this in visible[] for a fragment it found no fine-grid point in. */
+#define VM_VISIBLE_THIN 2u
+/* A tournament of more than VM_TOUR_MAX triangles, left for occlude_deep (no cap): at the
+ * fine-grid point (DEEP) or at the exact point of a thin fragment (DEEP_EXACT). */
+#define VM_VISIBLE_DEEP 3u
+#define VM_VISIBLE_DEEP_EXACT 4u
+
 /* Is t visible at the sample point, deciding by the whole tournament of the triangles covering
  * it: hidden by nobody, or the visible member of a cycle (wins_cycle). One pass over the
- * point's leaf collects them; beyond VM_TOUR_MAX of them a hidden t stays hidden. */
+ * point's leaf collects them: 1 visible, 0 hidden, or `deep` when t is hidden and more than
+ * VM_TOUR_MAX triangles compete, for occlude_deep to decide with room sized from the count. */
 inline uint visible_by_tournament(uint tri, const VmScreenTri* t, const VmSample* s,
                                   __global const VmScreenTri* tris, __global const int4* tri_bb,
                                   __global const uint* list, uint cnt, __global const VmEdge* edges,
                                   uint nsil, __global const uint* cross_offset,
-                                  __global const uint* cross_count, __global const uint* partner) {
+                                  __global const uint* cross_count, __global const uint* partner,
+                                  uint deep) {
   uint ids[VM_TOUR_MAX];
   uint nc = 0;
   ids[nc++] = tri;
@@ -311,16 +331,14 @@ inline uint visible_by_tournament(uint tri, const VmScreenTri* t, const VmSample
       hidden = hides(tri, o, t, &ot, s, edges, nsil, cross_offset, cross_count, partner);
     }
   }
-  return !hidden ||
-         (!over && wins_cycle(ids, nc, tris, s, edges, nsil, cross_offset, cross_count, partner));
+  if (!hidden) return 1;
+  if (over) return deep;
+  return wins_cycle(ids, nc, tris, s, edges, nsil, cross_offset, cross_count, partner) ? 1 : 0;
 }
 
-/* occlude() leaves this in visible[] for a fragment it found no fine-grid point in. */
-#define VM_VISIBLE_THIN 2u
-
 /* visible[i] = 1 when no screen triangle covers fragment i's interior point in front of it;
- * 0 when one does; VM_VISIBLE_THIN (counted in status[4]) when the fragment is thinner than the
- * fine grid, for occlude_thin() to decide. */
+ * 0 when one does; VM_VISIBLE_THIN (counted in status[VM_TOTAL_THIN]) when the fragment is thinner
+ * than the fine grid, for occlude_thin() to decide. */
 __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* lines, uint n,
                       __global const VmScreenTri* tris, __global const int4* tri_bb, VmGrid g,
                       __global const uint* tile_leaf, __global const uint* leaf_offset,
@@ -334,7 +352,7 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
   long px, py;
   if (!interior_point(lines + (size_t)i * VM_MAXL, m.nlines, &px, &py)) {
     visible[i] = VM_VISIBLE_THIN;
-    atomic_inc(&status[4]);
+    atomic_inc(&status[VM_TOTAL_THIN]);
     return;
   }
   const VmSample s = sample_fine(px, py);
@@ -357,8 +375,10 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
   if (partnered) {
     /* An entangled partner of t covers the point: hidden may still mean visible when the
      * covering triangles form a cycle. */
-    visible[i] = visible_by_tournament(m.tri, &t, &s, tris, tri_bb, tile_list + off, cnt, edges,
-                                       nsil, cross_offset, cross_count, partner);
+    uint v = visible_by_tournament(m.tri, &t, &s, tris, tri_bb, tile_list + off, cnt, edges, nsil,
+                                   cross_offset, cross_count, partner, VM_VISIBLE_DEEP);
+    if (v == VM_VISIBLE_DEEP) atomic_inc(&status[VM_TOTAL_DEEP]);
+    visible[i] = v;
     return;
   }
   /* (Written out rather than through competes(): PoCL compiles this hot loop 3x slower that
@@ -382,7 +402,8 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
 /* The fragments occlude() left VM_VISIBLE_THIN: decided the same way at an exact rational
  * point inside (exact_interior_point), by the whole tournament (a cell this thin is where
  * nearly concurrent lines meet, so a cycle is likely). A fragment with no interior at all
- * (zero area) is dropped and counted in status[1]. Launched only when status[4] > 0. */
+ * (zero area) is dropped and counted in status[VM_TOTAL_SLIVERS]. Launched only when
+ * status[VM_TOTAL_THIN] > 0. */
 __kernel void occlude_thin(__global const VmFragMeta* meta, __global const VmLine* lines, uint n,
                            __global const VmScreenTri* tris, __global const int4* tri_bb, VmGrid g,
                            __global const uint* tile_leaf, __global const uint* leaf_offset,
@@ -397,12 +418,168 @@ __kernel void occlude_thin(__global const VmFragMeta* meta, __global const VmLin
   VmSample s;
   if (!exact_interior_point(lines + (size_t)i * VM_MAXL, m.nlines, &s)) {
     visible[i] = 0;
-    atomic_inc(&status[1]);
+    atomic_inc(&status[VM_TOTAL_SLIVERS]);
     return;
   }
   VmScreenTri t = tris[m.tri];
   uint leaf = leaf_of_point(s.gx, s.gy, g, tile_leaf);
-  visible[i] = visible_by_tournament(m.tri, &t, &s, tris, tri_bb, tile_list + leaf_offset[leaf],
-                                     class_start[leaf].w, edges, nsil, cross_offset, cross_count,
-                                     partner);
+  uint v = visible_by_tournament(m.tri, &t, &s, tris, tri_bb, tile_list + leaf_offset[leaf],
+                                 class_start[leaf].w, edges, nsil, cross_offset, cross_count,
+                                 partner, VM_VISIBLE_DEEP_EXACT);
+  if (v == VM_VISIBLE_DEEP_EXACT) atomic_inc(&status[VM_TOTAL_DEEP]);
+  visible[i] = v;
+}
+
+/* The sample point occlude() or occlude_thin() decided fragment i at, again, and its leaf. */
+inline bool deep_sample(__global const VmFragMeta* meta, __global const VmLine* lines, uint i,
+                        uint how, VmGrid g, __global const uint* tile_leaf, VmSample* s,
+                        uint* leaf) {
+  VmFragMeta m = meta[i];
+  if (how == VM_VISIBLE_DEEP_EXACT) {
+    if (!exact_interior_point(lines + (size_t)i * VM_MAXL, m.nlines, s)) return false;
+  } else {
+    long px, py;
+    if (!interior_point(lines + (size_t)i * VM_MAXL, m.nlines, &px, &py)) return false;
+    *s = sample_fine(px, py);
+  }
+  *leaf = leaf_of_point(s->gx, s->gy, g, tile_leaf);
+  return true;
+}
+
+/* Room for a deep fragment's tournament: its own triangle and its leaf's list (an upper bound
+ * of the triangles covering the point); 0 for every other fragment. */
+__kernel void deep_count(__global const VmFragMeta* meta, __global const VmLine* lines, uint n,
+                         VmGrid g, __global const uint* tile_leaf,
+                         __global const uint4* class_start, __global const uint* visible,
+                         __global uint* need) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  uint how = visible[i], leaf = 0;
+  VmSample s;
+  need[i] = 0;
+  if (how != VM_VISIBLE_DEEP && how != VM_VISIBLE_DEEP_EXACT) return;
+  if (deep_sample(meta, lines, i, how, g, tile_leaf, &s, &leaf)) need[i] = 1 + class_start[leaf].w;
+}
+
+/* The whole tournament at the point of a deep fragment, with no cap: the covering triangles in
+ * ids, each one's score (how many of the others it hides) in score, and Landau's criterion for
+ * the top strongly connected component (the triangles that reach every other one): sorted by
+ * score descending, it is the shortest prefix of size k whose scores sum to
+ * k (k - 1) / 2 + k (n - k), i.e. that beats everything outside it, so t is in it iff its
+ * score is at least n - k. The same relation and the same cycle rule as wins_cycle(), which
+ * does this with bit masks for up to VM_TOUR_MAX triangles. */
+__kernel void occlude_deep(__global const VmFragMeta* meta, __global const VmLine* lines, uint n,
+                           __global const VmScreenTri* tris, __global const int4* tri_bb, VmGrid g,
+                           __global const uint* tile_leaf, __global const uint* leaf_offset,
+                           __global const uint4* class_start, __global const uint* tile_list,
+                           __global const VmEdge* edges, uint nsil,
+                           __global const uint* cross_offset, __global const uint* cross_count,
+                           __global const uint* partner, __global const uint* room,
+                           __global uint* scratch, uint total, __global uint* visible) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  uint how = visible[i], leaf = 0;
+  if (how != VM_VISIBLE_DEEP && how != VM_VISIBLE_DEEP_EXACT) return;
+  VmSample smp;
+  if (!deep_sample(meta, lines, i, how, g, tile_leaf, &smp, &leaf)) {
+    visible[i] = 0; /* cannot happen: occlude found the same point */
+    return;
+  }
+  __global uint* ids = scratch + room[i];
+  __global uint* score = scratch + total + room[i];
+  __global uint* order = scratch + 2 * (size_t)total + room[i];
+  const uint tri = meta[i].tri;
+  VmScreenTri t = tris[tri];
+  __global const uint* list = tile_list + leaf_offset[leaf];
+  uint cnt = class_start[leaf].w, nc = 0;
+  ids[nc++] = tri;
+  for (uint k = 0; k < cnt; ++k) {
+    uint o = list[k];
+    if (o != tri && competes(tris, tri_bb, o, &t, &smp)) ids[nc++] = o;
+  }
+  for (uint a = 0; a < nc; ++a) score[a] = 0;
+  for (uint a = 0; a < nc; ++a) {
+    VmScreenTri A = tris[ids[a]];
+    for (uint b = a + 1; b < nc; ++b) {
+      VmScreenTri B = tris[ids[b]];
+      bool b_wins;
+      if (A.mesh == B.mesh && A.tri == B.tri)
+        b_wins = ids[b] < ids[a]; /* pieces of one source: the lower index is in front */
+      else
+        b_wins = hides(ids[a], ids[b], &A, &B, &smp, edges, nsil, cross_offset, cross_count,
+                       partner);
+      ++score[b_wins ? b : a];
+    }
+  }
+  /* Scores sorted descending (insertion sort: n is a leaf's list at most). */
+  for (uint a = 0; a < nc; ++a) {
+    uint v = score[a], j = a;
+    while (j > 0 && order[j - 1] < v) {
+      order[j] = order[j - 1];
+      --j;
+    }
+    order[j] = v;
+  }
+  ulong sum = 0;
+  uint k = nc;
+  for (uint m = 1; m <= nc; ++m) {
+    sum += order[m - 1];
+    if (sum == (ulong)m * (m - 1) / 2 + (ulong)m * (nc - m)) {
+      k = m;
+      break;
+    }
+  }
+  if (score[0] < nc - k) {
+    visible[i] = 0;
+    return;
+  }
+  if (k == 1) {
+    visible[i] = 1;
+    return;
+  }
+  /* A cycle: its members by screen-triangle index (in order[], no longer needed for scores),
+   * then the member in front at the centre of their crossing lines' intersections. */
+  uint nm = 0;
+  for (uint v = 0; v < nc; ++v)
+    if (score[v] >= nc - k) {
+      uint j = nm++;
+      while (j > 0 && order[j - 1] > ids[v]) {
+        order[j] = order[j - 1];
+        --j;
+      }
+      order[j] = ids[v];
+    }
+  double2 c = (double2)(0, 0);
+  uint ncut = 0;
+  for (uint a = 0; a < nm; ++a)
+    for (uint b = 0; b < nm; ++b) {
+      if (b == a) continue;
+      Line3 L1;
+      if (!pair_line_of(order[a], order[b], edges, nsil, cross_offset, cross_count, partner, &L1))
+        continue;
+      for (uint d = b + 1; d < nm; ++d) {
+        if (d == a) continue;
+        Line3 L2;
+        if (!pair_line_of(order[a], order[d], edges, nsil, cross_offset, cross_count, partner, &L2))
+          continue;
+        if (L1.a * L2.b - L2.a * L1.b == 0) continue;
+        c += vertex_approx(L1, L2);
+        ++ncut;
+      }
+    }
+  uint best = order[0];
+  if (ncut > 0) {
+    c /= (double)ncut;
+    VmScreenTri B = tris[best];
+    double qb = tri_depth_at(&B, c.x, c.y);
+    for (uint a = 1; a < nm; ++a) {
+      VmScreenTri A = tris[order[a]];
+      double qa = tri_depth_at(&A, c.x, c.y);
+      if (qa > qb) {
+        best = order[a];
+        qb = qa;
+      }
+    }
+  }
+  visible[i] = best == tri ? 1 : 0;
 }

@@ -24,9 +24,19 @@ inline EdgeKey edge_key(__global const VmScreenTri* tris, uint e) {
   ulong qa = as_ulong(s->q[k]), qb = as_ulong(s->q[k1]);
   EdgeKey key;
   if (vtx_before(xb, yb, qb, xa, ya, qa)) {
-    key.x0 = xb; key.y0 = yb; key.q0 = qb; key.x1 = xa; key.y1 = ya; key.q1 = qa;
+    key.x0 = xb;
+    key.y0 = yb;
+    key.q0 = qb;
+    key.x1 = xa;
+    key.y1 = ya;
+    key.q1 = qa;
   } else {
-    key.x0 = xa; key.y0 = ya; key.q0 = qa; key.x1 = xb; key.y1 = yb; key.q1 = qb;
+    key.x0 = xa;
+    key.y0 = ya;
+    key.q0 = qa;
+    key.x1 = xb;
+    key.y1 = yb;
+    key.q1 = qb;
   }
   return key;
 }
@@ -121,7 +131,10 @@ __kernel void edge_emit(__global const VmScreenTri* tris, uint nedges, __global 
   if (e >= nedges || !flags[e]) return;
   EdgeKey key = edge_key(tris, e);
   VmEdge out;
-  out.x0 = key.x0; out.y0 = key.y0; out.x1 = key.x1; out.y1 = key.y1;
+  out.x0 = key.x0;
+  out.y0 = key.y0;
+  out.x1 = key.x1;
+  out.y1 = key.y1;
   out.q0 = as_double(key.q0);
   out.q1 = as_double(key.q1);
   edges[offsets[e]] = out;

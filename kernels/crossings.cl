@@ -9,11 +9,11 @@
  * Pairs that do not cross are ordered once for their whole overlap: by the sign of the depth
  * difference where it leaves the tie band, else by the tie rule. */
 
-#define VM_REL_NONE 0     /* footprints do not overlap with positive area */
-#define VM_REL_A_FRONT 1  /* a is in front of b over the whole overlap */
+#define VM_REL_NONE 0    /* footprints do not overlap with positive area */
+#define VM_REL_A_FRONT 1 /* a is in front of b over the whole overlap */
 #define VM_REL_B_FRONT 2
 #define VM_REL_CROSS 3
-#define VM_REL_TIE 4      /* or'ed in: decided by the tie rule (the planes agree within the band) */
+#define VM_REL_TIE 4 /* or'ed in: decided by the tie rule (the planes agree within the band) */
 /* or'ed into A_FRONT / B_FRONT: the planes come within the band somewhere in the overlap (the
  * surfaces touch there), and the two share no vertex. Such a pair is entangled like a tying one:
  * each is clipped by the other's edges. Where a surface passes from in front of a triangle x to
@@ -102,11 +102,13 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
     hi = fmax(hi, r[i]);
   }
   if (!(dmax > band && dmin < -band)) {
-    if (dmax > band) return VM_REL_A_FRONT | (dmin <= band && !share_vertex(a, b) ? VM_REL_TOUCH : 0);
-    if (dmin < -band) return VM_REL_B_FRONT | (dmax >= -band && !share_vertex(a, b) ? VM_REL_TOUCH : 0);
-    return VM_REL_TIE | ((a->mesh < b->mesh || (a->mesh == b->mesh && a->tri < b->tri))
-                             ? VM_REL_A_FRONT
-                             : VM_REL_B_FRONT);
+    if (dmax > band)
+      return VM_REL_A_FRONT | (dmin <= band && !share_vertex(a, b) ? VM_REL_TOUCH : 0);
+    if (dmin < -band)
+      return VM_REL_B_FRONT | (dmax >= -band && !share_vertex(a, b) ? VM_REL_TOUCH : 0);
+    return VM_REL_TIE |
+           ((a->mesh < b->mesh || (a->mesh == b->mesh && a->tri < b->tri)) ? VM_REL_A_FRONT
+                                                                           : VM_REL_B_FRONT);
   }
   /* Both depth planes snapped with the same k: their difference is the exact crossing line,
    * 2^k d(x, y) = (Aa - Ab) x + (Ba - Bb) y + (Ca - Cb), |a|, |b| <= 2^30, |c| <= 2^54 (the
@@ -141,7 +143,12 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
     double cex = -((double)n * vc + (double)p * uc);
     double c = rint(cex);
     double e = fabs(c - cex) / (double)n + fabs((double)p / (double)n - m) * h;
-    if (e < err) { err = e; bn = n; bp = p; bc = (long)c; }
+    if (e < err) {
+      err = e;
+      bn = n;
+      bp = p;
+      bc = (long)c;
+    }
   }
   long lim = (long)1 << 47;
   bc = clamp(bc, -lim, lim);
@@ -159,7 +166,6 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
  * only), in one traversal: up to VM_PAIRS_INLINE pairs per triangle go to a scratch slot and the
  * rest only raise a status bit, after which cross_pairs_fill traverses again into exact space,
  * for those triangles only. */
-#define VM_PAIRS_INLINE 4
 
 inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
                      __global const double2* tri_qr, VmGrid g, __global const uint* tile_leaf,
@@ -193,10 +199,12 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
               uint o = list[k];
               if (o <= t) break;
               int4 ob = tri_bb[o];
-              if (max(tb.x, ob.x) >= min(tb.z, ob.z) || max(tb.y, ob.y) >= min(tb.w, ob.w)) continue;
+              if (max(tb.x, ob.x) >= min(tb.z, ob.z) || max(tb.y, ob.y) >= min(tb.w, ob.w))
+                continue;
               /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
               double2 oq = tri_qr[o];
-              double band = VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(oq.y)), fmax(fabs(qmin), fabs(oq.x)));
+              double band =
+                  VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(oq.y)), fmax(fabs(qmin), fabs(oq.x)));
               if (oq.x > qmax + band || qmin > oq.y + band) continue;
               VmScreenTri other = tris[o];
               if (other.mesh == me.mesh && other.tri == me.tri) continue;
@@ -234,17 +242,18 @@ __kernel void cross_pairs(__global const VmScreenTri* tris, uint ntris, __global
 /* Only after an overflow, and only for the triangles whose pairs did not fit their slots (the
  * others are copied by cross_compact): the same traversal, straight into the compact arrays. */
 __kernel void cross_pairs_fill(__global const VmScreenTri* tris, uint ntris,
-                               __global const int4* tri_bb, __global const double2* tri_qr, VmGrid g,
-                               __global const uint* tile_leaf, __global const uint* leaf_offset,
-                               __global const uint4* class_start, __global const uint* leaf_list,
-                               __global const uint* counts, __global const uint* offsets,
-                               __global uint* pair_t, __global uint* pair_o, __global uint* pair_rel,
+                               __global const int4* tri_bb, __global const double2* tri_qr,
+                               VmGrid g, __global const uint* tile_leaf,
+                               __global const uint* leaf_offset, __global const uint4* class_start,
+                               __global const uint* leaf_list, __global const uint* counts,
+                               __global const uint* offsets, __global uint* pair_t,
+                               __global uint* pair_o, __global uint* pair_rel,
                                __global VmLine* pair_line) {
   uint t = get_global_id(0);
   if (t >= ntris || counts[t] <= VM_PAIRS_INLINE) return;
   uint o = offsets[t];
-  uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start, leaf_list, 0xffffffffu,
-                    pair_o + o, pair_rel + o, pair_line + o);
+  uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start, leaf_list,
+                    0xffffffffu, pair_o + o, pair_rel + o, pair_line + o);
   for (uint k = 0; k < c; ++k) pair_t[o + k] = t;
 }
 
@@ -268,9 +277,9 @@ __kernel void cross_compact(uint ntris, __global const uint* counts, __global co
 
 /* The crossing lines of the compacted pairs, rounded with the best of VM_SNAP_SEARCH values of
  * n (kept out of the pair traversal, whose hot loop it would slow down). */
-__kernel void cross_refine(uint npairs, __global const VmScreenTri* tris, __global const uint* pair_t,
-                           __global const uint* pair_o, __global const uint* pair_rel,
-                           __global VmLine* pair_line) {
+__kernel void cross_refine(uint npairs, __global const VmScreenTri* tris,
+                           __global const uint* pair_t, __global const uint* pair_o,
+                           __global const uint* pair_rel, __global VmLine* pair_line) {
   uint p = get_global_id(0);
   if (p >= npairs || pair_rel[p] != VM_REL_CROSS) return;
   VmScreenTri a = tris[pair_t[p]], b = tris[pair_o[p]];
@@ -285,20 +294,23 @@ __kernel void cross_in_count(uint npairs, __global const uint* pair_o, __global 
   atomic_inc(&in_count[pair_o[p]]);
 }
 
-__kernel void cross_in_fill(uint npairs, __global const uint* pair_o, __global const uint* in_offset,
-                            __global uint* in_cursor, __global uint* in_list) {
+__kernel void cross_in_fill(uint npairs, __global const uint* pair_o,
+                            __global const uint* in_offset, __global uint* in_cursor,
+                            __global uint* in_list) {
   uint p = get_global_id(0);
   if (p >= npairs) return;
   uint x = pair_o[p];
   in_list[in_offset[x] + atomic_inc(&in_cursor[x])] = p;
 }
 
-inline uint pair_entries(uint rel) { return rel == VM_REL_CROSS ? 4 : 3; }
+inline uint pair_entries(uint rel) {
+  return rel == VM_REL_CROSS ? 4 : 3;
+}
 
 /* ---- Triple points ---------------------------------------------------------------------------
  * Three mutually entangled triangles x, b, c get three independently snapped lines that need not
  * meet in one point. Where they do not, the small cell between them can order the three
- * cyclically (x over b over c over x): occlusion then picks one winner there (occlude.cl,
+ * cyclically (x over b over c over x): occlusion then picks one winner there (occlusion.cl,
  * `visible_at`), and for that choice to be the same over a whole fragment every member must be
  * clipped by all three lines, not only its own two. So x also gets the line of the pair (b, c)
  * when b and c are both entangled with x, (b, c) crosses, and a cyclic order of the three is
@@ -340,7 +352,11 @@ inline int clip_front(double2* p, int n, uint rel, VmLine l, bool u_lo) {
   if (rel == VM_REL_CROSS) {
     Line3 L = line_of_vm(l); /* the lower member is in front on the positive side */
     double a = (double)L.a, b = (double)L.b, c = (double)L.c;
-    if (!u_lo) { a = -a; b = -b; c = -c; }
+    if (!u_lo) {
+      a = -a;
+      b = -b;
+      c = -c;
+    }
     return clip_half(p, n, a, b, c, VM_TRIPLE_SLACK * sqrt(a * a + b * b));
   }
   bool lo_front = (rel & 3) == VM_REL_A_FRONT;
@@ -356,10 +372,14 @@ inline bool cycle_possible(uint x, uint b, uint c, __global const VmScreenTri* t
   int n0 = 4;
   {
     VmScreenTri t = tris[x];
-    double lx = (double)min(min(t.x[0], t.x[1]), t.x[2]) - 2, hx = (double)max(max(t.x[0], t.x[1]), t.x[2]) + 2;
-    double ly = (double)min(min(t.y[0], t.y[1]), t.y[2]) - 2, hy = (double)max(max(t.y[0], t.y[1]), t.y[2]) + 2;
-    box[0] = (double2)(lx, ly); box[1] = (double2)(hx, ly);
-    box[2] = (double2)(hx, hy); box[3] = (double2)(lx, hy);
+    double lx = (double)min(min(t.x[0], t.x[1]), t.x[2]) - 2,
+           hx = (double)max(max(t.x[0], t.x[1]), t.x[2]) + 2;
+    double ly = (double)min(min(t.y[0], t.y[1]), t.y[2]) - 2,
+           hy = (double)max(max(t.y[0], t.y[1]), t.y[2]) + 2;
+    box[0] = (double2)(lx, ly);
+    box[1] = (double2)(hx, ly);
+    box[2] = (double2)(hx, hy);
+    box[3] = (double2)(lx, hy);
   }
   for (int m = 0; m < 3 && n0 > 0; ++m) {
     VmScreenTri t = tris[id[m]];
@@ -388,9 +408,10 @@ inline bool cycle_possible(uint x, uint b, uint c, __global const VmScreenTri* t
 
 /* The partner of x in the k-th of its pairs (its own pairs first, then the incoming ones) and
  * that pair's record. */
-inline uint partner_at(uint x, uint k, __global const uint* out_count, __global const uint* out_offset,
-                       __global const uint* in_offset, __global const uint* in_list,
-                       __global const uint* pair_t, __global const uint* pair_o, uint* pr) {
+inline uint partner_at(uint x, uint k, __global const uint* out_count,
+                       __global const uint* out_offset, __global const uint* in_offset,
+                       __global const uint* in_list, __global const uint* pair_t,
+                       __global const uint* pair_o, uint* pr) {
   uint no = out_count[x];
   if (k < no) {
     *pr = out_offset[x] + k;
@@ -446,7 +467,8 @@ inline uint triple_lines(uint x, __global const VmScreenTri* tris, __global cons
       VmScreenTri tx = tris[x], tc = tris[c];
       if (tx.mesh == tc.mesh && tx.tri == tc.tri) continue;
       VmLine l_xc;
-      uint r_xc = (uint)(x < c ? pair_relation(&tx, &tc, &l_xc, 1) : pair_relation(&tc, &tx, &l_xc, 1));
+      uint r_xc =
+          (uint)(x < c ? pair_relation(&tx, &tc, &l_xc, 1) : pair_relation(&tc, &tx, &l_xc, 1));
       if (r_xc == VM_REL_NONE || r_xc == VM_REL_CROSS) continue;
       if (!cycle_possible(x, b, c, tris, pair_rel[pi], pair_line[pi], r_xc, l_xc, VM_REL_CROSS,
                           pair_line[pbc]))
@@ -466,8 +488,8 @@ inline uint triple_lines(uint x, __global const VmScreenTri* tris, __global cons
 
 /* Sorts each triangle's incoming list (pair order), so that every later traversal of it, its
  * own or a neighbour's, sees the same order. */
-__kernel void cross_in_sort(uint ntris, __global const uint* in_count, __global const uint* in_offset,
-                            __global uint* in_list) {
+__kernel void cross_in_sort(uint ntris, __global const uint* in_count,
+                            __global const uint* in_offset, __global uint* in_list) {
   uint x = get_global_id(0);
   if (x >= ntris) return;
   sort_ids(in_list + in_offset[x], (int)in_count[x]);

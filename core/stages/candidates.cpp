@@ -1,0 +1,26 @@
+#include "core/stages/candidates.h"
+
+#include <algorithm>
+
+namespace vismap::stages {
+
+bool find_candidates(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, const ClipEdges& ce,
+                     const EdgeBins& eb, const Crossings& cx, const RegionBudget& budget,
+                     Candidates& c) {
+  constexpr Stage kStage = Stage::Candidates;
+  const uint32_t S = s.count;
+  const Leaves& lv = eb.leaves;
+  c.count = rt.alloc(size_t(S) * 4, "candidate counts");
+  c.offset = rt.alloc(size_t(S) * 4, "candidate offsets");
+  rt.launch(kStage, "cand_count", S, s.tris, S, tb.bb, ce.edges, eb.bb, eb.grid, lv.tile_leaf,
+            lv.offset, lv.class_start, lv.list, cx.entry_count, c.count);
+  c.total = rt.scan(kStage, c.count, c.offset, S);
+  if (!budget.allows_more(rt, size_t(c.total) * 4)) return false;
+  c.list = rt.alloc(std::max<size_t>(c.total, 1) * 4, "candidates");
+  rt.launch(kStage, "cand_fill", S, s.tris, S, tb.bb, ce.edges, eb.bb, eb.grid, lv.tile_leaf,
+            lv.offset, lv.class_start, lv.list, cx.entry_offset, cx.entry_count, ce.silhouettes,
+            c.offset, c.list);
+  return true;
+}
+
+}  // namespace vismap::stages

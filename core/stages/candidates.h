@@ -1,0 +1,27 @@
+// Stage candidates (kernels/candidates.cl): per screen triangle, the clipping edges that may cut
+// it: its crossing entries, then the silhouette edges through the edge leaves that pass the exact
+// side tests and a conservative depth test (count, scan, fill).
+#pragma once
+
+#include <cstdint>
+
+#include "core/cl_runtime.h"
+#include "core/stages/bin.h"
+#include "core/stages/budget.h"
+#include "core/stages/crossings.h"
+#include "core/stages/silhouettes.h"
+#include "core/stages/transform.h"
+
+namespace vismap::stages {
+
+struct Candidates {
+  cl::Buffer count, offset, list;  // per triangle; list holds indices into the clipping edges
+  uint32_t total = 0;              // C
+};
+
+// False when the list would pass the region's budget (counted, not filled).
+bool find_candidates(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, const ClipEdges& ce,
+                     const EdgeBins& eb, const Crossings& cx, const RegionBudget& budget,
+                     Candidates& c);
+
+}  // namespace vismap::stages

@@ -1,0 +1,76 @@
+#include "core/stages/crossings.h"
+
+#include <algorithm>
+
+namespace vismap::stages {
+
+namespace {
+constexpr Stage kStage = Stage::Crossings;
+}
+
+bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, cl::Buffer& totals,
+                    const RegionBudget& budget, Crossings& cx) {
+  const uint32_t S = s.count;
+  const Leaves& lv = tb.leaves;
+  // One traversal finds each pair once (by its lower triangle) into small inline slots; only if
+  // a triangle has more pairs than the slots hold is the traversal repeated into exact space.
+  cx.pcount = rt.alloc(size_t(S) * 4, "pair counts");
+  cx.poffset = rt.alloc(size_t(S) * 4, "pair offsets");
+  {
+    cl::Buffer scr_o = rt.alloc(size_t(S) * VM_PAIRS_INLINE * 4, "pair scratch");
+    cl::Buffer scr_rel = rt.alloc(size_t(S) * VM_PAIRS_INLINE * 4, "pair scratch");
+    cl::Buffer scr_line = rt.alloc(size_t(S) * VM_PAIRS_INLINE * sizeof(VmLine), "pair scratch");
+    rt.launch(kStage, "cross_pairs", S, s.tris, S, tb.bb, tb.qr, tb.grid, lv.tile_leaf, lv.offset,
+              lv.class_start, lv.list, cx.pcount, scr_o, scr_rel, scr_line, totals);
+    // The pair count and the overflow flag in one read.
+    rt.scan_to(kStage, cx.pcount, cx.poffset, S, totals, VM_TOTAL_PAIRS);
+    uint32_t tot[VM_TOTAL_SLOTS];
+    rt.read(totals, 0, sizeof tot, tot);
+    cx.pairs = tot[VM_TOTAL_PAIRS];
+    const uint32_t status = tot[VM_TOTAL_STATUS];
+    const size_t P1 = std::max<size_t>(cx.pairs, 1);
+    // The pair arrays, then per triangle 3 incoming-pair words and 2 entry words, and the list.
+    if (!budget.allows_more(rt, P1 * (12 + sizeof(VmLine)) + size_t(S) * 20 + P1 * 4)) return false;
+    cx.pair_t = rt.alloc(P1 * 4, "pairs");
+    cx.pair_o = rt.alloc(P1 * 4, "pairs");
+    cx.pair_rel = rt.alloc(P1 * 4, "pairs");
+    cx.pair_line = rt.alloc(P1 * sizeof(VmLine), "pairs");
+    // Triangles whose pairs fit their slots are copied; after an overflow the others traverse
+    // again, straight into the compact arrays.
+    rt.launch(kStage, "cross_compact", S, S, cx.pcount, cx.poffset, scr_o, scr_rel, scr_line,
+              cx.pair_t, cx.pair_o, cx.pair_rel, cx.pair_line);
+    if (status & VM_STATUS_PAIRS_OVERFLOW)
+      rt.launch(kStage, "cross_pairs_fill", S, s.tris, S, tb.bb, tb.qr, tb.grid, lv.tile_leaf,
+                lv.offset, lv.class_start, lv.list, cx.pcount, cx.poffset, cx.pair_t, cx.pair_o,
+                cx.pair_rel, cx.pair_line);
+  }
+  const uint32_t P = cx.pairs;
+  rt.launch(kStage, "cross_refine", P, P, s.tris, cx.pair_t, cx.pair_o, cx.pair_rel, cx.pair_line);
+  cx.in_count = rt.alloc(size_t(S) * 4, "incoming pair counts");
+  cx.in_offset = rt.alloc(size_t(S) * 4, "incoming pair offsets");
+  cl::Buffer in_cursor = rt.alloc(size_t(S) * 4, "incoming pair cursors");
+  rt.fill_u32(cx.in_count, 0, S, kStage);
+  rt.fill_u32(in_cursor, 0, S, kStage);
+  rt.launch(kStage, "cross_in_count", P, P, cx.pair_o, cx.in_count);
+  rt.scan(kStage, cx.in_count, cx.in_offset, S);
+  cx.in_list = rt.alloc(std::max<size_t>(P, 1) * 4, "incoming pairs");
+  rt.launch(kStage, "cross_in_fill", P, P, cx.pair_o, cx.in_offset, in_cursor, cx.in_list);
+  cx.entry_count = rt.alloc(size_t(S) * 4, "crossing entry counts");
+  cx.entry_offset = rt.alloc(size_t(S) * 4, "crossing entry offsets");
+  rt.launch(kStage, "cross_in_sort", S, S, cx.in_count, cx.in_offset, cx.in_list);
+  rt.launch(kStage, "cross_entry_count", S, S, s.tris, cx.pcount, cx.poffset, cx.in_count,
+            cx.in_offset, cx.in_list, cx.pair_t, cx.pair_o, cx.pair_rel, cx.pair_line,
+            cx.entry_count);
+  cx.entries = rt.scan(kStage, cx.entry_count, cx.entry_offset, S);
+  // The entries join the clipping edges (VmEdge and a partner each).
+  return budget.allows_more(rt, size_t(cx.entries) * (sizeof(VmEdge) + 4));
+}
+
+void emit_crossings(ClRuntime& rt, const ScreenSet& s, const Crossings& cx, ClipEdges& ce) {
+  const uint32_t S = s.count;
+  rt.launch(kStage, "cross_entry_fill", S, S, s.tris, cx.pcount, cx.poffset, cx.in_count,
+            cx.in_offset, cx.in_list, cx.pair_t, cx.pair_o, cx.pair_rel, cx.pair_line,
+            cx.entry_offset, ce.silhouettes, ce.edges, ce.partner);
+}
+
+}  // namespace vismap::stages

@@ -1,0 +1,34 @@
+// Stage crossings (kernels/crossings.cl): the entangled pairs of screen triangles (penetrating,
+// tying within the band, or touching it at a mesh edge), found once each through the triangle
+// leaves, and for each triangle the clipping entries they add: crossing lines (exact between
+// snapped depth planes) and the partner's edges. The entries follow the silhouette edges in the
+// clipping-edge list.
+#pragma once
+
+#include <cstdint>
+
+#include "core/cl_runtime.h"
+#include "core/stages/bin.h"
+#include "core/stages/budget.h"
+#include "core/stages/silhouettes.h"
+#include "core/stages/transform.h"
+
+namespace vismap::stages {
+
+struct Crossings {
+  cl::Buffer pcount, poffset;                      // per triangle: pairs it lists (as lower member)
+  cl::Buffer pair_t, pair_o, pair_rel, pair_line;  // per pair
+  cl::Buffer in_count, in_offset, in_list;         // per triangle: pairs it is the upper member of
+  cl::Buffer entry_count, entry_offset;            // per triangle: its clipping entries
+  uint32_t pairs = 0;                              // P
+  uint32_t entries = 0;                            // X
+};
+
+// Finds the pairs and sizes each triangle's entries (one status read for the inline slots).
+// False when the pairs or the entries would pass the region's budget (nothing more allocated).
+bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, cl::Buffer& totals,
+                    const RegionBudget& budget, Crossings& cx);
+// Writes the X entries after the silhouette edges of ce (and their partners).
+void emit_crossings(ClRuntime& rt, const ScreenSet& s, const Crossings& cx, ClipEdges& ce);
+
+}  // namespace vismap::stages

@@ -1,0 +1,45 @@
+#include "core/stages/silhouettes.h"
+
+#include "core/stages/grid.h"
+
+namespace vismap::stages {
+
+Silhouettes find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals) {
+  constexpr Stage kStage = Stage::Silhouettes;
+  Silhouettes sil;
+  const uint32_t nedges = 3 * s.count;
+  sil.edges_in = nedges;
+  sil.flags = rt.alloc(size_t(nedges) * 4, "edge flags");
+  sil.offsets = rt.alloc(size_t(nedges) * 4, "edge offsets");
+  // The hash table only lives to classify (memory freed early is memory reused later).
+  const uint32_t table_size = next_pow2(uint64_t(nedges) * 2);
+  cl::Buffer table = rt.alloc(size_t(table_size) * 4, "edge hash table");
+  cl::Buffer second = rt.alloc(size_t(table_size) * 4, "edge hash second ids");
+  cl::Buffer many = rt.alloc(size_t(table_size) * 4, "edge hash shared flags");
+  cl::Buffer slot_min = rt.alloc(size_t(table_size) * 4, "edge slot min");
+  cl::Buffer slot_of_edge = rt.alloc(size_t(nedges) * 4, "edge slots");
+  rt.fill_u32(table, 0, table_size, kStage);
+  rt.fill_u32(second, 0, table_size, kStage);
+  rt.fill_u32(many, 0, table_size, kStage);
+  rt.fill_u32(slot_min, 0xffffffffu, table_size, kStage);
+  rt.launch(kStage, "edge_insert", nedges, s.tris, nedges, table, table_size - 1, slot_of_edge,
+            second, many, slot_min, totals);
+  rt.launch(kStage, "edge_classify", nedges, s.tris, nedges, slot_of_edge, table, second, many,
+            slot_min, sil.flags);
+  sil.count = rt.scan(kStage, sil.flags, sil.offsets, nedges);
+  return sil;
+}
+
+ClipEdges emit_silhouettes(ClRuntime& rt, const ScreenSet& s, const Silhouettes& sil,
+                           uint32_t crossing_entries) {
+  ClipEdges ce;
+  ce.silhouettes = sil.count;
+  ce.crossings = crossing_entries;
+  ce.edges = rt.alloc((size_t(sil.count) + crossing_entries) * sizeof(VmEdge), "clipping edges");
+  ce.partner = rt.alloc(std::max<size_t>(crossing_entries, 1) * 4, "crossing partners");
+  rt.launch(Stage::Silhouettes, "edge_emit", sil.edges_in, s.tris, sil.edges_in, sil.flags,
+            sil.offsets, ce.edges);
+  return ce;
+}
+
+}  // namespace vismap::stages

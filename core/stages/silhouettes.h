@@ -1,0 +1,33 @@
+// Stage silhouettes (kernels/silhouettes.cl, SVGPU §3.1): every screen-triangle edge hashed by
+// its endpoints, so that each mesh edge is seen from both sides; an edge between a front and a
+// back face, a boundary edge or a non-manifold one is a silhouette edge. They are written first
+// into the frame's clipping-edge list, before the crossing entries.
+#pragma once
+
+#include <cstdint>
+
+#include "core/cl_runtime.h"
+#include "core/stages/transform.h"
+
+namespace vismap::stages {
+
+struct Silhouettes {
+  cl::Buffer flags, offsets;  // per screen-triangle edge (3 S): silhouette or not, its place
+  uint32_t edges_in = 0;      // 3 S
+  uint32_t count = 0;         // E
+};
+
+// The clipping edges of a region: E silhouette edges, then X crossing entries (crossings.cpp);
+// partner[x] is the screen triangle a crossing entry comes from.
+struct ClipEdges {
+  cl::Buffer edges, partner;
+  uint32_t silhouettes = 0, crossings = 0;
+};
+
+// Classifies the edges (a full hash table raises VM_STATUS_HASH_FULL in totals).
+Silhouettes find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals);
+// Allocates the E + X clipping edges and writes the E silhouette edges.
+ClipEdges emit_silhouettes(ClRuntime& rt, const ScreenSet& s, const Silhouettes& sil,
+                           uint32_t crossing_entries);
+
+}  // namespace vismap::stages

@@ -1,0 +1,78 @@
+#include "core/stages/transform.h"
+
+namespace vismap::stages {
+
+// Back faces are culled only where that cannot change the picture: a closed, consistently
+// oriented mesh lying wholly in front of the near plane (so the eye is outside it and no cut
+// opens it). Everything else is two-sided.
+std::vector<uint32_t> cull_modes(const Scene& scene, const std::vector<int8_t>& closed,
+                                 const Camera& cam) {
+  Mat4 vp = cam.view_projection();
+  std::vector<uint32_t> modes(scene.meshes.size(), VM_CULL_NONE);
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    if (closed[m] == 0) continue;
+    const std::vector<float>& P = scene.meshes[m].positions;
+    bool in_front = true;
+    for (size_t v = 0; v + 2 < P.size() && in_front; v += 3) {
+      double x = P[v], y = P[v + 1], z = P[v + 2];
+      double cz = vp[2] * x + vp[6] * y + vp[10] * z + vp[14];
+      double cw = vp[3] * x + vp[7] * y + vp[11] * z + vp[15];
+      in_front = cz + cw > 0 && cw > 0;
+    }
+    if (!in_front) continue;
+    // Outward faces are counter-clockwise in NDC when they face the eye, i.e. negative grid
+    // orientation with y down; their back faces have positive grid orientation.
+    modes[m] = closed[m] > 0 ? VM_CULL_POSITIVE : VM_CULL_NEGATIVE;
+  }
+  return modes;
+}
+
+Frame begin_frame(ClRuntime& rt, const SceneBuffers& sb, const Scene& scene, const Camera& cam,
+                  Stage stage) {
+  Frame f;
+  f.W = cam.width;
+  f.H = cam.height;
+  Mat4 vp = cam.view_projection();
+  f.mat = rt.upload(std::vector<double>(vp.begin(), vp.end()), "view-projection");
+  f.mesh_cull = rt.upload(cull_modes(scene, sb.closed, cam), "cull modes");
+  f.clip = rt.alloc(size_t(sb.nv) * sizeof(cl_double4), "clip-space vertices");
+  rt.launch(stage, "transform_vertices", sb.nv, sb.pos, sb.nv, f.mat, f.clip);
+  f.counts = rt.alloc(size_t(sb.ntri) * 4, "clip counts");
+  f.offsets = rt.alloc(size_t(sb.ntri) * 4, "clip offsets");
+  f.ortho = cam.projection == Camera::Projection::Orthographic ? 1 : 0;
+  f.full = {{0, 0, cl_int(cam.width * VM_GRID_SCALE), cl_int(cam.height * VM_GRID_SCALE)}};
+  f.boxes = rt.alloc(16, "triangle boxes");  // plan_buckets fills it for buckets
+  f.depth_ex = rt.alloc(4 * sizeof(cl_int), "depth exponents");
+  rt.fill_u32(f.depth_ex, 0, 4, stage);
+  return f;
+}
+
+uint32_t count_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl_int4& region,
+                      Stage stage) {
+  rt.launch(stage, "clip_count", sb.ntri, sb.idx, sb.ntri, fr.clip, sb.tri_mesh, sb.tri_local,
+            fr.mesh_cull, fr.W, fr.H, fr.ortho, region, fr.boxes, fr.use_boxes, fr.counts);
+  return rt.scan(stage, fr.counts, fr.offsets, sb.ntri);
+}
+
+ScreenSet fill_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl_int4& region,
+                      uint32_t S, bool bary, Stage stage) {
+  ScreenSet s;
+  s.count = S;
+  s.tris = rt.alloc(std::max<size_t>(S, 1) * sizeof(VmScreenTri), "screen triangles");
+  s.bary = rt.alloc(bary ? std::max<size_t>(S, 1) * 9 * sizeof(float) : 16, "screen barycentrics");
+  const cl_int want = bary ? 1 : 0;
+  rt.launch(stage, "clip_fill", sb.ntri, sb.idx, sb.ntri, fr.clip, sb.tri_mesh, sb.tri_local,
+            fr.mesh_cull, fr.W, fr.H, fr.ortho, region, fr.boxes, fr.use_boxes, fr.offsets, s.tris,
+            s.bary, want);
+  return s;
+}
+
+void snap_depths(ClRuntime& rt, Frame& fr, ScreenSet& s, Stage stage) {
+  if (!fr.depth_ex_done) {  // zeroed by begin_frame
+    rt.launch(stage, "depth_exponents", s.count, s.tris, s.count, fr.ortho, fr.depth_ex);
+    fr.depth_ex_done = true;
+  }
+  rt.launch(stage, "snap_depth_planes", s.count, s.tris, s.count, fr.depth_ex);
+}
+
+}  // namespace vismap::stages

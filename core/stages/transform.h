@@ -1,0 +1,61 @@
+// Stage transform (kernels/transform.cl): the scene's vertices to clip space once per frame, then
+// per region (the whole screen, or one bucket) every input triangle near-clipped, culled and
+// snapped to the grid as screen triangles (count, scan, fill); after the silhouette hash, each
+// screen triangle's depth plane snapped to integers over the frame's 2^k.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/cl_runtime.h"
+#include "core/scene.h"
+
+namespace vismap::stages {
+
+// The uploaded scene (Renderer's upload order: meshes in scene order).
+struct SceneBuffers {
+  cl::Buffer pos, idx, tri_mesh, tri_local;
+  uint32_t nv = 0, ntri = 0;
+  uint64_t bytes = 0;          // device bytes they hold
+  std::vector<int8_t> closed;  // per mesh: closed_orientation()
+};
+
+// Per frame, before any region: the camera's matrix and cull modes, the clip-space vertices, the
+// per-input-triangle count and offset buffers, the whole screen as a region, and (buckets only)
+// each input triangle's box in pixels.
+struct Frame {
+  uint32_t W = 0, H = 0;
+  cl::Buffer mat, mesh_cull, clip, counts, offsets, boxes;
+  cl_int ortho = 0, use_boxes = 0;
+  // The depth-plane exponent reductions (depth_exponents): over the whole frame once clip_cells
+  // has noted every screen triangle (buckets), else per screen set.
+  cl::Buffer depth_ex;
+  bool depth_ex_done = false;
+  cl_int4 full{};
+};
+
+// The S screen triangles of one region; bary (9 floats each) only when asked for.
+struct ScreenSet {
+  cl::Buffer tris, bary;
+  uint32_t count = 0;
+};
+
+// Back faces are culled only where that cannot change the picture (per mesh, VM_CULL_*).
+std::vector<uint32_t> cull_modes(const Scene& scene, const std::vector<int8_t>& closed,
+                                 const Camera& cam);
+
+Frame begin_frame(ClRuntime& rt, const SceneBuffers& sb, const Scene& scene, const Camera& cam,
+                  Stage stage);
+// Sizes the region's screen triangles (the frame's counts and offsets); returns S.
+uint32_t count_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl_int4& region,
+                      Stage stage);
+// Writes the S triangles counted by count_screen, with barycentrics when `bary`.
+ScreenSet fill_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl_int4& region,
+                      uint32_t S, bool bary, Stage stage);
+// The depth planes snapped to integers over one 2^k (snap_depth_planes): crossing lines between
+// them are then exact. After the silhouette hash, whose keys are the transformed depths shared by
+// mesh neighbours.
+void snap_depths(ClRuntime& rt, Frame& fr, ScreenSet& s, Stage stage);
+
+}  // namespace vismap::stages

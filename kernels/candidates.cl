@@ -1,0 +1,99 @@
+/* Stage: candidates. For every screen triangle, the clipping edges that may cut it (SVGPU §3.2's
+ * "edges in front"): first its own crossing entries (crossings.cl), then the silhouette edges
+ * found through the edge leaves (bin.cl) that pass the exact side tests and a conservative depth
+ * test. Count, scan, fill: the list is the clipping rounds' (clip.cl) input. */
+
+/* Candidate edges of a screen triangle: silhouette edges whose segment meets the triangle's
+ * interior, whose line strictly separates its corners, and which may be in front of it
+ * somewhere (nearness is affine along the edge and over the triangle's plane, so checking the
+ * two endpoints against the plane, with a band, is conservative). */
+inline bool edge_is_candidate(__global const VmScreenTri* T, VmEdge E) {
+  Line3 LE = line_of(E.x0, E.y0, E.x1, E.y1);
+  int pos = 0, neg = 0;
+  for (int i = 0; i < 3; ++i) {
+    long s = line_eval_point(LE, T->x[i], T->y[i]);
+    pos |= s > 0;
+    neg |= s < 0;
+  }
+  if (!(pos && neg)) return false;
+  for (int i = 0; i < 3; ++i) {
+    int j = i == 2 ? 0 : i + 1;
+    Line3 L = line_of(T->x[i], T->y[i], T->x[j], T->y[j]);
+    if (line_eval_point(L, E.x0, E.y0) <= 0 && line_eval_point(L, E.x1, E.y1) <= 0) return false;
+  }
+  VmScreenTri t = *T;
+  DepthPlane P = depth_plane(&t);
+  double qa = plane_at(P, (double)E.x0, (double)E.y0);
+  double qb = plane_at(P, (double)E.x1, (double)E.y1);
+  double scale = fmax(fmax(fabs(qa), fabs(qb)), fmax(fabs(E.q0), fabs(E.q1)));
+  /* Snapping moved every vertex by up to half a grid unit, so a point on the edge and the plane
+   * of T can disagree by the plane's change over about one grid unit: the band covers that,
+   * twice the tie band, and nothing that could be in front is left out. */
+  double band = 2.0 * VM_TIE_EPS * scale + 2.0 * (fabs(P.gx) + fabs(P.gy));
+  return E.q0 - qa > -band || E.q1 - qb > -band;
+}
+
+inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
+                          __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
+                          __global const uint* tile_leaf, __global const uint* leaf_offset,
+                          __global const uint4* class_start, __global const uint* leaf_list,
+                          __global uint* out) {
+  int4 tb = tri_bb[t];
+  int4 tr = tile_range(tb, g);
+  uint count = 0;
+  for (int ty = tr.y; ty <= tr.w; ++ty)
+    for (int tx = tr.x; tx <= tr.z; ++tx) {
+      uint tl = tile_leaf[ty * g.tiles_x + tx], d = leaf_depth(tl);
+      int4 lr = leaf_range(tb, g, tx, ty, d);
+      int side = 1 << d;
+      for (int ly = lr.y; ly <= lr.w; ++ly)
+        for (int lx = lr.x; lx <= lr.z; ++lx) {
+          uint leaf = leaf_first(tl) + (uint)(ly * side + lx);
+          uint4 cs = class_start[leaf];
+          if (cs.w == 0) continue;
+          __global const uint* list = leaf_list + leaf_offset[leaf];
+          /* Only the classes of edges whose (closed) box overlap with t's this leaf owns. */
+          uint want = partner_classes(box_class(tr, lr, tx, ty, lx, ly));
+          for (uint c = 0; c < 4; ++c) {
+            if (!((want >> c) & 1u)) continue;
+            uint hi = class_begin(cs, c + 1);
+            for (uint k = class_begin(cs, c); k < hi; ++k) {
+              uint e = list[k];
+              int4 eb = edge_bb[e];
+              if (max(tb.x, eb.x) > min(tb.z, eb.z) || max(tb.y, eb.y) > min(tb.w, eb.w)) continue;
+              if (!edge_is_candidate(&tris[t], edges[e])) continue;
+              if (out) out[count] = e;
+              ++count;
+            }
+          }
+        }
+    }
+  return count;
+}
+
+/* A triangle's candidates: first its crossing lines (edges[nsil + cross_offset[t] ...]), then
+ * the silhouette edges in front of it. */
+__kernel void cand_count(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
+                         __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
+                         __global const uint* tile_leaf, __global const uint* leaf_offset,
+                         __global const uint4* class_start, __global const uint* leaf_list,
+                         __global const uint* cross_count, __global uint* counts) {
+  uint t = get_global_id(0);
+  if (t >= ntris) return;
+  counts[t] = cross_count[t] + candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_leaf,
+                                             leaf_offset, class_start, leaf_list, 0);
+}
+
+__kernel void cand_fill(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
+                        __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
+                        __global const uint* tile_leaf, __global const uint* leaf_offset,
+                        __global const uint4* class_start, __global const uint* leaf_list,
+                        __global const uint* cross_offset, __global const uint* cross_count,
+                        uint nsil, __global const uint* offsets, __global uint* cand) {
+  uint t = get_global_id(0);
+  if (t >= ntris) return;
+  uint nc = cross_count[t];
+  for (uint k = 0; k < nc; ++k) cand[offsets[t] + k] = nsil + cross_offset[t] + k;
+  candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_leaf, leaf_offset, class_start, leaf_list,
+                cand + offsets[t] + nc);
+}
