@@ -49,11 +49,11 @@ TEST(Budget, DensePenetratingSoupSplitsUntilItFits) {
     ASSERT_NEAR(per_a[t], per_b[t], 1e-6) << "triangle " << t;
 }
 
-// One pixel holding more than the budget allows: TooLarge, and nothing returned. The
+// One pixel (a 1x1 viewport) holding more than the budget allows: TooLarge, nothing returned. The
 // renderer still renders afterwards.
 TEST(Budget, OneCellThatCannotFitIsTooLarge) {
   Scene soup = test_support::penetrating_soup(1500, 0.2, 7);
-  Camera cam = test_support::soup_camera(soup, 16, 16);
+  Camera cam = test_support::soup_camera(soup, 1, 1);
   RenderStats whole;
   renderer().render(soup, cam, {}, &whole);
   RenderOptions o;
