@@ -3,10 +3,12 @@
 // hierarchy (matrix or TRS); color from baseColorFactor. Modes TRIANGLES, TRIANGLE_STRIP and
 // TRIANGLE_FAN are read (strips and fans converted as the spec orders them); points and lines are
 // skipped. The first camera node in depth-first scene order becomes Scene::camera.
+#include <sys/stat.h>
 #include <tiny_gltf.h>
 
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <set>
 
 #include "core/load_internal.h"
@@ -72,8 +74,15 @@ struct Loader {
       fail(InputErrorKind::ParseError, src, mesh, "accessor", ai, "buffer view has no buffer");
     const std::vector<unsigned char>& data = model.buffers[bv.buffer].data;
     stride = bv.byteStride ? bv.byteStride : want_size;
-    uint64_t need = a.count == 0 ? 0 : uint64_t(stride) * (a.count - 1) + want_size;
-    if (uint64_t(a.byteOffset) + need > bv.byteLength || bv.byteOffset + bv.byteLength > data.size())
+    if (stride < want_size)  // the spec: a stride is at least the element size
+      fail(InputErrorKind::ParseError, src, mesh, "accessor", ai,
+           "byteStride " + std::to_string(stride) + " is smaller than the element (" +
+               std::to_string(want_size) + " bytes)");
+    // Counts and offsets come from the file: checked sums and products, so that a huge count
+    // cannot wrap to a small size and pass the bounds check.
+    uint64_t need = a.count == 0 ? 0 : checked_add(checked_mul(stride, a.count - 1), want_size);
+    if (checked_add(a.byteOffset, need) > bv.byteLength ||
+        checked_add(bv.byteOffset, bv.byteLength) > data.size())
       fail(InputErrorKind::Truncated, src, mesh, "accessor", ai,
            "accessor reads past the end of its buffer (" + std::to_string(data.size()) + " bytes)");
     return data.data() + bv.byteOffset + a.byteOffset;
@@ -236,18 +245,70 @@ bool no_read(std::vector<unsigned char>*, std::string* err, const std::string& p
 }
 bool no_write(std::string*, const std::string&, const std::vector<unsigned char>&, void*) { return false; }
 
+// Files a .gltf / .glb on disk references (buffers, images) go through read_input_file like every
+// other file of the load: confined, regular files only, charged to the load's budget. tinygltf's
+// own reader would block on a FIFO and read outside LoadOptions::confine_to. Its callbacks cannot
+// throw through the library, so the first refusal is kept here and thrown after it returns.
+struct FileAccess {
+  const LoadOptions& opts;
+  ByteBudget& budget;
+  std::optional<InputError> refused;
+};
+bool file_exists(const std::string& p, void*) {
+  struct stat st;
+  return ::stat(p.c_str(), &st) == 0;  // read_file says why a file that is there is refused
+}
+// Images are not needed for visibility: checked like any file, but not read (tinygltf then hands
+// no_image one byte). An extension says which, as tinygltf gives the callback only the path.
+bool is_image(const std::string& p) {
+  std::string ext = format_extension(p);
+  for (const char* e :
+       {".png", ".jpg", ".jpeg", ".webp", ".ktx", ".ktx2", ".dds", ".gif", ".bmp", ".basis"})
+    if (ext == e) return true;
+  return false;
+}
+bool read_file(std::vector<unsigned char>* out, std::string* err, const std::string& p,
+               void* user) {
+  auto& fa = *static_cast<FileAccess*>(user);
+  try {
+    if (is_image(p)) {
+      check_input_file(p, fa.opts);
+      out->assign(1, 0);
+      return true;
+    }
+    std::string bytes = read_input_file(p, fa.opts, fa.budget);
+    out->assign(bytes.begin(), bytes.end());
+    return true;
+  } catch (const InputError& e) {
+    if (!fa.refused) fa.refused = e;
+    if (err) *err += e.detail();
+    return false;
+  }
+}
+
 }  // namespace
 
 Scene read_gltf(const Source& src, std::string_view bytes, bool binary, const LoadOptions& opts) {
   if (binary) check_glb(src, bytes);
+  if (bytes.size() > UINT32_MAX)  // tinygltf takes the length as unsigned int
+    fail(InputErrorKind::TooLarge, src, "", "", -1, "glTF file larger than 4 GiB");
   tinygltf::TinyGLTF gltf;
   gltf.SetImageLoader(no_image, nullptr);
-  if (src.base_dir.empty()) gltf.SetFsCallbacks({no_file, same_path, no_read, no_write, nullptr});
+  FileAccess access{opts, *src.budget, std::nullopt};
+  if (src.base_dir.empty())
+    gltf.SetFsCallbacks({no_file, same_path, no_read, no_write, nullptr});
+  else
+    gltf.SetFsCallbacks({file_exists, same_path, read_file, no_write, &access});
   tinygltf::Model model;
   std::string err, warn;
   bool ok = binary ? gltf.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
                                                unsigned(bytes.size()), src.base_dir)
                    : gltf.LoadASCIIFromString(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), src.base_dir);
+  if (access.refused) {  // a referenced file refused (even an image, which tinygltf only warns of)
+    const InputError& e = *access.refused;
+    throw InputError(e.kind(), e.file(), "", "", -1,
+                     e.detail() + " (referenced by " + src.file + ")");
+  }
   if (!ok) {
     while (!err.empty() && (err.back() == '\n' || err.back() == '\r')) err.pop_back();
     for (char& ch : err) if (ch == '\n') ch = ';';
