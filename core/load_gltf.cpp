@@ -54,7 +54,7 @@ struct Loader {
   const LoadOptions& opts;
   const tinygltf::Model& model;
   Scene scene;
-  std::set<int> on_path;  // nodes on the current path: a cycle is refused, not followed forever
+  std::set<int> visited;  // nodes seen: a cycle or a shared child is refused, not followed
   uint64_t triangles = 0;
 
   // Element size, count and a bounds-checked pointer for accessor `a`.
@@ -189,23 +189,38 @@ struct Loader {
     scene.camera = cam;
   }
 
-  void visit(int ni, const M4& parent) {
-    if (ni < 0 || ni >= int(model.nodes.size()))
-      fail(InputErrorKind::ParseError, src, "", "node", ni, "no such node");
-    if (!on_path.insert(ni).second) fail(InputErrorKind::ParseError, src, "", "node", ni, "node hierarchy has a cycle");
-    const tinygltf::Node& n = model.nodes[ni];
-    M4 w = mul(parent, local_matrix(n));
-    if (n.camera >= 0 && !scene.camera && n.camera < int(model.cameras.size()))
-      add_camera(model.cameras[n.camera], w);
-    if (n.mesh >= 0) {
-      if (n.mesh >= int(model.meshes.size())) fail(InputErrorKind::ParseError, src, "", "node", ni, "no such mesh");
-      const tinygltf::Mesh& mesh = model.meshes[n.mesh];
-      std::string base = !mesh.name.empty() ? mesh.name : !n.name.empty() ? n.name : "mesh " + std::to_string(n.mesh);
-      for (size_t p = 0; p < mesh.primitives.size(); ++p)
-        add_primitive(mesh.primitives[p], mesh.primitives.size() > 1 ? base + "#" + std::to_string(p) : base, w);
+  // Depth first, children in order (scene order gives global triangle ids and picks the camera),
+  // with an explicit stack: a chain of a million nodes overflowed the call stack. Each node is
+  // visited once: the spec makes the hierarchy a forest, and a node listed as the child of two
+  // nodes of the level above, 64 levels deep, was 2^64 visits (a cycle is the same refusal).
+  void visit(int root) {
+    std::vector<std::pair<int, M4>> stack{{root, identity()}};
+    while (!stack.empty()) {
+      auto [ni, parent] = stack.back();
+      stack.pop_back();
+      if (ni < 0 || ni >= int(model.nodes.size()))
+        fail(InputErrorKind::ParseError, src, "", "node", ni, "no such node");
+      if (!visited.insert(ni).second)
+        fail(InputErrorKind::ParseError, src, "", "node", ni,
+             "node reached twice (a cycle, or more than one parent: the node hierarchy must be "
+             "a forest)");
+      const tinygltf::Node& n = model.nodes[ni];
+      M4 w = mul(parent, local_matrix(n));
+      if (n.camera >= 0 && !scene.camera && n.camera < int(model.cameras.size()))
+        add_camera(model.cameras[n.camera], w);
+      if (n.mesh >= 0) {
+        if (n.mesh >= int(model.meshes.size()))
+          fail(InputErrorKind::ParseError, src, "", "node", ni, "no such mesh");
+        const tinygltf::Mesh& mesh = model.meshes[n.mesh];
+        std::string base = !mesh.name.empty() ? mesh.name
+                           : !n.name.empty()  ? n.name
+                                              : "mesh " + std::to_string(n.mesh);
+        for (size_t p = 0; p < mesh.primitives.size(); ++p)
+          add_primitive(mesh.primitives[p],
+                        mesh.primitives.size() > 1 ? base + "#" + std::to_string(p) : base, w);
+      }
+      for (auto c = n.children.rbegin(); c != n.children.rend(); ++c) stack.emplace_back(*c, w);
     }
-    for (int child : n.children) visit(child, w);
-    on_path.erase(ni);
   }
 };
 
@@ -328,7 +343,7 @@ Scene read_gltf(const Source& src, std::string_view bytes, bool binary, const Lo
       for (int c : n.children) if (c >= 0 && c < int(child.size())) child[c] = true;
     for (size_t i = 0; i < child.size(); ++i) if (!child[i]) roots.push_back(int(i));
   }
-  for (int r : roots) L.visit(r, identity());
+  for (int r : roots) L.visit(r);
   if (L.scene.triangle_count() == 0)
     fail(InputErrorKind::EmptyMesh, src, "", "", -1, L.scene.meshes.empty() ? "no triangles in the scene" : "every triangle is degenerate (zero area)");
   return std::move(L.scene);

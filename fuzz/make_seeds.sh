@@ -30,3 +30,7 @@ printf '\x05{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes
 # GzipBombStopsAtMaxBytes, small: 32 MiB + 100 bytes of zeros in ~32 KB (fuzz_load's max_bytes
 # is 16 MiB, so this is refused as TooLarge before the buffer passes it).
 { printf '\x01'; { printf 'ply\nformat ascii 1.0\ncomment '; head -c 33554432 /dev/zero; } | gzip -9; } > "$out/gzip_bomb.ply.gz.1"
+# GltfNodeHierarchyBlowupAndDepth: 64 levels of nodes, each listing the next one twice.
+nodes=''
+for i in $(seq 1 64); do nodes="$nodes{\"children\":[$i,$i]},"; done
+printf '\x05{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[%s{"mesh":0}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}],"bufferViews":[{"buffer":0,"byteLength":36}],"buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]}' "$nodes" > "$out/gltf_shared_children.gltf.5"

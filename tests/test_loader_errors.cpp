@@ -483,3 +483,39 @@ TEST(LoadErrors, NonRegularFilesRefusedWithoutHanging) {
   expect_error_within(10, dir.path() + "/z.stl", K::FileNotFound, {"z.stl", "device"});
   expect_error_within(10, dir.path() + "/z.stl", K::FileNotFound, {"z.stl", "outside"}, confined);
 }
+
+// Found reading the loaders for issue 15: the glTF node walk recursed per level and followed
+// shared children. 64 levels of nodes listing the next one twice were 2^64 visits (a hang); a
+// chain of 200,000 nodes overflowed the call stack. Now each node is visited once, without
+// recursion, and a node reached twice is refused.
+TEST(LoadErrors, GltfNodeHierarchyBlowupAndDepth) {
+  TempDir dir;
+  dir.write("tri.bin", binary_tri_vertices());
+  auto with_nodes = [&](const std::string& nodes) {
+    std::string g = tri_gltf("3", "tri.bin");
+    size_t a = g.find(R"("nodes":[{"mesh":0}])");
+    return g.replace(a, std::string(R"("nodes":[{"mesh":0}])").size(), "\"nodes\":[" + nodes + "]");
+  };
+  std::string shared;
+  for (int i = 0; i < 64; ++i)
+    shared += "{\"children\":[" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
+  shared += R"({"mesh":0})";
+  expect_error_within(10, dir.write("dag.gltf", with_nodes(shared)), K::ParseError,
+                      {"node 64", "twice"});
+  std::string chain;
+  const int depth = 200000;
+  for (int i = 0; i < depth; ++i) chain += "{\"children\":[" + std::to_string(i + 1) + "]},";
+  chain += R"({"mesh":0})";
+  std::string deep = dir.write("deep.gltf", with_nodes(chain));
+  ChildResult r = run_in_child(
+      [&] {
+        Scene s = load_scene(deep);
+        return s.triangle_count() == 1 ? std::string()
+                                       : "loaded " + std::to_string(s.triangle_count());
+      },
+      60);
+  EXPECT_EQ(r.failure, "");
+  expect_error_within(
+      10, dir.write("cycle.gltf", with_nodes(R"({"children":[1]},{"children":[0],"mesh":0})")),
+      K::ParseError, {"node 0", "twice"});
+}
