@@ -26,17 +26,41 @@ namespace {
 using namespace vismap;
 using namespace vismap::cli;
 
-const char* kUsage =
-    "usage:\n"
+const char* kRenderUsage =
     "  vismap render SCENE -o OUT [--format svg|bin] [--fill shade|id] [--width W --height H]\n"
     "                [--eye X,Y,Z --target X,Y,Z --up X,Y,Z] [--fov-y DEG | --ortho HEIGHT]\n"
-    "                [--near N --far F] [--device NAME] [--memory-budget BYTES] [--stats]\n"
+    "                [--near N --far F] [--device NAME] [--memory-budget BYTES] [--stats]\n";
+const char* kCheckUsage =
     "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
     "                [--memory-budget BYTES]\n"
-    "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 if over tolerance\n"
-    "  vismap devices\n"
+    "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 if over tolerance\n";
+const char* kDevicesUsage = "  vismap devices\n";
+const char* kNotes =
     "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb or a .json scene file.\n"
     "--device (or $VISMAP_DEVICE): 'P:D' from `vismap devices`, or part of a device/platform name.\n";
+
+// The usage of one command ("" or unknown: all of them), with the notes and the general flags.
+std::string usage(const std::string& cmd) {
+  std::string u = "usage:\n";
+  if (cmd == "render")
+    u += kRenderUsage;
+  else if (cmd == "check")
+    u += kCheckUsage;
+  else if (cmd == "devices")
+    u += kDevicesUsage;
+  else
+    u += std::string(kRenderUsage) + kCheckUsage + kDevicesUsage +
+         "  vismap help [COMMAND] | --help | -h | --version\n";
+  return u + kNotes;
+}
+
+// True when an argument after the command asks for its usage. A scan before parsing, so that
+// `vismap render --help` prints usage even without the SCENE and -o that render requires.
+bool asks_help(int argc, char** argv) {
+  for (int i = 2; i < argc; ++i)
+    if (!std::strcmp(argv[i], "-h") || !std::strcmp(argv[i], "--help")) return true;
+  return false;
+}
 
 struct RenderArgs {
   std::string scene, out, format = "svg", fill = "shade";
@@ -181,18 +205,32 @@ int cmd_devices() {
 
 int main(int argc, char** argv) {
   keep_freed_memory_for_reuse();
-  if (argc < 2 || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "--help")) {
-    std::fputs(kUsage, argc < 2 ? stderr : stdout);
-    return argc < 2 ? 2 : 0;
+  if (argc < 2) {
+    std::fputs(usage("").c_str(), stderr);
+    return 2;
   }
   std::string cmd = argv[1];
+  if (cmd == "-h" || cmd == "--help" || cmd == "help") {
+    std::fputs(usage(argc > 2 && cmd == "help" ? argv[2] : "").c_str(), stdout);
+    return 0;
+  }
+  if (cmd == "--version") {
+    std::printf("vismap %s\n", VISMAP_VERSION);  // CMake's project(VERSION)
+    return 0;
+  }
+  bool known = cmd == "render" || cmd == "check" || cmd == "devices";
+  if (known && asks_help(argc, argv)) {
+    std::fputs(usage(cmd).c_str(), stdout);
+    return 0;
+  }
   try {
     if (cmd == "render") return cmd_render(argc, argv);
     if (cmd == "check") return cmd_check(argc, argv);
     if (cmd == "devices") return cmd_devices();
     throw UsageError("unknown command '" + cmd + "'");
-  } catch (const UsageError& e) {
-    std::fprintf(stderr, "vismap: %s\n%s", e.what(), kUsage);
+  } catch (const UsageError& e) {  // one line; the usage is one --help away
+    std::fprintf(stderr, "vismap: %s (see 'vismap %s--help')\n", e.what(),
+                 known ? (cmd + " ").c_str() : "");
     return 2;
   } catch (const InputError& e) {
     std::fprintf(stderr, "vismap: %s\n", e.what());

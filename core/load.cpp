@@ -1,10 +1,14 @@
 // load_scene: picks the reader by extension and applies the checks every format shares.
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
-#include <fstream>
 
 #include "core/load_internal.h"
 
@@ -34,67 +38,143 @@ std::string dir_of(const std::string& path) {
   return slash == std::string::npos ? std::string() : path.substr(0, slash + 1);
 }
 
-std::string read_whole_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(InputErrorKind::FileNotFound, path, "", "", -1, "cannot open file");
-  in.seekg(0, std::ios::end);
-  std::streamoff size = in.tellg();
-  if (size < 0) throw InputError(InputErrorKind::FileNotFound, path, "", "", -1, "cannot read file");
-  std::string bytes;
-  in.seekg(0);
-  bytes.resize(static_cast<size_t>(size));
-  in.read(bytes.data(), size);
-  if (in.gcount() != size)
-    throw InputError(InputErrorKind::Truncated, path, "", "", -1, "file shrank while reading");
+void ByteBudget::charge(uint64_t n, const std::string& file, const std::string& what) {
+  if (n > left())
+    throw InputError(InputErrorKind::TooLarge, file, "", "", -1,
+                     what + ": the load would hold more than " + std::to_string(limit_) +
+                         " input bytes" + (limit_ == kMaxInputBytes ? "" : " (max_bytes)"));
+  used_ += n;
+}
+
+namespace {
+
+[[noreturn]] void not_found(const std::string& path, const std::string& msg) {
+  throw InputError(InputErrorKind::FileNotFound, path, "", "", -1, msg);
+}
+
+const char* file_type(mode_t m) {
+  return S_ISDIR(m)                 ? "a directory"
+         : S_ISFIFO(m)              ? "a FIFO"
+         : S_ISSOCK(m)              ? "a socket"
+         : S_ISCHR(m) || S_ISBLK(m) ? "a device"
+                                    : "not a regular file";
+}
+
+// realpath(3) as a string, or "" when the path does not resolve.
+std::string real_path(const std::string& p) {
+  char* r = ::realpath(p.c_str(), nullptr);
+  if (!r) return {};
+  std::string out(r);
+  std::free(r);
+  return out;
+}
+
+}  // namespace
+
+std::string check_input_file(const std::string& path, const LoadOptions& opts) {
+  std::string open_path = path;
+  if (!opts.confine_to.empty()) {
+    std::string root = real_path(opts.confine_to);
+    if (root.empty())
+      not_found(path, "cannot resolve the confining folder '" + opts.confine_to + "'");
+    std::string real = real_path(path);
+    if (real.empty()) not_found(path, "cannot open file");
+    if (root != "/" && real.compare(0, root.size() + 1, root + "/") != 0)
+      not_found(path, "outside the folder loads are confined to");
+    open_path = real;  // open what was checked, not the path again (a symlink could move)
+  }
+  // stat first, so that a device or FIFO is never opened (opening some devices does things).
+  struct stat st;
+  if (::stat(open_path.c_str(), &st) != 0) not_found(path, "cannot open file");
+  if (!S_ISREG(st.st_mode))
+    not_found(path, std::string("not a regular file (") + file_type(st.st_mode) + ")");
+  return open_path;
+}
+
+std::string read_input_file(const std::string& path, const LoadOptions& opts, ByteBudget& budget) {
+  std::string open_path = check_input_file(path, opts);
+  struct stat st;
+  // O_NONBLOCK: if the path was swapped for a FIFO since the stat, open returns at once instead of
+  // waiting for a writer, and fstat below refuses it.
+  int fd = ::open(open_path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) not_found(path, "cannot open file");
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))
+    not_found(path, std::string("not a regular file (") + file_type(st.st_mode) + ")");
+  uint64_t size = uint64_t(st.st_size);
+  budget.charge(size, path, "file of " + std::to_string(size) + " bytes");
+  std::string bytes(size, '\0');
+  size_t got = 0;
+  while (got < size) {
+    ssize_t n = ::read(fd, bytes.data() + got, std::min<size_t>(size - got, size_t(1) << 30));
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) not_found(path, "cannot read file");
+    if (n == 0)
+      throw InputError(InputErrorKind::Truncated, path, "", "", -1, "file shrank while reading");
+    got += size_t(n);
+  }
   return bytes;
 }
 
 std::string gunzip(const Source& src, std::string_view bytes) {
-  constexpr size_t kMaxOut = size_t(1) << 32;  // a decompression bomb is refused, not swallowed
+  // The inflated bytes may take what the load's budget has left, and the buffer never grows past
+  // that (+1, to see that there is more): a bomb is refused at the cap, not after allocating.
+  const uint64_t cap = src.budget->left();
   z_stream z{};
   if (inflateInit2(&z, 15 + 32) != Z_OK)  // 15 + 32: zlib or gzip header, detected
     fail(InputErrorKind::ParseError, src, "", "", -1, "zlib init failed");
+  struct Ender {
+    z_stream* z;
+    ~Ender() { inflateEnd(z); }
+  } ender{&z};
   // Inflate straight into the result, sized from the gzip trailer (uncompressed size mod 2^32;
   // capped, since deflate expands at most ~1032x and a cut file's trailer is garbage).
-  size_t guess = bytes.size() * 4;
+  uint64_t guess = checked_mul(bytes.size(), 4);
   if (bytes.size() >= 18) {
     uint32_t isize;
     std::memcpy(&isize, bytes.data() + bytes.size() - 4, 4);
-    guess = std::min<uint64_t>(isize, uint64_t(bytes.size()) * 1032);
+    guess = std::min<uint64_t>(isize, checked_mul(bytes.size(), 1032));
   }
-  std::string out(guess + 1, '\0');  // +1: a full buffer then means "more to come"
-  size_t used = 0;
-  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
-  z.avail_in = static_cast<uInt>(bytes.size());
+  std::string out(std::min(guess, cap) + 1, '\0');  // +1: a full buffer then means "more to come"
+  size_t used = 0, fed = 0;
   int rc = Z_OK;
-  while (rc != Z_STREAM_END) {
+  while (true) {
     if (used == out.size()) {
-      if (out.size() > kMaxOut) {
-        inflateEnd(&z);
-        fail(InputErrorKind::TooLarge, src, "", "", -1, "decompresses to more than 4 GiB");
-      }
-      out.resize(out.size() * 2);
+      if (used > cap)
+        fail(InputErrorKind::TooLarge, src, "", "", -1,
+             "decompresses to more than " + std::to_string(cap) + " bytes, the " +
+                 (cap == src.budget->limit() ? "" : "rest of the ") + "input byte limit" +
+                 (src.budget->limit() == kMaxInputBytes ? "" : " (max_bytes)"));
+      out.resize(
+          std::min<uint64_t>(std::max<uint64_t>(checked_mul(out.size(), 2), 1 << 16), cap + 1));
     }
-    size_t room = std::min<size_t>(out.size() - used, 1u << 30);
+    if (z.avail_in == 0 && fed < bytes.size()) {  // zlib counts in 32 bits: feed at most 1 GiB
+      size_t n = std::min<size_t>(bytes.size() - fed, size_t(1) << 30);
+      z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data() + fed));
+      z.avail_in = static_cast<uInt>(n);
+      fed += n;
+    }
+    size_t room = std::min<size_t>(out.size() - used, size_t(1) << 30);
     z.next_out = reinterpret_cast<Bytef*>(out.data() + used);
     z.avail_out = static_cast<uInt>(room);
     rc = inflate(&z, Z_NO_FLUSH);
     used += room - z.avail_out;
     if (rc == Z_STREAM_END) break;
-    if (rc == Z_BUF_ERROR || (rc == Z_OK && z.avail_in == 0 && z.avail_out != 0)) {
-      inflateEnd(&z);
+    bool input_done = z.avail_in == 0 && fed == bytes.size();
+    if (rc == Z_BUF_ERROR || (rc == Z_OK && input_done && z.avail_out != 0))
       fail(InputErrorKind::Truncated, src, "", "gzip byte", static_cast<int64_t>(bytes.size()),
            "compressed stream ends early");
-    }
     if (rc != Z_OK) {
       std::string msg = z.msg ? z.msg : "corrupt data";
-      int64_t at = static_cast<int64_t>(bytes.size() - z.avail_in);
-      inflateEnd(&z);
+      int64_t at = static_cast<int64_t>(fed - z.avail_in);
       fail(InputErrorKind::ParseError, src, "", "gzip byte", at, "not a valid gzip stream: " + msg);
     }
   }
+  src.budget->charge(used, src.file, "inflated bytes");
   out.resize(used);
-  inflateEnd(&z);
   return out;
 }
 
@@ -151,6 +231,10 @@ uint64_t finish_mesh(Mesh& m, const Source& src) {
       fail(InputErrorKind::NonFiniteVertex, src, m.name, "vertex", static_cast<int64_t>(i / 3),
            "coordinate " + std::string(1, "xyz"[i % 3]) + " is not finite");
   size_t nt = m.indices.size() / 3;
+  if (nt > UINT32_MAX || nv > UINT32_MAX)  // ids and indices are 32-bit
+    fail(InputErrorKind::TooLarge, src, m.name, "", -1,
+         std::to_string(nt) + " triangles and " + std::to_string(nv) +
+             " vertices, limit is 2^32 - 1 of each");
   m.source_triangles = static_cast<uint32_t>(nt);
   m.face_ids.clear();
   m.face_ids.reserve(nt);
@@ -225,21 +309,32 @@ bool known_extension(const std::string& ext) {
 }
 }  // namespace
 
-Scene load_scene(const std::string& path, const LoadOptions& opts) {
-  detail::Source src{path, detail::dir_of(path)};
+namespace detail {
+Scene load_file(const std::string& path, const LoadOptions& opts, ByteBudget& budget) {
+  Source src{path, dir_of(path), &budget};
   if (src.base_dir.empty()) src.base_dir = "./";
-  std::string ext = detail::format_extension(path);
+  std::string ext = format_extension(path);
   if (!known_extension(ext))
-    detail::fail(InputErrorKind::UnknownFormat, src, "", "", -1,
-                 "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .json)");
-  std::string bytes = detail::read_whole_file(path);
-  if (ext == ".json") return detail::read_scene_file(src, bytes, opts);
-  return detail::load_mesh_bytes(src, bytes, opts);
+    fail(InputErrorKind::UnknownFormat, src, "", "", -1,
+         "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .json)");
+  std::string bytes = read_input_file(path, opts, budget);
+  if (ext == ".json") return read_scene_file(src, bytes, opts);
+  return load_mesh_bytes(src, bytes, opts);
+}
+}  // namespace detail
+
+Scene load_scene(const std::string& path, const LoadOptions& opts) {
+  detail::ByteBudget budget(opts);
+  return detail::load_file(path, opts, budget);
 }
 
 Scene load_scene_from_memory(const std::string& name, const std::string& bytes,
                              const LoadOptions& opts) {
-  detail::Source src{name, ""};  // no base folder: bytes from memory never reach the file system
+  // The caller holds `bytes` already (and caps them itself, as the server's body limit does):
+  // only what the load adds, the inflated bytes of a .gz, is charged.
+  detail::ByteBudget budget(opts);
+  // No base folder: bytes from memory never reach the file system.
+  detail::Source src{name, "", &budget};
   std::string ext = detail::format_extension(name);
   if (!known_extension(ext))
     detail::fail(InputErrorKind::UnknownFormat, src, "", "", -1,

@@ -3,10 +3,12 @@
 // hierarchy (matrix or TRS); color from baseColorFactor. Modes TRIANGLES, TRIANGLE_STRIP and
 // TRIANGLE_FAN are read (strips and fans converted as the spec orders them); points and lines are
 // skipped. The first camera node in depth-first scene order becomes Scene::camera.
+#include <sys/stat.h>
 #include <tiny_gltf.h>
 
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <set>
 
 #include "core/load_internal.h"
@@ -52,7 +54,7 @@ struct Loader {
   const LoadOptions& opts;
   const tinygltf::Model& model;
   Scene scene;
-  std::set<int> on_path;  // nodes on the current path: a cycle is refused, not followed forever
+  std::set<int> visited;  // nodes seen: a cycle or a shared child is refused, not followed
   uint64_t triangles = 0;
 
   // Element size, count and a bounds-checked pointer for accessor `a`.
@@ -72,8 +74,15 @@ struct Loader {
       fail(InputErrorKind::ParseError, src, mesh, "accessor", ai, "buffer view has no buffer");
     const std::vector<unsigned char>& data = model.buffers[bv.buffer].data;
     stride = bv.byteStride ? bv.byteStride : want_size;
-    uint64_t need = a.count == 0 ? 0 : uint64_t(stride) * (a.count - 1) + want_size;
-    if (uint64_t(a.byteOffset) + need > bv.byteLength || bv.byteOffset + bv.byteLength > data.size())
+    if (stride < want_size)  // the spec: a stride is at least the element size
+      fail(InputErrorKind::ParseError, src, mesh, "accessor", ai,
+           "byteStride " + std::to_string(stride) + " is smaller than the element (" +
+               std::to_string(want_size) + " bytes)");
+    // Counts and offsets come from the file: checked sums and products, so that a huge count
+    // cannot wrap to a small size and pass the bounds check.
+    uint64_t need = a.count == 0 ? 0 : checked_add(checked_mul(stride, a.count - 1), want_size);
+    if (checked_add(a.byteOffset, need) > bv.byteLength ||
+        checked_add(bv.byteOffset, bv.byteLength) > data.size())
       fail(InputErrorKind::Truncated, src, mesh, "accessor", ai,
            "accessor reads past the end of its buffer (" + std::to_string(data.size()) + " bytes)");
     return data.data() + bv.byteOffset + a.byteOffset;
@@ -180,23 +189,38 @@ struct Loader {
     scene.camera = cam;
   }
 
-  void visit(int ni, const M4& parent) {
-    if (ni < 0 || ni >= int(model.nodes.size()))
-      fail(InputErrorKind::ParseError, src, "", "node", ni, "no such node");
-    if (!on_path.insert(ni).second) fail(InputErrorKind::ParseError, src, "", "node", ni, "node hierarchy has a cycle");
-    const tinygltf::Node& n = model.nodes[ni];
-    M4 w = mul(parent, local_matrix(n));
-    if (n.camera >= 0 && !scene.camera && n.camera < int(model.cameras.size()))
-      add_camera(model.cameras[n.camera], w);
-    if (n.mesh >= 0) {
-      if (n.mesh >= int(model.meshes.size())) fail(InputErrorKind::ParseError, src, "", "node", ni, "no such mesh");
-      const tinygltf::Mesh& mesh = model.meshes[n.mesh];
-      std::string base = !mesh.name.empty() ? mesh.name : !n.name.empty() ? n.name : "mesh " + std::to_string(n.mesh);
-      for (size_t p = 0; p < mesh.primitives.size(); ++p)
-        add_primitive(mesh.primitives[p], mesh.primitives.size() > 1 ? base + "#" + std::to_string(p) : base, w);
+  // Depth first, children in order (scene order gives global triangle ids and picks the camera),
+  // with an explicit stack: a chain of a million nodes overflowed the call stack. Each node is
+  // visited once: the spec makes the hierarchy a forest, and a node listed as the child of two
+  // nodes of the level above, 64 levels deep, was 2^64 visits (a cycle is the same refusal).
+  void visit(int root) {
+    std::vector<std::pair<int, M4>> stack{{root, identity()}};
+    while (!stack.empty()) {
+      auto [ni, parent] = stack.back();
+      stack.pop_back();
+      if (ni < 0 || ni >= int(model.nodes.size()))
+        fail(InputErrorKind::ParseError, src, "", "node", ni, "no such node");
+      if (!visited.insert(ni).second)
+        fail(InputErrorKind::ParseError, src, "", "node", ni,
+             "node reached twice (a cycle, or more than one parent: the node hierarchy must be "
+             "a forest)");
+      const tinygltf::Node& n = model.nodes[ni];
+      M4 w = mul(parent, local_matrix(n));
+      if (n.camera >= 0 && !scene.camera && n.camera < int(model.cameras.size()))
+        add_camera(model.cameras[n.camera], w);
+      if (n.mesh >= 0) {
+        if (n.mesh >= int(model.meshes.size()))
+          fail(InputErrorKind::ParseError, src, "", "node", ni, "no such mesh");
+        const tinygltf::Mesh& mesh = model.meshes[n.mesh];
+        std::string base = !mesh.name.empty() ? mesh.name
+                           : !n.name.empty()  ? n.name
+                                              : "mesh " + std::to_string(n.mesh);
+        for (size_t p = 0; p < mesh.primitives.size(); ++p)
+          add_primitive(mesh.primitives[p],
+                        mesh.primitives.size() > 1 ? base + "#" + std::to_string(p) : base, w);
+      }
+      for (auto c = n.children.rbegin(); c != n.children.rend(); ++c) stack.emplace_back(*c, w);
     }
-    for (int child : n.children) visit(child, w);
-    on_path.erase(ni);
   }
 };
 
@@ -236,18 +260,70 @@ bool no_read(std::vector<unsigned char>*, std::string* err, const std::string& p
 }
 bool no_write(std::string*, const std::string&, const std::vector<unsigned char>&, void*) { return false; }
 
+// Files a .gltf / .glb on disk references (buffers, images) go through read_input_file like every
+// other file of the load: confined, regular files only, charged to the load's budget. tinygltf's
+// own reader would block on a FIFO and read outside LoadOptions::confine_to. Its callbacks cannot
+// throw through the library, so the first refusal is kept here and thrown after it returns.
+struct FileAccess {
+  const LoadOptions& opts;
+  ByteBudget& budget;
+  std::optional<InputError> refused;
+};
+bool file_exists(const std::string& p, void*) {
+  struct stat st;
+  return ::stat(p.c_str(), &st) == 0;  // read_file says why a file that is there is refused
+}
+// Images are not needed for visibility: checked like any file, but not read (tinygltf then hands
+// no_image one byte). An extension says which, as tinygltf gives the callback only the path.
+bool is_image(const std::string& p) {
+  std::string ext = format_extension(p);
+  for (const char* e :
+       {".png", ".jpg", ".jpeg", ".webp", ".ktx", ".ktx2", ".dds", ".gif", ".bmp", ".basis"})
+    if (ext == e) return true;
+  return false;
+}
+bool read_file(std::vector<unsigned char>* out, std::string* err, const std::string& p,
+               void* user) {
+  auto& fa = *static_cast<FileAccess*>(user);
+  try {
+    if (is_image(p)) {
+      check_input_file(p, fa.opts);
+      out->assign(1, 0);
+      return true;
+    }
+    std::string bytes = read_input_file(p, fa.opts, fa.budget);
+    out->assign(bytes.begin(), bytes.end());
+    return true;
+  } catch (const InputError& e) {
+    if (!fa.refused) fa.refused = e;
+    if (err) *err += e.detail();
+    return false;
+  }
+}
+
 }  // namespace
 
 Scene read_gltf(const Source& src, std::string_view bytes, bool binary, const LoadOptions& opts) {
   if (binary) check_glb(src, bytes);
+  if (bytes.size() > UINT32_MAX)  // tinygltf takes the length as unsigned int
+    fail(InputErrorKind::TooLarge, src, "", "", -1, "glTF file larger than 4 GiB");
   tinygltf::TinyGLTF gltf;
   gltf.SetImageLoader(no_image, nullptr);
-  if (src.base_dir.empty()) gltf.SetFsCallbacks({no_file, same_path, no_read, no_write, nullptr});
+  FileAccess access{opts, *src.budget, std::nullopt};
+  if (src.base_dir.empty())
+    gltf.SetFsCallbacks({no_file, same_path, no_read, no_write, nullptr});
+  else
+    gltf.SetFsCallbacks({file_exists, same_path, read_file, no_write, &access});
   tinygltf::Model model;
   std::string err, warn;
   bool ok = binary ? gltf.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
                                                unsigned(bytes.size()), src.base_dir)
                    : gltf.LoadASCIIFromString(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), src.base_dir);
+  if (access.refused) {  // a referenced file refused (even an image, which tinygltf only warns of)
+    const InputError& e = *access.refused;
+    throw InputError(e.kind(), e.file(), "", "", -1,
+                     e.detail() + " (referenced by " + src.file + ")");
+  }
   if (!ok) {
     while (!err.empty() && (err.back() == '\n' || err.back() == '\r')) err.pop_back();
     for (char& ch : err) if (ch == '\n') ch = ';';
@@ -267,7 +343,7 @@ Scene read_gltf(const Source& src, std::string_view bytes, bool binary, const Lo
       for (int c : n.children) if (c >= 0 && c < int(child.size())) child[c] = true;
     for (size_t i = 0; i < child.size(); ++i) if (!child[i]) roots.push_back(int(i));
   }
-  for (int r : roots) L.visit(r, identity());
+  for (int r : roots) L.visit(r);
   if (L.scene.triangle_count() == 0)
     fail(InputErrorKind::EmptyMesh, src, "", "", -1, L.scene.meshes.empty() ? "no triangles in the scene" : "every triangle is degenerate (zero area)");
   return std::move(L.scene);

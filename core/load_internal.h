@@ -4,6 +4,7 @@
 // named them. finish_mesh() then validates and cleans what every format shares.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -14,20 +15,68 @@
 
 namespace vismap::detail {
 
+// Sizes computed from counts that a file states: the product, or UINT64_MAX when it does not fit.
+// Saturating instead of wrapping means a lying count can only make a size too big for the bytes
+// that remain (and so refused), never small (2^62 list entries of 4 bytes wrap to 0 otherwise).
+constexpr uint64_t checked_mul(uint64_t a, uint64_t b) {
+  uint64_t r = 0;
+  return __builtin_mul_overflow(a, b, &r) ? UINT64_MAX : r;
+}
+constexpr uint64_t checked_add(uint64_t a, uint64_t b) {
+  uint64_t r = 0;
+  return __builtin_add_overflow(a, b, &r) ? UINT64_MAX : r;
+}
+
+// The absolute cap on the input bytes one load holds, whatever LoadOptions::max_bytes says
+// (0 there means only this). 4 GiB: the largest load of shared/data holds 42 MB
+// (dragon_vrip.ply.gz, 8.3 MB inflating to 33.8 MB), and a decompression bomb stops here.
+inline constexpr uint64_t kMaxInputBytes = uint64_t(1) << 32;
+
+// The input bytes one load holds, charged as they are read: each file opened (the scene, what a
+// scene file, a .gltf or an .obj's mtllib references) by its size before reading it, and a .gz
+// file's inflated bytes as they grow. Past the cap: TooLarge, before anything is allocated.
+class ByteBudget {
+ public:
+  explicit ByteBudget(const LoadOptions& opts)
+      : limit_(opts.max_bytes == 0 ? kMaxInputBytes : std::min(opts.max_bytes, kMaxInputBytes)) {}
+  uint64_t limit() const { return limit_; }
+  uint64_t left() const { return limit_ - used_; }
+  // Throws TooLarge naming `file` when `n` more bytes do not fit.
+  void charge(uint64_t n, const std::string& file, const std::string& what);
+
+ private:
+  uint64_t limit_;
+  uint64_t used_ = 0;
+};
+
 // Where a load happens: the name used in messages and the folder relative references resolve
-// against (empty for bytes from memory: external references are then refused).
+// against (empty for bytes from memory: external references are then refused), and the budget
+// every file of the load is charged against (one per load_scene / load_scene_from_memory call).
 struct Source {
   std::string file;
   std::string base_dir;
+  ByteBudget* budget = nullptr;
 };
 
 // Lower-cased extension, compound for ".ply.gz" (".ply.gz", ".obj", ... or "" if none).
 std::string format_extension(const std::string& name);
 std::string file_stem(const std::string& name);
-std::string read_whole_file(const std::string& path);  // throws FileNotFound
 std::string dir_of(const std::string& path);           // "" or ending in '/'
 
-// Throws Truncated when the stream is cut short, ParseError when it is not gzip.
+// Reads a file that a load opens (the scene itself or a file it references), by `path` as given.
+// Refuses, as FileNotFound naming `path`: a missing file; anything but a regular file (a FIFO,
+// device or directory: checked before opening and again on the open descriptor, so a FIFO never
+// blocks the load); with opts.confine_to, a file whose realpath lies outside that folder.
+// Charges the file's size to `budget` before reading (TooLarge past the cap).
+std::string read_input_file(const std::string& path, const LoadOptions& opts, ByteBudget& budget);
+// The checks of read_input_file without the reading; returns the path to open.
+std::string check_input_file(const std::string& path, const LoadOptions& opts);
+
+// load_scene with the caller's budget: a scene file's references share the scene's budget.
+Scene load_file(const std::string& path, const LoadOptions& opts, ByteBudget& budget);
+
+// Throws Truncated when the stream is cut short, ParseError when it is not gzip, TooLarge when it
+// inflates past what src.budget has left (checked before every growth of the output).
 std::string gunzip(const Source& src, std::string_view bytes);
 
 std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const LoadOptions& opts);

@@ -4,6 +4,8 @@
 // colored by its material's Kd from the mtllib. Other statements are ignored. Own reader, not
 // OpenMesh's: OpenMesh does not split by group, drops faces at non-manifold edges and does not
 // say which line is bad.
+#include <sys/stat.h>
+
 #include <cmath>
 #include <map>
 
@@ -15,16 +17,17 @@ namespace {
 
 using Materials = std::map<std::string, std::array<float, 3>, std::less<>>;
 
-// Reads Kd of each newmtl; a missing or unreadable library only loses colors.
-void read_mtl(const Source& src, std::string_view name, Materials& out) {
+// Reads Kd of each newmtl; a missing or unreadable library only loses colors. A library that is
+// there but refused (outside LoadOptions::confine_to, not a regular file, past max_bytes) fails
+// the load like any other file it opens.
+void read_mtl(const Source& src, std::string_view name, const LoadOptions& opts, Materials& out) {
   if (src.base_dir.empty()) return;  // bytes from memory never reach the file system
   std::string rel(name), file;
   for (const std::string& cand : {src.base_dir + rel, src.base_dir + rel.substr(rel.find_last_of('/') + 1)}) {
-    try {
-      file = read_whole_file(cand);
-      break;
-    } catch (const InputError&) {
-    }
+    struct stat st;
+    if (::stat(cand.c_str(), &st) != 0) continue;  // not there: try the next place, or no colors
+    file = read_input_file(cand, opts, *src.budget);
+    break;
   }
   TextCursor c(file);
   c.hash_comments = true;
@@ -118,7 +121,7 @@ std::vector<Mesh> read_obj(const Source& src, std::string_view bytes, const Load
       material = std::string(c.token_on_line());
       part = nullptr;
     } else if (kw == "mtllib") {
-      while (!c.at_line_end()) read_mtl(src, c.token_on_line(), materials);
+      while (!c.at_line_end()) read_mtl(src, c.token_on_line(), opts, materials);
     }
     while (!c.at_line_end()) c.token_on_line();
     c.next_line();

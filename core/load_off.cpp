@@ -47,14 +47,14 @@ std::vector<Mesh> read_off(const Source& src, std::string_view bytes, const Load
            "file ends before " + std::string(element) + " " + std::to_string(i));
     if (!parse_number(t, out)) bad(element, i, "expected a number, got " + quote(t));
   };
-  m.positions.reserve(std::min<uint64_t>(uint64_t(nv) * 3, bytes.size()));
+  m.positions.reserve(std::min<uint64_t>(checked_mul(uint64_t(nv), 3), bytes.size()));
   for (int64_t i = 0; i < nv; ++i) {
     float xyz[3];
     for (float& v : xyz) number("vertex", i, v);
     m.positions.insert(m.positions.end(), xyz, xyz + 3);
     skip_rest_of_line();
   }
-  m.indices.reserve(std::min<uint64_t>(uint64_t(nf) * 3, bytes.size()));
+  m.indices.reserve(std::min<uint64_t>(checked_mul(uint64_t(nf), 3), bytes.size()));
   std::vector<uint32_t> poly;
   for (int64_t f = 0; f < nf; ++f) {
     int64_t k = 0;

@@ -4,6 +4,7 @@
 // Our own reader rather than OpenMesh's: OpenMesh's PolyMesh drops or splits faces at
 // non-manifold edges (happy_vrip_res3.ply), cannot read tristrips (igea.ply) and is slower on the
 // ascii bunny (52 ms against about 15 ms here); the renderer must see every face in file order.
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -232,8 +233,21 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
       if (role == Role::Face) check_size(e.count, opts, src, m.name);
     }
   }
+  // Each loop below runs once per stated item and consumes at least a token or a byte per item
+  // (or fails at the item where the file ends), so it is bounded by the bytes, except for an
+  // element with no properties: "element junk 9223372036854775807" looped for ever, doing
+  // nothing. Such an element still takes a line per item in ascii; in binary it takes no bytes,
+  // and a count larger than the whole body is refused there as a lie all the same. No loop is
+  // run for it.
+  const uint64_t body = bytes.size() - h.body;
+  for (const Element& e : h.elements)
+    if (e.props.empty() && e.count > body)
+      fail(InputErrorKind::Truncated, src, m.name, e.name, -1,
+           "header states " + std::to_string(e.count) + " " + e.name +
+               " items without properties, more than the " + std::to_string(body) +
+               " bytes after the header");
   // Reserve no more than the body could hold, so a lying header cannot exhaust memory.
-  m.positions.reserve(std::min<uint64_t>(r.nv * 3, bytes.size()));
+  m.positions.reserve(std::min<uint64_t>(checked_mul(r.nv, 3), bytes.size()));
 
   std::vector<double> vals, raw;
   if (h.format == Format::Ascii) {
@@ -241,8 +255,9 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
     for (const Element& e : h.elements) {
       int ix, iy, iz, il;
       Role role = role_of(e, ix, iy, iz, il);
-      if (role == Role::Face) m.indices.reserve(std::min<uint64_t>(e.count * 3, bytes.size()));
-      for (uint64_t i = 0; i < e.count; ++i) {
+      if (role == Role::Face)
+        m.indices.reserve(std::min<uint64_t>(checked_mul(e.count, 3), bytes.size()));
+      for (uint64_t i = 0; i < e.count && !e.props.empty(); ++i) {
         auto parse = [&](std::string_view t, double& out) {
           if (t.empty())
             fail(InputErrorKind::Truncated, src, m.name, e.name, int64_t(i),
@@ -276,6 +291,11 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
             fail(InputErrorKind::ParseError, src, m.name, e.name, int64_t(i),
                  "line " + std::to_string(c.line()) + ": bad list length");
           size_t k = static_cast<size_t>(v);
+          // Each entry is a token of a byte and a separator: raw.resize(k) is then bounded.
+          if (k > (bytes.size() - c.pos() + 1) / 2)
+            fail(InputErrorKind::Truncated, src, m.name, e.name, int64_t(i),
+                 "line " + std::to_string(c.line()) + ": list of " + std::to_string(k) +
+                     " entries runs past the end of the file");
           if (int(p) != il || role == Role::Vertex || role == Role::Skip) {
             for (size_t j = 0; j < k; ++j) number(v);
           } else if (role == Role::Face) {
@@ -300,7 +320,7 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
     for (const Element& e : h.elements) {
       int ix, iy, iz, il;
       Role role = role_of(e, ix, iy, iz, il);
-      for (uint64_t i = 0; i < e.count; ++i) {
+      for (uint64_t i = 0; i < e.count && !e.props.empty(); ++i) {
         auto need = [&](size_t n) {
           if (!b.has(n))
             fail(InputErrorKind::Truncated, src, m.name, e.name, int64_t(i),
@@ -321,8 +341,16 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
           need(type_size(pr.count_type));
           double kd = b.number(pr.count_type);
           if (!(kd >= 0)) fail(InputErrorKind::ParseError, src, m.name, e.name, int64_t(i), "bad list length");
+          // Held against the bytes left before any size is computed from it: a count of 2^62
+          // times 4 bytes wrapped to 0, and the reader ran off the end of the buffer.
+          if (kd > double(b.remaining()))
+            fail(InputErrorKind::Truncated, src, m.name, e.name, int64_t(i),
+                 "list of " +
+                     (kd < 1e19 ? std::to_string(uint64_t(kd)) : std::string("more than 2^63")) +
+                     " entries runs past the end of the file (" + std::to_string(b.remaining()) +
+                     " bytes left)");
           size_t k = static_cast<size_t>(kd);
-          need(k * type_size(pr.type));
+          need(checked_mul(k, type_size(pr.type)));
           if (int(p) != il || role == Role::Vertex || role == Role::Skip) {
             b.skip(k * type_size(pr.type));
           } else if (role == Role::Face) {

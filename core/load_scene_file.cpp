@@ -170,7 +170,8 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
     auto it = loaded.find(full);
     if (it == loaded.end()) {
       try {
-        it = loaded.emplace(full, load_scene(full, opts)).first;
+        // The scene's budget: its referenced files together are held against one cap.
+        it = loaded.emplace(full, load_file(full, opts, *src.budget)).first;
       } catch (const InputError& e) {  // the referenced file's error, saying who referenced it
         throw InputError(e.kind(), e.file(), e.mesh(), e.element(), e.index(),
                          e.detail() + " (referenced by " + src.file + " " + path + ")");

@@ -48,6 +48,10 @@ struct LoadOptions {
   uint64_t max_triangles = 0;  // 0: no limit; otherwise a larger scene is InputError TooLarge
   // 0: no limit; otherwise the bytes a load may hold as input (a .gz file's inflated bytes, a
   // scene file's referenced files together) are capped here: past it, InputError TooLarge.
+  // Charged: every file the load opens, by its size, before it is read; the inflated bytes of a
+  // .ply.gz as they grow (checked before each growth, so a bomb is refused at the cap). Bytes
+  // handed to load_scene_from_memory are the caller's and not charged. Whatever this says, one
+  // load holds at most 4 GiB (detail::kMaxInputBytes).
   uint64_t max_bytes = 0;
   // Empty: any path. Otherwise every file the load opens (the scene itself and what a scene file
   // references) must resolve (realpath, symlinks followed) inside this directory, else

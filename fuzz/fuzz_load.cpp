@@ -16,6 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string bytes(reinterpret_cast<const char*>(data + 1), size - 1);
   vismap::LoadOptions opts;
   opts.max_triangles = 1u << 20;  // keeps the fuzzer's memory bounded; TooLarge is an InputError
+  opts.max_bytes = 16u << 20;     // and a gzip bomb (the seed gzip_bomb) stops at 16 MiB inflated
   try {
     vismap::Scene s = vismap::load_scene_from_memory(name, bytes, opts);
     (void)s;

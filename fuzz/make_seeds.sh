@@ -18,3 +18,19 @@ seed 6 "$root/data/scenes/strip_fan.glb"
 seed 7 "$root/data/scenes/two_quads.json"
 printf '\x01' > "$out/empty_gz.1"
 printf '\x04solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid x\n' > "$out/ascii.stl.4"
+# Regressions of issue 15 (tests/test_loader_errors.cpp has each as a named test):
+# PropertylessElementWithHugeCountHang: an element of 2^63-1 items without properties.
+printf '\x00ply\nformat ascii 1.0\nelement junk 9223372036854775807\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n' > "$out/propertyless_huge_count.ply.0"
+# ListCountTimesSizeWrapsReadPastBuffer: a binary list count of 2^62 (double) times 4 bytes wraps.
+verts='\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\x00'
+printf '\x00ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list double int vertex_indices\nend_header\n'"$verts"'\x00\x00\x00\x00\x00\x00\xd0\x43' > "$out/list_count_wraps.ply.0"
+printf '\x00ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement tristrips 1\nproperty list int int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n1000000000 0 1 2\n' > "$out/ascii_list_huge.ply.0"
+# GltfAccessorCountWraps: 2^62 VEC3 floats with a 12-byte stride wrap the bounds check.
+printf '\x05{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"accessors":[{"bufferView":0,"componentType":5126,"count":4611686018427387904,"type":"VEC3"}],"bufferViews":[{"buffer":0,"byteLength":36,"byteStride":12}],"buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]}' > "$out/gltf_count_wraps.gltf.5"
+# GzipBombStopsAtMaxBytes, small: 32 MiB + 100 bytes of zeros in ~32 KB (fuzz_load's max_bytes
+# is 16 MiB, so this is refused as TooLarge before the buffer passes it).
+{ printf '\x01'; { printf 'ply\nformat ascii 1.0\ncomment '; head -c 33554432 /dev/zero; } | gzip -9; } > "$out/gzip_bomb.ply.gz.1"
+# GltfNodeHierarchyBlowupAndDepth: 64 levels of nodes, each listing the next one twice.
+nodes=''
+for i in $(seq 1 64); do nodes="$nodes{\"children\":[$i,$i]},"; done
+printf '\x05{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[%s{"mesh":0}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}],"bufferViews":[{"buffer":0,"byteLength":36}],"buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]}' "$nodes" > "$out/gltf_shared_children.gltf.5"

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -16,19 +17,27 @@ namespace fs = std::filesystem;
 
 struct CliRun {
   int status = -1;
-  std::string err;
+  std::string err, out;  // out: only when run with keep_stdout
 };
 
-CliRun run(const std::string& args, const fs::path& dir) {
-  fs::path err = dir / "stderr.txt";
-  std::string cmd = std::string(VISMAP_CLI) + " " + args + " 2>" + err.string() + " >/dev/null";
+CliRun run(const std::string& args, const fs::path& dir, bool keep_stdout = false) {
+  fs::path err = dir / "stderr.txt", out = dir / "stdout.txt";
+  std::string cmd = std::string(VISMAP_CLI) + " " + args + " 2>" + err.string() + " >" +
+                    (keep_stdout ? out.string() : std::string("/dev/null"));
   int rc = std::system(cmd.c_str());
   CliRun r;
   r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  std::ifstream in(err);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  r.err = ss.str();
+  auto read = [](const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  r.err = read(err);
+  if (keep_stdout) {
+    r.out = read(out);
+    fs::remove(out);
+  }
   return r;
 }
 
@@ -120,6 +129,50 @@ TEST_F(Cli, BadInputFailsCleanly) {
   EXPECT_EQ(usage.status, 2);
   EXPECT_FALSE(fs::exists(out));
   EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator{}), 3);  // stderr.txt, nan.obj, scene.xyz
+}
+
+// --help, -h and help print the usage of every command on stdout and succeed; a command's
+// --help (or -h, or `help COMMAND`) prints that command's usage, even without its required
+// arguments. A usage error stays exit 2, in one line.
+TEST_F(Cli, HelpAndVersion) {
+  for (const char* args : {"--help", "-h", "help"}) {
+    CliRun r = run(args, dir, true);
+    EXPECT_EQ(r.status, 0) << args << ": " << r.err;
+    EXPECT_EQ(r.err, "") << args;
+    EXPECT_EQ(r.out.rfind("usage:", 0), 0u) << args << ": " << r.out;
+    for (const char* cmd :
+         {"vismap render SCENE", "vismap check SCENE", "vismap devices", "--version"})
+      EXPECT_NE(r.out.find(cmd), std::string::npos) << args << " lacks " << cmd << ": " << r.out;
+  }
+  struct Case {
+    const char* args;
+    const char* has;
+    const char* lacks;
+  };
+  for (const Case& c : {Case{"render --help", "vismap render SCENE -o OUT", "vismap check"},
+                        Case{"render -o x.svg -h", "--memory-budget", "vismap check"},
+                        Case{"help render", "vismap render SCENE", "vismap check"},
+                        Case{"check --help", "vismap check SCENE", "vismap render"},
+                        Case{"devices --help", "  vismap devices", "vismap render"}}) {
+    CliRun r = run(c.args, dir, true);
+    EXPECT_EQ(r.status, 0) << c.args << ": " << r.err;
+    EXPECT_NE(r.out.find(c.has), std::string::npos) << c.args << ": " << r.out;
+    EXPECT_EQ(r.out.find(c.lacks), std::string::npos) << c.args << ": " << r.out;
+  }
+  CliRun v = run("--version", dir, true);
+  EXPECT_EQ(v.status, 0) << v.err;
+  EXPECT_EQ(v.out, std::string("vismap ") + VISMAP_VERSION + "\n");  // CMake's project(VERSION)
+  EXPECT_EQ(v.out, "vismap 0.1.0\n");
+  for (const char* args : {"render --bogus", "check --bogus", "frobnicate"}) {
+    CliRun r = run(args, dir, true);
+    EXPECT_EQ(r.status, 2) << args;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(std::string(args).substr(std::string(args).find_last_of(' ') + 1)),
+              std::string::npos)
+        << args << ": " << r.err;
+    EXPECT_EQ(r.out, "") << args;
+  }
+  EXPECT_EQ(run("", dir).status, 2);  // no command: usage on stderr, exit 2
 }
 
 TEST_F(Cli, ListsDevices) {

@@ -1,14 +1,21 @@
 // Every kind of bad input gets an InputError of the right kind whose message names the file and
 // the element (and index) at fault. Bad files are written into a temporary folder.
+#include <sys/stat.h>
 #include <zlib.h>
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 
 #include "tests/loader_test_util.h"
 
 using namespace vismap;
+using vismap::test::ChildResult;
+using vismap::test::error_failure;
 using vismap::test::expect_error;
+using vismap::test::expect_error_within;
+using vismap::test::run_in_child;
 using vismap::test::TempDir;
 using K = InputErrorKind;
 
@@ -208,4 +215,307 @@ TEST(LoadErrors, BadJsonAndSceneKeys) {
     EXPECT_EQ(e.kind(), K::BadScene);
     EXPECT_NE(std::string(e.what()).find("meshes[0].file"), std::string::npos) << e.what();
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Regressions of issue 15: inputs that hung, read past a buffer or exhausted memory, and files
+// outside LoadOptions::confine_to. Each load runs in a child process with a deadline, so that a
+// regression fails the test instead of hanging the suite. The in-memory ones are also fuzzer
+// seeds (fuzz/make_seeds.sh).
+
+namespace {
+
+const char* kTriBody = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+
+std::string binary_tri_vertices() {
+  float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  return std::string(reinterpret_cast<const char*>(v), sizeof v);
+}
+
+// Writes a gzip file that inflates to `total` bytes: a PLY header line, then zeros. One 1 MiB
+// chunk of zeros is deflated once after a full flush (so it refers to nothing before it) and its
+// blocks written once per chunk: the test holds a few MiB, never the inflated size, and takes
+// well under a second for 4 GiB. The trailer is right (crc32_combine), so it is a real bomb.
+void write_gzip_bomb(const std::string& path, uint64_t total) {
+  const std::string head = "ply\nformat ascii 1.0\ncomment ";
+  const size_t chunk = size_t(1) << 20;
+  const std::string zeros(chunk, '\0');
+  std::ofstream out(path, std::ios::binary);
+  const unsigned char gz_header[10] = {0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 3};
+  out.write(reinterpret_cast<const char*>(gz_header), sizeof gz_header);
+  z_stream z{};
+  ASSERT_EQ(deflateInit2(&z, 9, Z_DEFLATED, -15, 9, Z_DEFAULT_STRATEGY), Z_OK);  // raw deflate
+  auto deflate_some = [&](const char* p, size_t n, int flush) {
+    std::string buf(deflateBound(&z, n) + 64, '\0'), got;
+    z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(p));
+    z.avail_in = uInt(n);
+    do {
+      z.next_out = reinterpret_cast<Bytef*>(buf.data());
+      z.avail_out = uInt(buf.size());
+      deflate(&z, flush);
+      got.append(buf.data(), buf.size() - z.avail_out);
+    } while (z.avail_out == 0);
+    return got;
+  };
+  uint64_t body = total - head.size();
+  out << deflate_some(head.data(), head.size(), Z_FULL_FLUSH);
+  const std::string block = deflate_some(zeros.data(), chunk, Z_FULL_FLUSH);
+  for (uint64_t i = 0; i < body / chunk; ++i) out << block;
+  out << deflate_some(zeros.data(), size_t(body % chunk), Z_FINISH);
+  deflateEnd(&z);
+  uLong crc = crc32(0, reinterpret_cast<const Bytef*>(head.data()), uInt(head.size()));
+  uLong crc_chunk = crc32(0, reinterpret_cast<const Bytef*>(zeros.data()), uInt(chunk));
+  for (uint64_t i = 0; i < body / chunk; ++i) crc = crc32_combine(crc, crc_chunk, z_off_t(chunk));
+  crc =
+      crc32_combine(crc, crc32(0, reinterpret_cast<const Bytef*>(zeros.data()), uInt(body % chunk)),
+                    z_off_t(body % chunk));
+  uint32_t trailer[2] = {uint32_t(crc), uint32_t(total)};  // little endian, ISIZE = total mod 2^32
+  out.write(reinterpret_cast<const char*>(trailer), sizeof trailer);
+}
+
+// A one-triangle glTF whose POSITION accessor has `count` vertices in the external buffer `uri`.
+std::string tri_gltf(const std::string& count, const std::string& uri) {
+  return R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],)"
+         R"("meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],)"
+         R"("accessors":[{"bufferView":0,"componentType":5126,"count":)" +
+         count +
+         R"(,"type":"VEC3"}],)"
+         R"("bufferViews":[{"buffer":0,"byteLength":36,"byteStride":12}],)"
+         R"("buffers":[{"byteLength":36,"uri":")" +
+         uri + R"("}]})";
+}
+
+}  // namespace
+
+// "element junk 9223372036854775807" without properties, before the vertices: the reader looped
+// 2^63 times doing nothing (100 % CPU for ever, CLI too). Now refused at once, ascii and binary.
+TEST(LoadErrors, PropertylessElementWithHugeCountHang) {
+  TempDir dir;
+  const std::string head =
+      "element junk 9223372036854775807\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n";
+  expect_error_within(10, dir.write("hang.ply", "ply\nformat ascii 1.0\n" + head + kTriBody),
+                      K::Truncated, {"junk", "9223372036854775807"});
+  std::string bin = "ply\nformat binary_little_endian 1.0\n" + head + binary_tri_vertices();
+  bin += char(3);
+  int32_t idx[3] = {0, 1, 2};
+  bin.append(reinterpret_cast<const char*>(idx), sizeof idx);
+  expect_error_within(10, dir.write("hang_bin.ply", bin), K::Truncated, {"junk"});
+  // A small count of such items is still fine.
+  std::string ok = "ply\nformat ascii 1.0\nelement junk 2\n" + head.substr(head.find('\n') + 1) +
+                   "\n\n" + kTriBody;
+  EXPECT_EQ(load_scene(dir.write("ok.ply", ok)).triangle_count(), 1u);
+}
+
+// "property list double int vertex_indices" with a list count of 2^62: count x 4 bytes wrapped to
+// 0, the bounds check passed and the reader ran past the end of the buffer (ASan heap-buffer-
+// overflow in core/load_ply.cpp), quoting heap bytes as a "vertex index". Now Truncated at face 0.
+TEST(LoadErrors, ListCountTimesSizeWrapsReadPastBuffer) {
+  TempDir dir;
+  auto ply = [&](double count) {
+    std::string b =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+        "property float y\nproperty float z\nelement face 1\n"
+        "property list double int vertex_indices\nend_header\n" +
+        binary_tri_vertices();
+    b.append(reinterpret_cast<const char*>(&count), 8);
+    return b;
+  };
+  for (double count : {4611686018427387904.0 /* 2^62 */, 1e30, 3.0}) {
+    std::string path = dir.write("wrap.ply", ply(count));
+    ChildResult r = run_in_child(
+        [&] {
+          std::string f = error_failure(path, K::Truncated, {"face 0", "past the end"});
+          try {
+            load_scene(path);
+          } catch (const InputError& e) {
+            if (std::string(e.what()).find("vertex index") != std::string::npos)
+              return std::string("quotes a vertex index: ") + e.what();
+          }
+          return f;
+        },
+        10);
+    EXPECT_EQ(r.failure, "") << "list count " << count;
+  }
+  // Ascii: a list length of 10^9 (within the old sanity bound) allocated 8 GB for a tristrip
+  // before reading a single entry. Now refused from the bytes left.
+  std::string path =
+      dir.write("strip.ply",
+                "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                "property float z\nelement tristrips 1\nproperty list int int vertex_indices\n"
+                "end_header\n0 0 0\n1 0 0\n0 1 0\n1000000000 0 1 2\n");
+  ChildResult r = run_in_child(
+      [&] {
+        return error_failure(path, K::Truncated, {"tristrips 0", "1000000000"});
+      },
+      20);
+  EXPECT_EQ(r.failure, "");
+  EXPECT_LT(r.max_rss_kib, 1L << 20) << "peak RSS in KiB";
+}
+
+// A glTF accessor of 2^62 VEC3 floats with a 12-byte stride: stride x (count - 1) + 12 wrapped to
+// 0 and passed the bounds check; the position copy then asked for 2^62 x 3 floats (an escaping
+// std::length_error). Checked arithmetic refuses it as reading past the buffer.
+TEST(LoadErrors, GltfAccessorCountWraps) {
+  TempDir dir;
+  dir.write("tri.bin", binary_tri_vertices());
+  EXPECT_EQ(load_scene(dir.write("ok.gltf", tri_gltf("3", "tri.bin"))).triangle_count(), 1u);
+  expect_error_within(10, dir.write("wrap.gltf", tri_gltf("4611686018427387904", "tri.bin")),
+                      K::Truncated, {"accessor 0", "past the end"});
+}
+
+// A 4 MB .ply.gz inflating to 4 GiB + 100 bytes was accepted (peak RSS 6.8 GB): the cap was
+// checked only before doubling the buffer, and the gzip trailer's size (mod 2^32) said 100.
+// Now the cap is LoadOptions::max_bytes, checked before every growth, and the child's peak
+// memory stays far under the inflated size.
+TEST(LoadErrors, GzipBombStopsAtMaxBytes) {
+  TempDir dir;
+  std::string path = dir.path() + "/bomb.ply.gz";
+  write_gzip_bomb(path, (uint64_t(4) << 30) + 100);
+  EXPECT_LT(std::filesystem::file_size(path), 8u << 20);
+  LoadOptions opts;
+  opts.max_bytes = 64u << 20;
+  ChildResult r = run_in_child(
+      [&] {
+        return error_failure(path, K::TooLarge, {"decompresses", "max_bytes"}, opts);
+      },
+      60);
+  EXPECT_EQ(r.failure, "");
+  EXPECT_LT(r.max_rss_kib, 512L << 10) << "peak RSS in KiB; the bomb inflates to 4 GiB";
+  // A real .ply.gz within the cap loads; the same under a smaller cap is TooLarge.
+  std::string gz = gzip(test::read_bytes(test::data_dir() + "/bunny.ply"));
+  std::string ok = dir.write("ok.ply.gz", gz);
+  opts.max_bytes = 16u << 20;
+  EXPECT_EQ(load_scene(ok, opts).triangle_count(), 69451u);
+  opts.max_bytes = 2u << 20;  // the 1 MiB .gz fits, what it inflates to does not
+  expect_error(ok, K::TooLarge, {"decompresses"}, opts);
+  // From memory too (the server's uploads): only the inflated bytes are charged.
+  try {
+    load_scene_from_memory("up.ply.gz", gz, opts);
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.kind(), K::TooLarge) << e.what();
+  }
+}
+
+// max_bytes covers a scene file's referenced files together (and the scene file itself).
+TEST(LoadErrors, MaxBytesCountsReferencedFiles) {
+  TempDir dir;
+  std::string a = dir.write("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  std::string b = dir.write("b.obj", "v 0 0 1\nv 1 0 1\nv 0 1 1\nf 1 2 3\n");
+  std::string json =
+      dir.write("s.json", R"({"meshes":[{"file":"a.obj"},{"file":"a.obj"},{"file":"b.obj"}]})");
+  uint64_t all = std::filesystem::file_size(json) + std::filesystem::file_size(a) +
+                 std::filesystem::file_size(b);
+  LoadOptions opts;
+  opts.max_bytes = all;  // a.obj, named twice, is read once
+  EXPECT_EQ(load_scene(json, opts).triangle_count(), 3u);
+  opts.max_bytes = all - 1;
+  expect_error(json, K::TooLarge, {"b.obj", "max_bytes"}, opts);
+  opts.max_bytes = 10;
+  expect_error(json, K::TooLarge, {"s.json"}, opts);
+}
+
+// LoadOptions::confine_to: every file a load opens resolves inside the folder, else FileNotFound
+// naming the path as given; a symlink out, an absolute path or a ../ in a scene file, an mtllib
+// and a glTF buffer outside are all refused.
+TEST(LoadErrors, ConfineToRefusesEscapes) {
+  TempDir dir;
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  std::string lib = dir.path() + "/lib";
+  std::filesystem::create_directory(lib);
+  std::string out = dir.write("out.obj", tri);
+  dir.write("out.mtl", "newmtl m\nKd 1 0 0\n");
+  dir.write("out.bin", binary_tri_vertices());
+  dir.write("lib/in.obj", tri);
+  dir.write("lib/in.bin", binary_tri_vertices());
+  std::filesystem::create_symlink("../out.obj", lib + "/link.obj");
+  std::filesystem::create_symlink("in.obj", lib + "/inlink.obj");
+  LoadOptions opts;
+  opts.confine_to = lib;
+  EXPECT_EQ(load_scene(lib + "/in.obj", opts).triangle_count(), 1u);
+  EXPECT_EQ(load_scene(lib + "/inlink.obj", opts).triangle_count(), 1u);
+  EXPECT_EQ(load_scene(dir.write("lib/ok.gltf", tri_gltf("3", "in.bin")), opts).triangle_count(),
+            1u);
+  EXPECT_EQ(load_scene(dir.write("lib/ok.json", R"({"meshes":[{"file":"in.obj"}]})"), opts)
+                .triangle_count(),
+            1u);
+  expect_error_within(10, lib + "/link.obj", K::FileNotFound, {"outside"}, opts);
+  expect_error_within(10, lib + "/../out.obj", K::FileNotFound, {"outside"}, opts);
+  expect_error_within(10, dir.write("lib/abs.json", R"({"meshes":[{"file":")" + out + R"("}]})"),
+                      K::FileNotFound, {out, "outside", "meshes[0]"}, opts);
+  expect_error_within(10, dir.write("lib/up.json", R"({"meshes":[{"file":"../out.obj"}]})"),
+                      K::FileNotFound, {"../out.obj", "outside"}, opts);
+  expect_error_within(10, dir.write("lib/m.obj", "mtllib ../out.mtl\nusemtl m\n" + tri),
+                      K::FileNotFound, {"../out.mtl", "outside"}, opts);
+  expect_error_within(10, dir.write("lib/g.gltf", tri_gltf("3", "../out.bin")), K::FileNotFound,
+                      {"out.bin", "outside"}, opts);
+  // The scene itself outside the folder.
+  expect_error_within(10, out, K::FileNotFound, {"outside"}, opts);
+  // Unconfined, the same files load: confinement is the caller's choice.
+  EXPECT_EQ(load_scene(lib + "/link.obj").triangle_count(), 1u);
+  EXPECT_EQ(load_scene(lib + "/up.json").triangle_count(), 1u);
+}
+
+// A FIFO named like a mesh blocked the load for ever in open() (no writer ever comes), and a
+// device or directory was opened as a file. Non-regular files are refused, confined or not.
+TEST(LoadErrors, NonRegularFilesRefusedWithoutHanging) {
+  TempDir dir;
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  ASSERT_EQ(mkfifo((dir.path() + "/f.ply").c_str(), 0600), 0);
+  ASSERT_EQ(mkfifo((dir.path() + "/f.mtl").c_str(), 0600), 0);
+  ASSERT_EQ(mkfifo((dir.path() + "/f.bin").c_str(), 0600), 0);
+  std::filesystem::create_directory(dir.path() + "/d.obj");
+  std::filesystem::create_symlink("/dev/zero", dir.path() + "/z.stl");
+  LoadOptions confined;
+  confined.confine_to = dir.path();
+  for (const LoadOptions& opts : {LoadOptions{}, confined}) {
+    expect_error_within(10, dir.path() + "/f.ply", K::FileNotFound, {"f.ply", "FIFO"}, opts);
+    expect_error_within(10, dir.write("f.json", R"({"meshes":[{"file":"f.ply"}]})"),
+                        K::FileNotFound, {"f.ply", "FIFO", "meshes[0]"}, opts);
+    expect_error_within(10, dir.write("m.obj", "mtllib f.mtl\n" + tri), K::FileNotFound,
+                        {"f.mtl", "FIFO"}, opts);
+    expect_error_within(10, dir.write("g.gltf", tri_gltf("3", "f.bin")), K::FileNotFound,
+                        {"f.bin", "FIFO"}, opts);
+    expect_error_within(10, dir.path() + "/d.obj", K::FileNotFound, {"directory"}, opts);
+  }
+  expect_error_within(10, dir.path() + "/z.stl", K::FileNotFound, {"z.stl", "device"});
+  expect_error_within(10, dir.path() + "/z.stl", K::FileNotFound, {"z.stl", "outside"}, confined);
+}
+
+// Found reading the loaders for issue 15: the glTF node walk recursed per level and followed
+// shared children. 64 levels of nodes listing the next one twice were 2^64 visits (a hang); a
+// chain of 200,000 nodes overflowed the call stack. Now each node is visited once, without
+// recursion, and a node reached twice is refused.
+TEST(LoadErrors, GltfNodeHierarchyBlowupAndDepth) {
+  TempDir dir;
+  dir.write("tri.bin", binary_tri_vertices());
+  auto with_nodes = [&](const std::string& nodes) {
+    std::string g = tri_gltf("3", "tri.bin");
+    size_t a = g.find(R"("nodes":[{"mesh":0}])");
+    return g.replace(a, std::string(R"("nodes":[{"mesh":0}])").size(), "\"nodes\":[" + nodes + "]");
+  };
+  std::string shared;
+  for (int i = 0; i < 64; ++i)
+    shared += "{\"children\":[" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
+  shared += R"({"mesh":0})";
+  expect_error_within(10, dir.write("dag.gltf", with_nodes(shared)), K::ParseError,
+                      {"node 64", "twice"});
+  std::string chain;
+  const int depth = 200000;
+  for (int i = 0; i < depth; ++i) chain += "{\"children\":[" + std::to_string(i + 1) + "]},";
+  chain += R"({"mesh":0})";
+  std::string deep = dir.write("deep.gltf", with_nodes(chain));
+  ChildResult r = run_in_child(
+      [&] {
+        Scene s = load_scene(deep);
+        return s.triangle_count() == 1 ? std::string()
+                                       : "loaded " + std::to_string(s.triangle_count());
+      },
+      60);
+  EXPECT_EQ(r.failure, "");
+  expect_error_within(
+      10, dir.write("cycle.gltf", with_nodes(R"({"children":[1]},{"children":[0],"mesh":0})")),
+      K::ParseError, {"node 0", "twice"});
 }
