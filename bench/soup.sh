@@ -37,11 +37,13 @@ def g(pat, cast=float):
     m = re.search(pat, log)
     return cast(m.group(1)) if m else float("nan")
 t = re.search(r"TIME ([\d.]+) (\d+)", log)
-print(f"| {n} | {budget} | {float(t.group(1)):.2f} | {int(t.group(2)) / 1024:.0f} | "
-      f"{g(r'device memory peak ([\d.]+) MB'):.1f} | {g(r'(\d+) bucket', int)} | "
-      f"{g(r'fragments (\d+), visible', int)} | {g(r'visible (\d+)', int)} | "
-      f"{g(r'entangled pairs (\d+)', int)} | {g(r'crossing entries (\d+)', int)} | "
-      f"{g(r'output: (\d+) triangles', int)} |")
+num = r"(\d+)"
+cols = [n, budget, "%.2f" % float(t.group(1)), "%.0f" % (int(t.group(2)) / 1024),
+        "%.1f" % g(r"device memory peak ([\d.]+) MB"), g(num + " bucket", int),
+        g("fragments " + num + ", visible", int), g("visible " + num, int),
+        g("entangled pairs " + num, int), g("crossing entries " + num, int),
+        g("output: " + num + " triangles", int)]
+print("| " + " | ".join(str(c) for c in cols) + " |")
 PY
   else
     echo "| $n | $BUDGET | failed: $(grep -v '^TIME' "$WORK/log" | tail -1) |"
