@@ -49,9 +49,21 @@ bool RenderQueue::submit(uint64_t session, Task task) {
   return replaced;
 }
 
+// Renderers are built one at a time, process-wide (every RenderQueue, every Server in the
+// process). Built concurrently, the OpenCL ICD loader (ocl-icd 2.3.1, Debian 12) initialises
+// itself lazily and without a lock on the first clGetPlatformIDs: a second thread that comes
+// in meanwhile sees zero platforms ("no OpenCL device found": with --renderers 2 every other
+// frame failed), and two threads running PoCL's device initialisation at once segfaulted at
+// start with --renderers 3 or 8. Once built, Renderers render concurrently without trouble.
+static std::mutex& renderer_build_mutex() {
+  static std::mutex mu;
+  return mu;
+}
+
 void RenderQueue::work(uint32_t index) {
   std::unique_ptr<Renderer> renderer;
   try {
+    std::lock_guard build(renderer_build_mutex());
     renderer = make_ ? make_() : nullptr;
   } catch (const std::exception& e) {
     std::lock_guard lk(mu_);

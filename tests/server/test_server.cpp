@@ -573,4 +573,32 @@ TEST_F(ServerTest, GracefulStopFinishesFramesAndRefusesNewConnections) {
   EXPECT_ANY_THROW(late.connect(url(), 2));
 }
 
+
+// Issue 15, bug 8: with --renderers 2 every other frame failed with device_error "no OpenCL
+// device found", and 3 or 8 segfaulted at start inside PoCL: the Renderers were built
+// concurrently, racing the OpenCL ICD loader's lazy initialisation. Three renderers, three
+// sessions rendering at once: every frame is a frame.
+TEST_F(ServerTest, SeveralRenderersBuiltConcurrentlyAllRender) {
+  cfg_.renderers = 3;
+  start();
+  std::vector<std::thread> threads;
+  std::atomic<int> frames{0};
+  for (int s = 0; s < 3; ++s)
+    threads.emplace_back([&, s] {
+      try {
+        WsClient c;
+        hello(c);
+        ready(c);
+        for (int i = 0; i < 4; ++i) {
+          auto [h, p] = frame(c, i, 0.3 * i + s);
+          if (h["type"] == "frame") frames++;
+        }
+      } catch (const std::exception& e) {
+        ADD_FAILURE() << "session " << s << ": " << e.what();
+      }
+    });
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(frames, 12);
+}
+
 }  // namespace
