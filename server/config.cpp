@@ -61,6 +61,7 @@ void apply_json(Config& cfg, const std::string& text, const std::string& origin)
     else if (k == "renderers") get(j, "renderers", cfg.renderers, origin);
     else if (k == "io_threads") get(j, "io_threads", cfg.io_threads, origin);
     else if (k == "load_threads") get(j, "load_threads", cfg.load_threads, origin);
+    else if (k == "encode_threads") get(j, "encode_threads", cfg.encode_threads, origin);
     else if (k == "drain_timeout_s") get(j, "drain_timeout_s", cfg.drain_timeout_s, origin);
     else if (k == "log_level") get(j, "log_level", cfg.log_level, origin);
     else if (k == "limits") {
@@ -76,17 +77,24 @@ void apply_json(Config& cfg, const std::string& text, const std::string& origin)
         else if (lk == "render_memory_bytes") get(v, key, l.render_memory_bytes, origin);
         else if (lk == "max_sessions") get(v, key, l.max_sessions, origin);
         else if (lk == "max_connections") get(v, key, l.max_connections, origin);
+        else if (lk == "max_connections_per_address")
+          get(v, key, l.max_connections_per_address, origin);
         else if (lk == "max_viewport") get(v, key, l.max_viewport, origin);
         else if (lk == "handshake_timeout_s") get(v, key, l.handshake_timeout_s, origin);
         else if (lk == "idle_timeout_s") get(v, key, l.idle_timeout_s, origin);
+        else if (lk == "render_time_limit_s") get(v, key, l.render_time_limit_s, origin);
         else throw std::runtime_error(origin + ": unknown key 'limits." + lk + "'");
       }
     } else {
       throw std::runtime_error(origin + ": unknown key '" + k + "'");
     }
   }
-  if (cfg.renderers == 0 || cfg.io_threads == 0 || cfg.load_threads == 0)
-    throw std::runtime_error(origin + ": renderers, io_threads and load_threads must be >= 1");
+  if (cfg.renderers == 0 || cfg.io_threads == 0 || cfg.load_threads == 0 ||
+      cfg.encode_threads == 0)
+    throw std::runtime_error(
+        origin + ": renderers, io_threads, load_threads and encode_threads must be >= 1");
+  if (cfg.limits.render_time_limit_s < 0)
+    throw std::runtime_error(origin + ": limits.render_time_limit_s must be >= 0");
 }
 
 static const char* kUsage =
@@ -116,7 +124,8 @@ bool parse_args(Config& cfg, int argc, char** argv, std::string& usage) {
       } catch (...) {
         used = 0;
       }
-      if (used != v.size() || n > hi) throw std::runtime_error("flag " + a + ": bad number '" + v + "'");
+      if (used != v.size() || n > hi)
+        throw std::runtime_error("flag " + a + ": bad number '" + v + "'");
       return n;
     };
     if (a == "--config") continue;
@@ -126,7 +135,8 @@ bool parse_args(Config& cfg, int argc, char** argv, std::string& usage) {
     else if (a == "--www") cfg.www = v;
     else if (a == "--token-file") cfg.token = read_token(v);
     else if (a == "--device") cfg.device = v;
-    else if (a == "--renderers") cfg.renderers = static_cast<uint32_t>(std::max<uint64_t>(1, num(64)));
+    else if (a == "--renderers")
+      cfg.renderers = static_cast<uint32_t>(std::max<uint64_t>(1, num(64)));
     else if (a == "--max-sessions") cfg.limits.max_sessions = static_cast<uint32_t>(num(100000));
     else if (a == "--log-level") cfg.log_level = v;
     else throw std::runtime_error("unknown flag " + a + " (see --help)");

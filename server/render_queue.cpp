@@ -8,7 +8,8 @@
 namespace vismap::server {
 
 RenderQueue::RenderQueue(uint32_t workers, RendererFactory make) : make_(std::move(make)) {
-  for (uint32_t i = 0; i < std::max<uint32_t>(workers, 1); ++i) workers_.emplace_back([this, i] { work(i); });
+  for (uint32_t i = 0; i < std::max<uint32_t>(workers, 1); ++i)
+    workers_.emplace_back([this, i] { work(i); });
 }
 
 RenderQueue::~RenderQueue() { stop(); }
@@ -97,7 +98,8 @@ void RenderQueue::work(uint32_t index) {
     } catch (...) {
       // A task reports its own errors; nothing a session does may take a worker down.
     }
-    double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     std::lock_guard lk(mu_);
     auto it = sessions_.find(session);
     if (it != sessions_.end()) it->second.vtime_ms += ms;

@@ -37,8 +37,8 @@ bool parse(Config& cfg, std::vector<std::string> args) {
 
 // Runs vismapd with `args` for at most 10 s; returns its exit status (124: still serving).
 int run_vismapd(const std::string& args) {
-  std::string cmd = "timeout 10 " + std::string(VISMAPD_PATH) + " --port 0 --log-level off " + args +
-                    " 2>/dev/null";
+  std::string cmd = "timeout 10 " + std::string(VISMAPD_PATH) + " --port 0 --log-level off " +
+                    args + " 2>/dev/null";
   int st = std::system(cmd.c_str());
   return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
