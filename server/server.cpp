@@ -4,9 +4,11 @@
 #include "server/server.h"
 
 #include <malloc.h>
+#include <unistd.h>
 
 #include <boost/beast/core.hpp>
 #include <csignal>
+#include <cstdio>
 
 #include "core/clock.h"
 #include "core/pipeline.h"
@@ -78,6 +80,15 @@ std::vector<std::shared_ptr<SessionHandle>> Server::Impl::live_sessions() {
   return live;
 }
 
+static double resident_mib() {
+  long pages = 0, resident = 0;
+  if (FILE* f = std::fopen("/proc/self/statm", "r")) {
+    if (std::fscanf(f, "%ld %ld", &pages, &resident) != 2) resident = 0;
+    std::fclose(f);
+  }
+  return static_cast<double>(resident) * static_cast<double>(::sysconf(_SC_PAGESIZE)) / 1048576.0;
+}
+
 // keep_freed_memory_for_reuse() (main) keeps freed blocks in the heap so frames do not pay page
 // faults again; but then one big upload or frame stays resident for good (760 MB after one
 // spike). Sessions that saw a big message, frame or scene call this when they end (and a big
@@ -87,7 +98,9 @@ void Server::Impl::trim_memory() {
   if (trim_pending.exchange(true)) return;
   loads_in_flight++;
   net::post(load_pool, [this] {
+    double before = resident_mib();
     ::malloc_trim(0);
+    log.info("memory_trimmed", {{"rss_mib_before", before}, {"rss_mib_after", resident_mib()}});
     trim_pending = false;
     loads_in_flight--;
   });
