@@ -1,7 +1,9 @@
 // vismapd: the streaming server. See docs/SERVER.md and proto/PROTOCOL.md.
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -17,6 +19,14 @@ int main(int argc, char** argv) {
     if (!parse_args(cfg, argc, argv, usage)) {
       std::fputs(usage.c_str(), stdout);
       return 0;
+    }
+    // Test-only: every frame takes this much longer (the drain tests of the real binary need
+    // a frame still running at SIGTERM). Not a config key; never set in deployment.
+    if (const char* d = std::getenv("VISMAPD_TEST_FRAME_DELAY_S"); d && *d) {
+      auto delay = std::chrono::duration<double>(std::atof(d));
+      cfg.before_render = [delay](const vismap::RenderOptions&) {
+        std::this_thread::sleep_for(delay);
+      };
     }
     Server server(cfg);
     server.start();

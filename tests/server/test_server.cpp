@@ -887,6 +887,21 @@ class Vismapd {
     return 0;
   }
   double rss_mib() const { return status_mib("VmRSS:"); }
+  void signal(int sig) const { ::kill(pid_, sig); }
+  // Waits up to timeout_s for the child to exit; returns its exit status, or -1.
+  int wait_exit(double timeout_s) {
+    auto t0 = std::chrono::steady_clock::now();
+    while (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() <
+           timeout_s) {
+      int st = 0;
+      if (::waitpid(pid_, &st, WNOHANG) == pid_) {
+        pid_ = -1;
+        return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return -1;
+  }
   // Waits (at most 10 s) until the resident size stops changing: the Renderer is built on the
   // worker after start, and PoCL's setup is a good part of the process's memory.
   double settled_rss_mib() const {
@@ -967,6 +982,46 @@ TEST_F(ServerTest, GzipInflatedBytesChargedToTheSession) {
   EXPECT_EQ(r["fatal"], false);
   c.send_text(R"({"type":"ping","seq":1})");
   EXPECT_EQ(next(c)["type"], "pong");
+}
+
+// Issue 15, bug 7, on the real binary: SIGTERM during a long frame (VISMAPD_TEST_FRAME_DELAY_S
+// makes each frame take 4 s more) with drain_timeout_s 0.6: the session gets shutting_down and
+// close 1001, and the process exits 0 by the deadline (it had waited for the frame, 16.7 s after
+// a 3 s drain).
+TEST(VismapdProcess, SigtermDuringAFrameExitsByTheDrainDeadline) {
+  fs::path dir = fs::temp_directory_path() / ("vismapd_sigterm_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "tet.obj") << kTet;
+  std::ofstream(dir / "conf.json") << R"({"drain_timeout_s":0.6,"library":")" + dir.string() +
+                                          R"("})";
+  ::setenv("VISMAPD_TEST_FRAME_DELAY_S", "4", 1);
+  Vismapd d({"--port", "0", "--config", (dir / "conf.json").string()});
+  ::unsetenv("VISMAPD_TEST_FRAME_DELAY_S");
+  WsClient c;
+  c.connect("ws://127.0.0.1:" + d.port() + "/");
+  c.send_text(R"({"type":"hello","version":1})");
+  ASSERT_EQ(json::parse(c.read(30).data)["type"], "welcome");
+  c.send_text(R"({"type":"scene","library":"tet.obj"})");
+  ASSERT_EQ(json::parse(c.read(60).data)["type"], "scene_ready");
+  c.send_text(R"({"type":"camera","seq":1})");
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the frame is on the worker
+  auto t0 = std::chrono::steady_clock::now();
+  d.signal(SIGTERM);
+  json e = json::parse(c.read(5).data);
+  EXPECT_EQ(e["code"], "shutting_down") << e.dump();
+  int code = -1;
+  try {
+    c.read(5);
+  } catch (const Closed& x) {
+    code = x.code;
+  }
+  EXPECT_EQ(code, 1001);
+  int status = d.wait_exit(5);
+  double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("exit %d after %.2f s (drain 0.6 s, frame 4 s)\n", status, took);
+  EXPECT_EQ(status, 0);
+  EXPECT_LT(took, 0.6 + 0.6);
+  fs::remove_all(dir);
 }
 
 }  // namespace
