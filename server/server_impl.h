@@ -96,7 +96,7 @@ struct Server::Impl {
   ConnectionCounter connections;
   std::atomic<bool> stopping{false};
   std::atomic<bool> stopped{false};
-  std::atomic<bool> trim_pending{false};
+  std::atomic<int> trim_requests{0};
   std::mutex sessions_mu;
   std::map<uint64_t, std::weak_ptr<SessionHandle>> sessions;  // by connection id
   uint64_t next_connection = 1;
