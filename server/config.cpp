@@ -1,5 +1,6 @@
 #include "server/config.h"
 
+#include <cctype>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -18,10 +19,20 @@ std::string read_file(const std::string& path) {
 }
 
 static std::string trim(std::string s) {
-  while (!s.empty() && (s.back() == '\n' || s.back() == '\r' || s.back() == ' ')) s.pop_back();
+  auto space = [](char c) { return std::isspace(static_cast<unsigned char>(c)) != 0; };
+  while (!s.empty() && space(s.back())) s.pop_back();
   size_t i = 0;
-  while (i < s.size() && s[i] == ' ') ++i;
+  while (i < s.size() && space(s[i])) ++i;
   return s.substr(i);
+}
+
+// The token a client must send, from a file. An empty or all-whitespace file is an error in
+// every path (flag and config key): it once started the server with auth off (issue 15, bug 6).
+static std::string read_token(const std::string& path) {
+  std::string token = trim(read_file(path));
+  if (token.empty())
+    throw std::runtime_error(path + ": token file is empty; refusing to start without auth");
+  return token;
 }
 
 template <class T>
@@ -41,11 +52,16 @@ void apply_json(Config& cfg, const std::string& text, const std::string& origin)
     else if (k == "port") get(j, "port", cfg.port, origin);
     else if (k == "library") get(j, "library", cfg.library, origin);
     else if (k == "www") get(j, "www", cfg.www, origin);
-    else if (k == "token_file") cfg.token = trim(read_file(v.get<std::string>()));
+    else if (k == "token_file") {
+      std::string path;
+      get(j, "token_file", path, origin);
+      cfg.token = read_token(path);
+    }
     else if (k == "device") get(j, "device", cfg.device, origin);
     else if (k == "renderers") get(j, "renderers", cfg.renderers, origin);
     else if (k == "io_threads") get(j, "io_threads", cfg.io_threads, origin);
     else if (k == "load_threads") get(j, "load_threads", cfg.load_threads, origin);
+    else if (k == "encode_threads") get(j, "encode_threads", cfg.encode_threads, origin);
     else if (k == "drain_timeout_s") get(j, "drain_timeout_s", cfg.drain_timeout_s, origin);
     else if (k == "log_level") get(j, "log_level", cfg.log_level, origin);
     else if (k == "limits") {
@@ -61,17 +77,24 @@ void apply_json(Config& cfg, const std::string& text, const std::string& origin)
         else if (lk == "render_memory_bytes") get(v, key, l.render_memory_bytes, origin);
         else if (lk == "max_sessions") get(v, key, l.max_sessions, origin);
         else if (lk == "max_connections") get(v, key, l.max_connections, origin);
+        else if (lk == "max_connections_per_address")
+          get(v, key, l.max_connections_per_address, origin);
         else if (lk == "max_viewport") get(v, key, l.max_viewport, origin);
         else if (lk == "handshake_timeout_s") get(v, key, l.handshake_timeout_s, origin);
         else if (lk == "idle_timeout_s") get(v, key, l.idle_timeout_s, origin);
+        else if (lk == "render_time_limit_s") get(v, key, l.render_time_limit_s, origin);
         else throw std::runtime_error(origin + ": unknown key 'limits." + lk + "'");
       }
     } else {
       throw std::runtime_error(origin + ": unknown key '" + k + "'");
     }
   }
-  if (cfg.renderers == 0 || cfg.io_threads == 0 || cfg.load_threads == 0)
-    throw std::runtime_error(origin + ": renderers, io_threads and load_threads must be >= 1");
+  if (cfg.renderers == 0 || cfg.io_threads == 0 || cfg.load_threads == 0 ||
+      cfg.encode_threads == 0)
+    throw std::runtime_error(
+        origin + ": renderers, io_threads, load_threads and encode_threads must be >= 1");
+  if (cfg.limits.render_time_limit_s < 0)
+    throw std::runtime_error(origin + ": limits.render_time_limit_s must be >= 0");
 }
 
 static const char* kUsage =
@@ -101,7 +124,8 @@ bool parse_args(Config& cfg, int argc, char** argv, std::string& usage) {
       } catch (...) {
         used = 0;
       }
-      if (used != v.size() || n > hi) throw std::runtime_error("flag " + a + ": bad number '" + v + "'");
+      if (used != v.size() || n > hi)
+        throw std::runtime_error("flag " + a + ": bad number '" + v + "'");
       return n;
     };
     if (a == "--config") continue;
@@ -109,12 +133,10 @@ bool parse_args(Config& cfg, int argc, char** argv, std::string& usage) {
     else if (a == "--address") cfg.address = v;
     else if (a == "--library") cfg.library = v;
     else if (a == "--www") cfg.www = v;
-    else if (a == "--token-file") {
-      cfg.token = trim(read_file(v));
-      if (cfg.token.empty()) throw std::runtime_error(v + ": token file is empty");
-    }
+    else if (a == "--token-file") cfg.token = read_token(v);
     else if (a == "--device") cfg.device = v;
-    else if (a == "--renderers") cfg.renderers = static_cast<uint32_t>(std::max<uint64_t>(1, num(64)));
+    else if (a == "--renderers")
+      cfg.renderers = static_cast<uint32_t>(std::max<uint64_t>(1, num(64)));
     else if (a == "--max-sessions") cfg.limits.max_sessions = static_cast<uint32_t>(num(100000));
     else if (a == "--log-level") cfg.log_level = v;
     else throw std::runtime_error("unknown flag " + a + " (see --help)");

@@ -2,8 +2,13 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
+
+namespace vismap {
+struct RenderOptions;
+}
 
 namespace vismap::server {
 
@@ -13,12 +18,15 @@ struct Limits {
   uint64_t max_scene_bytes = 64ull << 20;     // one uploaded scene file
   uint64_t max_triangles = 5'000'000;         // per scene
   uint64_t max_session_bytes = 512ull << 20;  // upload + loaded scene, per session
-  uint64_t render_memory_bytes = 2ull << 30;  // device memory per frame (RenderOptions::memory_budget)
+  uint64_t render_memory_bytes = 2ull << 30;  // device memory per frame (RenderOptions::
+                                              // memory_budget)
   uint32_t max_sessions = 64;
   uint32_t max_connections = 256;             // TCP connections, upgraded or not
+  uint32_t max_connections_per_address = 64;  // of those, from one peer address; 0: no cap
   uint32_t max_viewport = 8192;               // width and height
   double handshake_timeout_s = 5;        // TCP accept -> WebSocket upgrade, and upgrade -> hello
   double idle_timeout_s = 60;            // no message from the client for this long
+  double render_time_limit_s = 30;       // one frame (RenderOptions::time_limit_s); 0: none
 
   // What Beast enforces per message: a base64 scene in JSON must fit.
   uint64_t message_max() const {
@@ -38,13 +46,19 @@ struct Config {
   uint32_t renderers = 1;     // Renderer instances (worker threads) sharing the device
   uint32_t io_threads = 2;
   uint32_t load_threads = 2;  // scene parsing off the network threads
+  uint32_t encode_threads = 2;  // SVG / bin encoding, off the render workers
   double drain_timeout_s = 10;  // graceful stop: longest wait for frames in flight
   std::string log_level = "info";  // info | warn | off
   Limits limits;
+
+  // Test seam, not a config key: called on the render worker just before Renderer::render with
+  // the frame's options (a test stands in a long frame, or a pipeline error, with it).
+  std::function<void(const RenderOptions&)> before_render;
 };
 
-// Applies a JSON object (same keys as Config/Limits, e.g. {"port":9000,"limits":{"max_sessions":8}})
-// to cfg. Unknown keys are an error: a typo must not silently keep a default.
+// Applies a JSON object (same keys as Config/Limits, e.g.
+// {"port":9000,"limits":{"max_sessions":8}}) to cfg. Unknown keys are an error: a typo must not
+// silently keep a default.
 void apply_json(Config& cfg, const std::string& json_text, const std::string& origin);
 
 // Parses argv into cfg (after --config is applied). Returns false and sets `usage` on --help.

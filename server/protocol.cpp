@@ -173,7 +173,68 @@ CameraRequest parse_camera(const json& j, uint32_t max_viewport) {
   return c;
 }
 
+// A SAX consumer that keeps nothing: it follows the depth and notes the top-level "type".
+// Returning false stops the parse at once.
+struct Precheck : nlohmann::json_sax<json> {
+  int max_depth;
+  int depth = 0;
+  bool too_deep = false;
+  bool type_key = false;  // the last top-level key was "type"
+  std::string type;
+
+  explicit Precheck(int d) : max_depth(d) {}
+  bool value() {
+    type_key = false;
+    return true;
+  }
+  bool null() override { return value(); }
+  bool boolean(bool) override { return value(); }
+  bool number_integer(number_integer_t) override { return value(); }
+  bool number_unsigned(number_unsigned_t) override { return value(); }
+  bool number_float(number_float_t, const string_t&) override { return value(); }
+  bool string(string_t& v) override {
+    if (type_key && type.empty()) type = v.substr(0, 64);
+    return value();
+  }
+  bool binary(binary_t&) override { return value(); }
+  bool open(std::size_t) {
+    type_key = false;
+    if (++depth > max_depth) too_deep = true;
+    return !too_deep;
+  }
+  bool start_object(std::size_t n) override { return open(n); }
+  bool start_array(std::size_t n) override { return open(n); }
+  bool end_object() override { return --depth, true; }
+  bool end_array() override { return --depth, true; }
+  bool key(string_t& k) override {
+    type_key = depth == 1 && k == "type";
+    return true;
+  }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override {
+    return false;
+  }
+};
+
+void check_depth(const std::string& text) {
+  Precheck p(kMaxJsonDepth);
+  json::sax_parse(text, &p, json::input_format_t::json, /*strict=*/true);
+  if (p.too_deep)
+    throw ProtoError(code::bad_message,
+                     "message nests deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+}
+
 }  // namespace
+
+void check_control_message(const std::string& text, uint64_t max_control_bytes) {
+  if (text.size() <= max_control_bytes) return check_depth(text);
+  // Over the control limit: only a flat scene message may pass, so depth 1 is enough to know.
+  Precheck p(1);
+  json::sax_parse(text, &p, json::input_format_t::json, /*strict=*/true);
+  if (p.too_deep || p.type != "scene")
+    throw ProtoError(code::too_large, "control message of " + std::to_string(text.size()) +
+                                          " bytes is larger than max_control_bytes (" +
+                                          std::to_string(max_control_bytes) + ")");
+}
 
 void CameraRequest::apply_to(Camera& c) const {
   if (eye) c.eye = *eye;
@@ -184,12 +245,15 @@ void CameraRequest::apply_to(Camera& c) const {
   if (near_plane) c.near_plane = *near_plane;
   if (far_plane) c.far_plane = *far_plane;
   if (orthographic)
-    c.projection = *orthographic ? Camera::Projection::Orthographic : Camera::Projection::Perspective;
+    c.projection =
+        *orthographic ? Camera::Projection::Orthographic : Camera::Projection::Perspective;
   if (width) c.width = *width;
   if (height) c.height = *height;
 }
 
-Request parse_request(const std::string& text, uint64_t max_scene_bytes, uint32_t max_viewport) {
+Request parse_request(const std::string& text, uint64_t max_scene_bytes, uint32_t max_viewport,
+                      bool checked_depth) {
+  if (!checked_depth) check_depth(text);
   json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (j.is_discarded()) throw ProtoError(code::bad_json, "message is not valid JSON");
   if (!j.is_object()) throw ProtoError(code::bad_message, "message must be a JSON object");

@@ -30,6 +30,7 @@ inline constexpr const char* busy = "busy";
 inline constexpr const char* no_scene = "no_scene";
 inline constexpr const char* shutting_down = "shutting_down";
 inline constexpr const char* device_error = "device_error";
+inline constexpr const char* file_not_found = "file_not_found";
 inline constexpr const char* internal = "internal";
 }  // namespace code
 
@@ -77,9 +78,22 @@ struct Ping {
 
 using Request = std::variant<Hello, SceneRequest, CameraRequest, Ping>;
 
+// Deepest JSON nesting a control message may have (ours need 3: {"viewport":{...}}, [x,y,z]).
+inline constexpr int kMaxJsonDepth = 8;
+
+// Checks a text message before anything builds a JSON DOM of it, in one streaming (SAX) pass
+// that keeps no values: nesting deeper than kMaxJsonDepth is bad_message, and a message larger
+// than max_control_bytes is too_large unless it is a flat `scene` message (the only kind that
+// may carry bulk: base64 data). An 80 MB camera of nested arrays had been parsed into a 3.2 GB
+// DOM before its size was looked at (issue 15, bug 4). Syntax errors are left to
+// parse_request (bad_json).
+void check_control_message(const std::string& text, uint64_t max_control_bytes);
+
 // Parses one text message. Throws ProtoError (bad_json, bad_message, unknown_message,
-// version_mismatch, too_large).
-Request parse_request(const std::string& text, uint64_t max_scene_bytes, uint32_t max_viewport);
+// version_mismatch, too_large). Nesting is bounded by kMaxJsonDepth (checked_depth: the caller
+// ran check_control_message on this text already).
+Request parse_request(const std::string& text, uint64_t max_scene_bytes, uint32_t max_viewport,
+                      bool checked_depth = false);
 
 // The code for a core input error: to_string(kind).
 std::string error_code(const vismap::InputError& e);

@@ -8,7 +8,8 @@
 namespace vismap::server {
 
 RenderQueue::RenderQueue(uint32_t workers, RendererFactory make) : make_(std::move(make)) {
-  for (uint32_t i = 0; i < std::max<uint32_t>(workers, 1); ++i) workers_.emplace_back([this, i] { work(i); });
+  for (uint32_t i = 0; i < std::max<uint32_t>(workers, 1); ++i)
+    workers_.emplace_back([this, i] { work(i); });
 }
 
 RenderQueue::~RenderQueue() { stop(); }
@@ -49,9 +50,21 @@ bool RenderQueue::submit(uint64_t session, Task task) {
   return replaced;
 }
 
+// Renderers are built one at a time, process-wide (every RenderQueue, every Server in the
+// process). Built concurrently, the OpenCL ICD loader (ocl-icd 2.3.1, Debian 12) initialises
+// itself lazily and without a lock on the first clGetPlatformIDs: a second thread that comes
+// in meanwhile sees zero platforms ("no OpenCL device found": with --renderers 2 every other
+// frame failed), and two threads running PoCL's device initialisation at once segfaulted at
+// start with --renderers 3 or 8. Once built, Renderers render concurrently without trouble.
+static std::mutex& renderer_build_mutex() {
+  static std::mutex mu;
+  return mu;
+}
+
 void RenderQueue::work(uint32_t index) {
   std::unique_ptr<Renderer> renderer;
   try {
+    std::lock_guard build(renderer_build_mutex());
     renderer = make_ ? make_() : nullptr;
   } catch (const std::exception& e) {
     std::lock_guard lk(mu_);
@@ -85,7 +98,8 @@ void RenderQueue::work(uint32_t index) {
     } catch (...) {
       // A task reports its own errors; nothing a session does may take a worker down.
     }
-    double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     std::lock_guard lk(mu_);
     auto it = sessions_.find(session);
     if (it != sessions_.end()) it->second.vtime_ms += ms;

@@ -23,10 +23,12 @@ class Server {
   // Throws std::runtime_error when the address cannot be bound.
   uint16_t start();
   // Graceful stop: refuses new connections and sessions, lets frames in flight finish and be
-  // sent, closes sessions with "going away", then stops the threads (at most drain_timeout_s).
-  void stop();
-  // Blocks until SIGINT or SIGTERM, then stop().
-  void run_until_signal();
+  // sent, closes sessions with "going away" (1001), then stops the threads; returns within
+  // drain_timeout_s. Returns false when a render, load or encode was still running at the
+  // deadline: it is left behind (destroying the Server waits for it; a process may just exit).
+  bool stop();
+  // Blocks until SIGINT or SIGTERM, then returns stop().
+  bool run_until_signal();
 
   Metrics& metrics();
   const Config& config() const;

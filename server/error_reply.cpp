@@ -1,0 +1,32 @@
+#include "server/error_reply.h"
+
+#include <new>
+
+#include "core/error.h"
+#include "server/library.h"
+#include "server/protocol.h"
+
+namespace vismap::server {
+
+ErrorReply error_reply(std::exception_ptr e, const std::string& doing, const Library* library) {
+  ErrorReply r;
+  try {
+    std::rethrow_exception(e);
+  } catch (const ProtoError& x) {
+    r = {x.code, x.what(), x.fatal};
+  } catch (const InputError& x) {
+    r = {error_code(x), x.what(), false};
+  } catch (const DeviceError& x) {
+    r = {code::device_error, x.what(), false};
+  } catch (const std::bad_alloc&) {
+    r = {code::too_large, "out of memory while " + doing, false};
+  } catch (const std::exception& x) {
+    r = {code::internal, doing + ": " + x.what(), false};
+  } catch (...) {
+    r = {code::internal, doing + ": unknown error", false};
+  }
+  if (library) r.message = library->hide_paths(std::move(r.message));
+  return r;
+}
+
+}  // namespace vismap::server

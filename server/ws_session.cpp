@@ -1,0 +1,672 @@
+// The WebSocket session: one explicit state (WsSession::State) for where the session is in its
+// life, and one phase for the frame in flight (a frame and a scene load may overlap). Everything
+// here runs on the connection's strand except render() (a RenderQueue worker), encode() (the
+// encode pool) and the load job (the load pool), which post their results back.
+#include "server/ws_session.h"
+
+#include <boost/beast/core.hpp>
+#include <boost/beast/websocket.hpp>
+#include <deque>
+#include <nlohmann/json.hpp>
+
+#include "core/clock.h"
+#include "core/output.h"
+#include "core/pipeline.h"
+#include "core/scene.h"
+#include "server/error_reply.h"
+#include "server/protocol.h"
+
+namespace vismap::server {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+using nlohmann::json;
+
+namespace {
+
+uint64_t scene_bytes(const Scene& s) {
+  uint64_t b = sizeof(Scene);
+  for (const Mesh& m : s.meshes)
+    b += sizeof(Mesh) + m.name.size() +
+         4 * (m.positions.size() + m.indices.size() + m.face_ids.size());
+  return b;
+}
+
+json camera_json(const Camera& c) {
+  bool ortho = c.projection == Camera::Projection::Orthographic;
+  return {{"projection", ortho ? "orthographic" : "perspective"},
+          {"eye", c.eye},
+          {"target", c.target},
+          {"up", c.up},
+          {"fov_y_deg", c.fov_y_deg},
+          {"ortho_height", c.ortho_height},
+          {"near", c.near_plane},
+          {"far", c.far_plane},
+          {"viewport", {{"width", c.width}, {"height", c.height}}}};
+}
+
+websocket::close_code close_code_for(const std::string& c) {
+  if (c == code::busy) return websocket::close_code::try_again_later;
+  if (c == code::shutting_down) return websocket::close_code::going_away;
+  if (c == code::unauthorized || c == code::version_mismatch)
+    return websocket::close_code::policy_error;
+  if (c == code::internal) return websocket::close_code::internal_error;
+  return websocket::close_code::normal;
+}
+
+const ErrorReply kShuttingDown{code::shutting_down, "server is stopping", true};
+
+// A message, frame or upload this big makes the session's end hand freed memory back to the
+// kernel (Server::Impl::trim_memory): one spike must not stay resident for the process's life.
+constexpr uint64_t kTrimAfterBytes = 16ull << 20;
+
+// The read buffer keeps at most this much capacity between messages.
+constexpr size_t kKeepReadBuffer = 1 << 20;
+
+class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSession> {
+ public:
+  WsSession(tcp::socket&& socket, Server::Impl& srv, ConnectionSlot slot)
+      : slot_(std::move(slot)),
+        ws_(std::move(socket)),
+        srv_(srv),
+        hello_timer_(ws_.get_executor()),
+        idle_timer_(ws_.get_executor()) {
+    beast::error_code ec;
+    auto ep = beast::get_lowest_layer(ws_).socket().remote_endpoint(ec);
+    peer_ = ec ? "?" : ep.address().to_string() + ":" + std::to_string(ep.port());
+  }
+
+  void run(http::request<http::string_body> req) {
+    const Limits& L = srv_.cfg.limits;
+    beast::get_lowest_layer(ws_).expires_never();
+    auto t = websocket::stream_base::timeout::suggested(beast::role_type::server);
+    t.handshake_timeout = seconds(L.handshake_timeout_s);
+    t.idle_timeout =
+        seconds(std::max(L.idle_timeout_s, 1.0));  // pings a silent peer, then drops it
+    t.keep_alive_pings = true;
+    ws_.set_option(t);
+    ws_.read_message_max(0);  // no Beast limit: on_read enforces ours and answers too_large
+    ws_.set_option(websocket::stream_base::decorator(
+        [](websocket::response_type& res) { res.set(http::field::server, "vismapd"); }));
+    ws_.async_accept(req, beast::bind_front_handler(&WsSession::on_accept, shared_from_this()));
+  }
+
+  void drain_async() override {
+    net::post(ws_.get_executor(), [self = shared_from_this()] { self->drain(); });
+  }
+  void close_now_async() override {
+    net::post(ws_.get_executor(), [self = shared_from_this()] { self->fail(kShuttingDown, {}); });
+  }
+
+ private:
+  // Where the session is. Every transition happens on the strand:
+  //   Upgrading     -> AwaitingHello  WebSocket handshake done (else Closed)
+  //   AwaitingHello -> Open           hello accepted: the session slot is taken only now
+  //   Open          -> Draining       server stopping while a frame or a load is in flight
+  //   AwaitingHello, Open, Draining
+  //                 -> Flushing       fatal error queued (Draining: when the work is done)
+  //   Flushing      -> Closing        write queue empty: close frame sent
+  //   any           -> Closed         close handshake done, peer gone, read or write error
+  enum class State : uint8_t {
+    Upgrading,
+    AwaitingHello,
+    Open,
+    Draining,
+    Flushing,
+    Closing,
+    Closed
+  };
+  // The session's one frame in flight: queued or rendering on a worker, encoding on the encode
+  // pool, or header and payload in the write queue.
+  enum class FramePhase : uint8_t { Idle, Rendering, Encoding, Sending };
+
+  struct Out {
+    std::shared_ptr<const std::string> data;
+    bool binary = false;
+    bool frame_payload = false;
+  };
+
+  bool accepting_messages() const {
+    return state_ == State::AwaitingHello || state_ == State::Open || state_ == State::Draining;
+  }
+  bool work_in_flight() const { return frame_ != FramePhase::Idle || loading_; }
+
+  void on_accept(beast::error_code ec) {
+    if (ec) {
+      state_ = State::Closed;  // handshake failed or timed out: nothing to clean up
+      return;
+    }
+    state_ = State::AwaitingHello;
+    connection_ = srv_.add(shared_from_this());
+    const Limits& L = srv_.cfg.limits;
+    if (srv_.stopping) {
+      srv_.metrics.sessions_refused++;
+      return fail(kShuttingDown, {});
+    }
+    // Refused at once when full; the slot itself is taken at hello (on_hello), so connections
+    // that never send hello cannot hold the sessions of clients that do.
+    if (srv_.metrics.sessions_active.load() >= static_cast<int64_t>(L.max_sessions))
+      return refuse_busy();
+    hello_timer_.expires_after(seconds(L.handshake_timeout_s));
+    hello_timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
+      if (!ec && self->state_ == State::AwaitingHello)
+        self->fail({code::timeout, "no hello within the handshake timeout", true}, {});
+    });
+    do_read();
+  }
+
+  void refuse_busy() {
+    uint32_t max = srv_.cfg.limits.max_sessions;
+    srv_.metrics.sessions_refused++;
+    srv_.log.warn("session_refused", {{"peer", peer_}, {"reason", "max_sessions"}});
+    fail({code::busy, "server has its maximum of " + std::to_string(max) + " sessions", true}, {});
+  }
+
+  void drain() {
+    if (state_ == State::Draining) return;
+    if (state_ == State::Open && work_in_flight())
+      state_ = State::Draining;
+    else
+      fail(kShuttingDown, {});
+  }
+
+  void arm_idle() {
+    idle_timer_.expires_after(seconds(srv_.cfg.limits.idle_timeout_s));
+    idle_timer_.async_wait([self = shared_from_this(), gen = ++idle_gen_](beast::error_code ec) {
+      if (ec || gen != self->idle_gen_) return;
+      // A client waiting for a frame or a scene we owe it is not idle (found by server_bench:
+      // at 50 sessions a lock-step client waited longer than idle_timeout_s for its frame).
+      if (self->work_in_flight()) return self->arm_idle();
+      self->fail({code::timeout, "no message within the idle timeout", true}, {});
+    });
+  }
+
+  // Reads in chunks so an over-limit message is answered with too_large and discarded, instead
+  // of killing the connection: memory stays bounded by the limit, the session goes on.
+  void do_read() {
+    if (!accepting_messages() || read_pending_) return;
+    read_pending_ = true;
+    ws_.async_read_some(buf_, 64 * 1024,
+                        beast::bind_front_handler(&WsSession::on_read, shared_from_this()));
+  }
+
+  void on_read(beast::error_code ec, size_t bytes) {
+    read_pending_ = false;
+    if (ec) return finish(ec == websocket::error::closed ? "client_closed" : ec.message());
+    if (!accepting_messages()) return;
+    srv_.metrics.bytes_received += bytes;
+    const Limits& L = srv_.cfg.limits;
+    bool before_hello = state_ == State::AwaitingHello;
+    uint64_t limit = before_hello ? L.max_control_bytes : L.message_max();  // nothing big yet
+    if (discarded_ || buf_.size() > limit) {
+      discarded_ = discarded_.value_or(0) + buf_.size();
+      buf_.consume(buf_.size());
+    }
+    if (!ws_.is_message_done()) return do_read();
+    if (!before_hello) arm_idle();
+    try {
+      if (discarded_) {
+        uint64_t n = *discarded_;
+        discarded_.reset();
+        upload_.reset();
+        throw ProtoError(code::too_large,
+                         "message of " + std::to_string(n) + " bytes is larger than " +
+                             std::to_string(limit) + " bytes; discarded",
+                         before_hello);
+      }
+      std::string msg = beast::buffers_to_string(buf_.data());
+      buf_.consume(buf_.size());
+      if (buf_.capacity() > kKeepReadBuffer) buf_.shrink_to_fit();
+      peak_bytes_ = std::max<uint64_t>(peak_bytes_, msg.size());
+      if (ws_.got_binary())
+        on_binary(std::move(msg));
+      else
+        on_text(msg);
+    } catch (...) {
+      fail(error_reply(std::current_exception(), "reading a message"), {});
+    }
+    if (out_.size() < kMaxOut) do_read();  // else on_write resumes reading (backpressure)
+  }
+
+  void on_text(const std::string& text) {
+    const Limits& L = srv_.cfg.limits;
+    if (upload_) {
+      upload_.reset();
+      throw ProtoError(code::unexpected_message,
+                       "expected the scene's bytes as one binary message; upload cancelled");
+    }
+    check_control_message(text, L.max_control_bytes);  // before any DOM is built
+    Request r = parse_request(text, L.max_scene_bytes, L.max_viewport, /*checked_depth=*/true);
+    if (state_ == State::AwaitingHello) {
+      if (!std::holds_alternative<Hello>(r))
+        throw ProtoError(code::unexpected_message, "the first message must be hello", true);
+      return on_hello(std::get<Hello>(r));
+    }
+    if (std::holds_alternative<Hello>(r))
+      throw ProtoError(code::unexpected_message, "hello was already sent");
+    if (auto* s = std::get_if<SceneRequest>(&r)) return on_scene(std::move(*s));
+    if (auto* c = std::get_if<CameraRequest>(&r)) return on_camera(*c);
+    if (auto* p = std::get_if<Ping>(&r)) send_text(json{{"type", "pong"}, {"seq", p->seq}}.dump());
+  }
+
+  void on_hello(const Hello& h) {
+    const std::string& token = srv_.cfg.token;
+    if (!token.empty()) {
+      // Compare in constant time over the expected token's length.
+      unsigned diff = h.token.size() != token.size();
+      for (size_t i = 0; i < token.size(); ++i)
+        diff |= static_cast<unsigned>(token[i] ^ (i < h.token.size() ? h.token[i] : 0));
+      if (diff) throw ProtoError(code::unauthorized, "hello has no valid token", true);
+    }
+    const Limits& L = srv_.cfg.limits;
+    // Take a session slot atomically: hellos on other io threads may race for the last one.
+    if (srv_.metrics.sessions_active.fetch_add(1) >= static_cast<int64_t>(L.max_sessions)) {
+      srv_.metrics.sessions_active--;
+      return refuse_busy();
+    }
+    session_ = srv_.queue.add_session();
+    srv_.metrics.sessions_total++;
+    srv_.log.info("session_open", {{"session", session_}, {"peer", peer_}});
+    hello_ = h;
+    state_ = State::Open;
+    hello_timer_.cancel();
+    arm_idle();
+    json limits = {
+        {"max_message_bytes", L.message_max()},     {"max_control_bytes", L.max_control_bytes},
+        {"max_scene_bytes", L.max_scene_bytes},     {"max_triangles", L.max_triangles},
+        {"max_session_bytes", L.max_session_bytes}, {"max_viewport", L.max_viewport},
+        {"idle_timeout_s", L.idle_timeout_s}};
+    const char* format = h.format == Format::Bin ? "bin" : "svg";
+    send_text(json{
+        {"type", "welcome"},
+        {"version", kProtocolVersion},
+        {"session", session_},
+        {"server", "vismapd"},
+        {"format", format},
+        {"library", srv_.library.enabled()},
+        {"limits",
+         limits}}.dump());
+    srv_.log.info(
+        "hello",
+        {{"session", session_}, {"format", format}, {"width", h.width}, {"height", h.height}});
+  }
+
+  void on_scene(SceneRequest req) {
+    if (loading_) throw ProtoError(code::busy, "a scene is already loading");
+    if (state_ == State::Draining) throw ProtoError(code::shutting_down, "server is stopping");
+    const Limits& L = srv_.cfg.limits;
+    if (req.size > L.max_session_bytes || (req.data && req.data->size() > L.max_session_bytes))
+      throw ProtoError(code::too_large, "upload is larger than max_session_bytes");
+    if (!req.library.empty()) {
+      std::string path = srv_.library.resolve(req.library);
+      return load(std::move(req), {}, std::move(path));
+    }
+    if (req.data) {
+      std::string bytes = std::move(*req.data);
+      req.data.reset();
+      return load(std::move(req), std::move(bytes), {});
+    }
+    upload_ = std::move(req);  // bytes follow as the next binary message
+  }
+
+  void on_binary(std::string bytes) {
+    if (state_ == State::AwaitingHello)
+      throw ProtoError(code::unexpected_message, "the first message must be hello", true);
+    if (!upload_)
+      throw ProtoError(code::unexpected_message, "binary message without a scene header");
+    SceneRequest req = std::move(*upload_);
+    upload_.reset();
+    if (bytes.size() != req.size)
+      throw ProtoError(code::bad_message, "scene header announced " + std::to_string(req.size) +
+                                              " bytes, got " + std::to_string(bytes.size()));
+    load(std::move(req), std::move(bytes), {});
+  }
+
+  // Parses the scene on the load pool. library_path: the resolved library file, or empty for
+  // an upload (`bytes`).
+  void load(SceneRequest req, std::string bytes, std::string library_path) {
+    loading_ = true;
+    srv_.loads_in_flight++;
+    auto job = [self = shared_from_this(), req = std::move(req), bytes = std::move(bytes),
+                path = std::move(library_path), t0 = Clock::now()]() mutable {
+      Server::Impl& srv = self->srv_;
+      const Limits& L = srv.cfg.limits;
+      std::shared_ptr<Scene> scene;
+      std::optional<ErrorReply> err;
+      try {
+        LoadOptions opts;
+        opts.max_triangles = L.max_triangles;
+        if (!path.empty()) {
+          // A library file: confined to the library (symlinks inside it, files a scene file
+          // references) and its input bytes capped at one session's budget.
+          opts.confine_to = srv.library.root();
+          opts.max_bytes = L.max_session_bytes;
+          scene = std::make_shared<Scene>(load_scene(path, opts));
+          scene->source = req.library;  // never echo server paths
+        } else {
+          // What the session may still hold besides the upload: a .ply.gz's inflated bytes
+          // count against it (at least 1: 0 would mean no limit).
+          opts.max_bytes = std::max<uint64_t>(1, L.max_session_bytes - bytes.size());
+          scene = std::make_shared<Scene>(load_scene_from_memory(req.name, bytes, opts));
+        }
+        if (scene->triangle_count() > L.max_triangles) {
+          err = ErrorReply{code::too_large, req.name + ": " +
+                                                std::to_string(scene->triangle_count()) +
+                                                " triangles, more than max_triangles (" +
+                                                std::to_string(L.max_triangles) + ")"};
+        } else if (scene_bytes(*scene) + bytes.size() > L.max_session_bytes) {
+          err = ErrorReply{code::too_large, req.name + ": scene needs more than max_session_bytes"};
+        }
+      } catch (...) {
+        err = error_reply(std::current_exception(), "loading " + req.name, &srv.library);
+      }
+      if (err) scene.reset();
+      double ms = ms_since(t0);
+      uint64_t held = bytes.size();
+      std::string().swap(bytes);
+      if (held >= kTrimAfterBytes) srv.trim_memory();  // the upload's spike is over
+      net::post(self->ws_.get_executor(),
+                [self, scene = std::move(scene), err = std::move(err), name = req.name, ms] {
+                  self->on_loaded(scene, err, name, ms);
+                });
+      srv.loads_in_flight--;
+    };
+    net::post(srv_.load_pool, std::move(job));
+  }
+
+  void on_loaded(const std::shared_ptr<Scene>& scene, const std::optional<ErrorReply>& err,
+                 const std::string& name, double ms) {
+    loading_ = false;
+    if (!accepting_messages()) return;
+    if (err) {
+      fail(*err, {});
+    } else {
+      Camera cam;
+      if (scene->camera) {
+        cam = *scene->camera;
+        cam.width = hello_->width;
+        cam.height = hello_->height;
+      } else {
+        cam = frame_scene(*scene, hello_->width, hello_->height);
+      }
+      auto bounds = scene_bounds(*scene);
+      {
+        std::lock_guard lk(cam_mu_);
+        scene_ = scene;
+        base_camera_ = cam;
+      }
+      peak_bytes_ = std::max(peak_bytes_, scene_bytes(*scene));
+      srv_.metrics.scenes_loaded++;
+      srv_.log.info("scene_loaded", {{"session", session_},
+                                     {"name", name},
+                                     {"triangles", scene->triangle_count()},
+                                     {"load_ms", ms}});
+      send_text(json{
+          {"type", "scene_ready"},
+          {"name", name},
+          {"meshes", scene->meshes.size()},
+          {"triangles", scene->triangle_count()},
+          {"bounds", {{"lo", bounds.lo}, {"hi", bounds.hi}}},
+          {"camera", camera_json(cam)},
+          {"load_ms",
+           ms}}.dump());
+    }
+    if (state_ == State::Draining && !work_in_flight()) fail(kShuttingDown, {});
+  }
+
+  void on_camera(const CameraRequest& c) {
+    if (state_ == State::Draining) throw ProtoError(code::shutting_down, "server is stopping");
+    {
+      std::lock_guard lk(cam_mu_);
+      if (!scene_) throw ProtoError(code::no_scene, "camera before any scene was loaded");
+      if (latest_) {
+        ++skipped_;
+        srv_.metrics.frames_skipped++;
+      }
+      latest_ = c;
+      latest_at_ = Clock::now();
+    }
+    kick();
+  }
+
+  // Starts a render when none is in flight. The task takes the newest camera when it starts, so
+  // a camera that arrives while the task waits in the queue replaces the older one.
+  void kick() {
+    if (frame_ != FramePhase::Idle || state_ != State::Open) return;
+    {
+      std::lock_guard lk(cam_mu_);
+      if (!latest_) return;
+    }
+    frame_ = FramePhase::Rendering;
+    srv_.queue.submit(session_, [self = shared_from_this()](Renderer* r) { self->render(r); });
+  }
+
+  // What a frame carries from the render worker to the encoder and the strand.
+  struct FrameJob {
+    std::shared_ptr<const Scene> scene;
+    Camera camera;
+    uint64_t seq = 0, skipped = 0;
+    double queue_ms = 0;
+    RenderStats stats;
+    PlanarMap map;
+  };
+
+  // Runs on a render worker. Returns as soon as the planar map is built: the Renderer goes back
+  // to the queue and the SVG or bin is written on the encode pool.
+  void render(Renderer* renderer) {
+    FrameJob job;
+    CameraRequest req;
+    Clock::time_point queued;
+    {
+      std::lock_guard lk(cam_mu_);
+      req = *latest_;
+      latest_.reset();
+      job.scene = scene_;
+      job.camera = base_camera_;
+      queued = latest_at_;
+      job.skipped = skipped_;
+      skipped_ = 0;
+    }
+    job.seq = req.seq;
+    job.queue_ms = ms_since(queued);
+    const Hello& h = *hello_;
+    try {
+      if (!renderer) throw DeviceError("no render device: " + srv_.queue.device_error());
+      Camera& cam = job.camera;
+      bool keep_near_far = req.near_plane || req.far_plane;
+      req.apply_to(cam);
+      if (!keep_near_far) cam.near_plane = cam.far_plane = 0;
+      fit_near_far(cam, *job.scene);
+      cam.validate();
+      RenderOptions opts;
+      opts.attributes = h.attributes && h.format == Format::Bin;
+      opts.memory_budget = srv_.cfg.limits.render_memory_bytes;
+      opts.time_limit_s = srv_.cfg.limits.render_time_limit_s;
+      if (srv_.cfg.before_render) srv_.cfg.before_render(opts);
+      job.map = renderer->render(*job.scene, cam, opts, &job.stats);
+    } catch (...) {
+      return frame_failed(error_reply(std::current_exception(), "rendering"), job.seq);
+    }
+    srv_.encodes_in_flight++;
+    net::post(srv_.encode_pool, [self = shared_from_this(), job = std::move(job)]() mutable {
+      self->encode(std::move(job));
+      self->srv_.encodes_in_flight--;
+    });
+  }
+
+  // Runs on the encode pool.
+  void encode(FrameJob job) {
+    const Hello& h = *hello_;
+    auto frame = std::make_shared<std::string>();
+    json header;
+    try {
+      auto t0 = Clock::now();
+      *frame = h.format == Format::Bin
+                   ? write_bin(job.map, *job.scene)
+                   : write_svg(job.map, *job.scene, job.camera, h.fill_id ? Fill::Id : Fill::Shade);
+      double encode_ms = ms_since(t0);
+      header = {{"type", "frame"},
+                {"seq", job.seq},
+                {"format", h.format == Format::Bin ? "bin" : "svg"},
+                {"bytes", frame->size()},
+                {"render_ms", job.stats.pipeline_ms},
+                {"encode_ms", encode_ms},
+                {"queue_ms", job.queue_ms},
+                {"triangles", job.stats.input_triangles},
+                {"fragments", job.map.fragment_count()},
+                {"buckets", job.stats.buckets},
+                {"skipped", job.skipped}};
+      srv_.metrics.render_ms(job.stats.pipeline_ms + encode_ms);
+    } catch (...) {
+      return frame_failed(error_reply(std::current_exception(), "encoding the frame"), job.seq);
+    }
+    job = {};  // the map's memory goes before the frame is queued for writing
+    net::post(ws_.get_executor(), [self = shared_from_this(), frame, header = std::move(header)] {
+      self->on_frame_ready(frame, header);
+    });
+  }
+
+  void frame_failed(ErrorReply err, uint64_t seq) {
+    net::post(ws_.get_executor(), [self = shared_from_this(), err = std::move(err), seq] {
+      self->frame_ = FramePhase::Idle;
+      if (!self->accepting_messages()) return;
+      self->fail(err, seq);
+      self->after_frame();
+    });
+  }
+
+  void on_frame_ready(const std::shared_ptr<std::string>& frame, const json& header) {
+    if (!accepting_messages()) {
+      frame_ = FramePhase::Idle;
+      return;
+    }
+    frame_ = FramePhase::Sending;
+    send_text(header.dump());
+    send(Out{frame, hello_->format == Format::Bin, true});
+  }
+
+  void after_frame() {
+    if (state_ == State::Draining && !loading_) return fail(kShuttingDown, {});
+    kick();
+  }
+
+  void send_text(std::string s) {
+    send(Out{std::make_shared<const std::string>(std::move(s)), false, false});
+  }
+
+  // Queues a message; the front of out_ is the one being written.
+  void send(Out o) {
+    if (!accepting_messages()) return;
+    out_.push_back(std::move(o));
+    if (out_.size() == 1) do_write();
+  }
+
+  void do_write() {
+    ws_.binary(out_.front().binary);
+    ws_.async_write(net::buffer(*out_.front().data),
+                    beast::bind_front_handler(&WsSession::on_write, shared_from_this()));
+  }
+
+  void on_write(beast::error_code ec, size_t bytes) {
+    if (ec) {
+      if (out_.front().frame_payload) frame_ = FramePhase::Idle;
+      out_.clear();
+      return finish("write: " + ec.message());
+    }
+    if (out_.front().frame_payload) {
+      srv_.metrics.frames++;
+      srv_.metrics.bytes_sent += bytes;
+      peak_bytes_ = std::max<uint64_t>(peak_bytes_, bytes);
+      frame_ = FramePhase::Idle;
+      after_frame();  // may send(): it only queues, the front is still this message
+    }
+    out_.pop_front();
+    if (!out_.empty()) return do_write();
+    if (state_ == State::Flushing) return do_close();
+    do_read();
+  }
+
+  // Sends an error; a fatal one closes the session after everything queued is flushed.
+  void fail(const ErrorReply& err, std::optional<uint64_t> seq) {
+    if (!accepting_messages()) return;
+    srv_.metrics.error(err.code);
+    srv_.log.warn("error", {{"session", session_},
+                            {"peer", peer_},
+                            {"code", err.code},
+                            {"message", err.message},
+                            {"fatal", err.fatal}});
+    send_text(error_json(err.code, err.message, err.fatal, seq));
+    if (!err.fatal) return;
+    close_code_ = close_code_for(err.code);
+    state_ = State::Flushing;  // on_write calls do_close once the queue is flushed
+    if (out_.empty()) do_close();
+  }
+
+  void do_close() {
+    if (state_ != State::Flushing) return;
+    state_ = State::Closing;
+    hello_timer_.cancel();
+    idle_timer_.cancel();
+    ws_.async_close(
+        websocket::close_reason(close_code_),
+        [self = shared_from_this()](beast::error_code) { self->finish("closed_by_server"); });
+  }
+
+  // The session is over (peer closed, error, or our close finished). Idempotent.
+  void finish(const std::string& reason) {
+    hello_timer_.cancel();
+    idle_timer_.cancel();
+    if (state_ == State::Closed) return;
+    state_ = State::Closed;
+    if (session_) {
+      srv_.queue.remove_session(session_);
+      srv_.metrics.sessions_active--;
+      srv_.log.info("session_close", {{"session", session_}, {"reason", reason}});
+    }
+    if (connection_) srv_.remove(connection_);
+    if (peak_bytes_ >= kTrimAfterBytes) srv_.trim_memory();
+    beast::error_code ec;
+    beast::get_lowest_layer(ws_).socket().shutdown(tcp::socket::shutdown_both, ec);
+    beast::get_lowest_layer(ws_).socket().close(ec);
+  }
+
+  static constexpr size_t kMaxOut = 32;
+
+  ConnectionSlot slot_;
+  websocket::stream<beast::tcp_stream> ws_;
+  Server::Impl& srv_;
+  net::steady_timer hello_timer_, idle_timer_;
+  beast::flat_buffer buf_;
+  std::string peer_;
+  State state_ = State::Upgrading;
+  FramePhase frame_ = FramePhase::Idle;
+  bool loading_ = false;       // a scene load is on the load pool (at most one)
+  bool read_pending_ = false;  // an async_read_some is in flight (paused under backpressure)
+  uint64_t connection_ = 0;    // Server::Impl registry id, once upgraded
+  uint64_t session_ = 0;       // RenderQueue session id; non-zero: holds a session slot
+  std::optional<Hello> hello_;
+  std::optional<SceneRequest> upload_;
+  std::deque<Out> out_;
+  std::optional<uint64_t> discarded_;  // bytes of an over-limit message being dropped
+  uint64_t idle_gen_ = 0;
+  uint64_t peak_bytes_ = 0;  // largest message, frame or scene of this session
+  websocket::close_code close_code_ = websocket::close_code::normal;
+
+  // Shared with the render worker.
+  std::mutex cam_mu_;
+  std::shared_ptr<const Scene> scene_;
+  Camera base_camera_;
+  std::optional<CameraRequest> latest_;
+  Clock::time_point latest_at_;
+  uint64_t skipped_ = 0;
+};
+
+}  // namespace
+
+void start_ws_session(tcp::socket&& socket, http::request<http::string_body> req, Server::Impl& srv,
+                      ConnectionSlot slot) {
+  std::make_shared<WsSession>(std::move(socket), srv, std::move(slot))->run(std::move(req));
+}
+
+}  // namespace vismap::server
