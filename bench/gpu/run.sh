@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Issue 17: the device run. On the GPU machine, from the repo root, with .gpu/ (made here by
-# bench/gpu/pack.sh) carried:   bash bench/gpu/run.sh      (or bash .gpu/run.sh)
+# bench/gpu/pack.sh) carried:   bash .gpu/run.sh   (the pack's copy; or bash bench/gpu/run.sh)
 # One call gives every figure: the devices; each scene rendered (--format bin) twice on the GPU
-# and compared byte for byte with itself, with the PoCL map made by pack.sh, and with PoCL there
-# if that machine has it; vismap_bench on the GPU (warm medians, stages, the z-buffer floor
-# ratio) at each resolution; last, if time is left, vismap_bench on PoCL there for a CPU row.
+# and compared byte for byte with itself and with the PoCL map made by pack.sh; vismap_bench on
+# the GPU (warm medians, stages, the z-buffer floor ratio) at each resolution; then, if that
+# machine has PoCL and time is left, the maps on PoCL there (compared with the GPU's) and a
+# vismap_bench row per scene on PoCL at 1024.
 # A failed or timed-out step is recorded and the run goes on. Writes under $OUT (few files, as
 # the device tool returns at most 8): summary.md (printed at the end too), bench.jsonl, maps.tsv,
 # steps.tsv, log.txt, and maps_diff.tar.gz holding the GPU maps that differ, if any.
@@ -12,10 +13,11 @@
 # Env: OUT (/tmp/vismap-gpu-out); VISMAP_GPU_DEVICE (NVIDIA: as `--device`, part of a device or
 # platform name, or P:D); VISMAP_POCL_DEVICE (Portable Computing Language); VISMAP_GPU_RES
 # ("1024 4096"); VISMAP_GPU_RUNS (7); VISMAP_GPU_SCENES (all in .gpu/scenes/scenes.tsv, e.g.
-# "bunny teapot"); VISMAP_GPU_BUDGET_S (480: steps past it are skipped, so one 600 s call ends
-# in time); VISMAP_GPU_STEP_S (150: one step's limit); VISMAP_GPU_POCL_BENCH (1: the PoCL bench
-# rows at 1024, when time is left; 0 skips); VISMAP_GPU_FORCE_GLIBC (1: run through the packed
-# glibc even when the binaries start: to test that path).
+# "bunny teapot"); VISMAP_GPU_BUDGET_S (300: steps past it are skipped, so a call with
+# timeout_s 420 ends in time and a second call still fits in the 15 device minutes);
+# VISMAP_GPU_STEP_S (120: one step's limit); VISMAP_GPU_POCL_BENCH (1: the PoCL bench rows at
+# 1024, when time is left; 0 skips); VISMAP_GPU_FORCE_GLIBC (1: run through the packed glibc
+# even when the binaries start: to test that path).
 set -u
 SECONDS=0
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -25,8 +27,8 @@ GPU="${VISMAP_GPU_DEVICE:-NVIDIA}"
 POCL="${VISMAP_POCL_DEVICE:-Portable Computing Language}"
 RES="${VISMAP_GPU_RES:-1024 4096}"
 RUNS="${VISMAP_GPU_RUNS:-7}"
-BUDGET="${VISMAP_GPU_BUDGET_S:-480}"
-STEP_S="${VISMAP_GPU_STEP_S:-150}"
+BUDGET="${VISMAP_GPU_BUDGET_S:-300}"
+STEP_S="${VISMAP_GPU_STEP_S:-120}"
 POCL_BENCH="${VISMAP_GPU_POCL_BENCH:-1}"
 mkdir -p "$OUT"
 TMP="$(mktemp -d /tmp/vismap-gpu.XXXXXX)"
@@ -45,7 +47,7 @@ step() {
   shift 2
   left=$((BUDGET - SECONDS))
   if [ "$left" -lt 15 ]; then
-    printf '%s\tskipped\t0\tbudget %ss spent\n' "$name" "$BUDGET" >> "$STEPS"
+    printf '%s\tskipped\t0\t%ss of the %ss budget left\n' "$name" "$left" "$BUDGET" >> "$STEPS"
     log "== $name: skipped (budget)"
     return 99
   fi
@@ -133,47 +135,30 @@ render_ms() { grep -o 'render [0-9.]* ms' "$TMP/$1.out" 2>/dev/null | head -1 | 
 # 5. Warm-up: the first render on the GPU builds the program for it (then cached).
 step warmup "$STEP_S" "${VM[@]}" render "${FILES[0]}" -o "$TMP/warmup.bin" --format bin --device "$GPU" --stats
 
-# 6. Maps: GPU twice, against itself, the packed PoCL map, and PoCL here.
+# 6. Maps on the GPU: twice (two processes), against each other and the packed PoCL map.
+declare -A BYTES SUM REPEAT PACKED HERE
 diffs=()
+same() { cmp "$1" "$2" > "$TMP/cmp.txt" 2>&1 && echo same ||
+  echo "DIFFERS: $(head -c 120 "$TMP/cmp.txt" | sed "s|$TMP/||g; s|$PACK/||g")"; }
 for i in "${!NAMES[@]}"; do
-  n="${NAMES[$i]}" f="${FILES[$i]}"
-  a="$TMP/$n.gpu.bin" b="$TMP/$n.gpu2.bin" p="$TMP/$n.pocl.bin"
-  repeat=- packed=- here=- bytes=- sum=-
-  if step "render_${n}_gpu" "$STEP_S" "${VM[@]}" render "$f" -o "$a" --format bin --device "$GPU" --stats; then
-    bytes=$(stat -c %s "$a")
-    sum=$(sha256sum "$a" | cut -d' ' -f1)
-    if step "render_${n}_gpu2" "$STEP_S" "${VM[@]}" render "$f" -o "$b" --format bin --device "$GPU" \
-      --stats; then
-      repeat=$(cmp "$a" "$b" > "$TMP/cmp.txt" 2>&1 && echo same || echo "DIFFERS: $(head -c 120 "$TMP/cmp.txt")")
-    fi
-    if [ -f "$PACK/refs/$n.bin" ]; then
-      packed=$(cmp "$a" "$PACK/refs/$n.bin" > "$TMP/cmp.txt" 2>&1 && echo same ||
-        echo "DIFFERS: $(head -c 120 "$TMP/cmp.txt" | sed "s|$TMP/||g; s|$PACK/||g")")
-    elif [ -n "$(ref_field "$n" 3)" ]; then
-      [ "$sum" = "$(ref_field "$n" 3)" ] && packed="same (sha256)" ||
-        packed="DIFFERS (sha256; $bytes vs $(ref_field "$n" 2) bytes)"
-    fi
-    case "$repeat $packed" in *DIFFERS*) diffs+=("$n.gpu.bin") ;; esac
+  n="${NAMES[$i]}" f="${FILES[$i]}" a="$TMP/${NAMES[$i]}.gpu.bin"
+  BYTES[$n]=- SUM[$n]=- REPEAT[$n]=- PACKED[$n]=- HERE[$n]=-
+  step "render_${n}_gpu" "$STEP_S" "${VM[@]}" render "$f" -o "$a" --format bin --device "$GPU" --stats || continue
+  BYTES[$n]=$(stat -c %s "$a")
+  SUM[$n]=$(sha256sum "$a" | cut -d' ' -f1)
+  step "render_${n}_gpu2" "$STEP_S" "${VM[@]}" render "$f" -o "$TMP/$n.gpu2.bin" --format bin --device "$GPU" \
+    --stats && REPEAT[$n]=$(same "$a" "$TMP/$n.gpu2.bin")
+  if [ -f "$PACK/refs/$n.bin" ]; then
+    PACKED[$n]=$(same "$a" "$PACK/refs/$n.bin")
+  elif [ -n "$(ref_field "$n" 3)" ]; then
+    [ "${SUM[$n]}" = "$(ref_field "$n" 3)" ] && PACKED[$n]="same (sha256)" ||
+      PACKED[$n]="DIFFERS (sha256; ${BYTES[$n]} vs $(ref_field "$n" 2) bytes)"
   fi
-  if [ $have_pocl = 1 ] && step "render_${n}_pocl" "$STEP_S" "${VM[@]}" render "$f" -o "$p" --format bin \
-    --device "$POCL" --stats; then
-    if [ -f "$a" ]; then
-      here=$(cmp "$a" "$p" > "$TMP/cmp.txt" 2>&1 && echo same || echo "DIFFERS: $(head -c 120 "$TMP/cmp.txt")")
-      case "$here" in DIFFERS*) diffs+=("$n.gpu.bin" "$n.pocl.bin") ;; esac
-    fi
-  fi
-  printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$n" "$bytes" "$sum" "${repeat//$TMP\//}" "$packed" \
-    "${here//$TMP\//}" "$(render_ms "render_${n}_gpu")" "$(render_ms "render_${n}_gpu2")" \
-    "$(render_ms "render_${n}_pocl")" >> "$MAPS"
+  case "${REPEAT[$n]} ${PACKED[$n]}" in *DIFFERS*) diffs+=("$n.gpu.bin") ;; esac
 done
-if [ ${#diffs[@]} -gt 0 ]; then  # for a later session to look at here (16 MiB a file comes back)
-  (cd "$TMP" && tar czf "$OUT/maps_diff.tar.gz" $(printf '%s\n' "${diffs[@]}" | sort -u))
-  [ "$(stat -c %s "$OUT/maps_diff.tar.gz")" -gt 16000000 ] && rm "$OUT/maps_diff.tar.gz" &&
-    log "note: the differing maps are over 16 MB packed: not returned"
-fi
 
 # 7. vismap_bench on the GPU: warm medians, stages, the z-buffer floor (same device).
-bench() {  # device label, res, scene index, runs
+bench() {  # label, device, res, scene index, runs
   local name="bench_${1}_${3}_${NAMES[$4]}"
   if step "$name" "$STEP_S" "${VB[@]}" "${FILES[$4]}" --device "$2" --runs "$5" --camera auto \
     --width "$3" --height "$3" --budget-s 30; then
@@ -183,9 +168,30 @@ bench() {  # device label, res, scene index, runs
 for r in $RES; do
   for i in "${!NAMES[@]}"; do bench gpu "$GPU" "$r" "$i" "$RUNS"; done
 done
-# 8. A CPU row on the same machine, last (lowest priority).
-if [ $have_pocl = 1 ] && [ "$POCL_BENCH" = 1 ]; then
-  for i in "${!NAMES[@]}"; do bench pocl "$POCL" 1024 "$i" 3; done
+
+# 8. PoCL there, if it has PoCL (after the GPU figures: lower priority): maps, then a CPU row.
+if [ $have_pocl = 1 ]; then
+  for i in "${!NAMES[@]}"; do
+    n="${NAMES[$i]}" p="$TMP/${NAMES[$i]}.pocl.bin"
+    step "render_${n}_pocl" "$STEP_S" "${VM[@]}" render "${FILES[$i]}" -o "$p" --format bin --device "$POCL" \
+      --stats || continue
+    [ -f "$TMP/$n.gpu.bin" ] || continue
+    HERE[$n]=$(same "$TMP/$n.gpu.bin" "$p")
+    case "${HERE[$n]}" in DIFFERS*) diffs+=("$n.gpu.bin" "$n.pocl.bin") ;; esac
+  done
+  if [ "$POCL_BENCH" = 1 ]; then
+    for i in "${!NAMES[@]}"; do bench pocl "$POCL" 1024 "$i" 3; done
+  fi
+fi
+for n in "${NAMES[@]}"; do
+  printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$n" "${BYTES[$n]}" "${SUM[$n]}" "${REPEAT[$n]}" "${PACKED[$n]}" \
+    "${HERE[$n]}" "$(render_ms "render_${n}_gpu")" "$(render_ms "render_${n}_gpu2")" \
+    "$(render_ms "render_${n}_pocl")" >> "$MAPS"
+done
+if [ ${#diffs[@]} -gt 0 ]; then  # for a later session to look at here (16 MiB a file comes back)
+  (cd "$TMP" && tar czf "$OUT/maps_diff.tar.gz" $(printf '%s\n' "${diffs[@]}" | sort -u))
+  [ "$(stat -c %s "$OUT/maps_diff.tar.gz")" -gt 16000000 ] && rm "$OUT/maps_diff.tar.gz" &&
+    log "note: the differing maps are over 16 MB packed: not returned"
 fi
 
 # 9. Summary.

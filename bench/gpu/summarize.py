@@ -59,6 +59,8 @@ for line in read("bench.jsonl").splitlines():
     except ValueError:
         pass
 md += ["## vismap_bench (one process: first render, then warm medians; z-buffer = id raster, same device)", "",
+       "ratio = pipeline / z-buffer (the raster floor; issue 5's target on the GPU: 10 or less). "
+       "syncs = host round trips per render.", "",
        "| run | scene | res | triangles | first ms | pipeline ms (min-max, n) | kernels ms | host ms | syncs | "
        "z-buffer ms | ratio | Mtri/s | device MB | top stage |",
        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
