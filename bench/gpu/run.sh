@@ -66,6 +66,12 @@ step() {
   return $rc
 }
 
+# Tools a bare image might lack: nvidia-smi off the PATH, cmp (diffutils).
+[ -d /usr/local/nvidia/bin ] && PATH="$PATH:/usr/local/nvidia/bin"
+command -v cmp > /dev/null || cmp() {
+  [ "$(sha256sum < "$1")" = "$(sha256sum < "$2")" ] || { echo "$1 $2 differ (sha256; no cmp here)"; return 1; }
+}
+
 # 1. NVIDIA's OpenCL driver: the image has the library but no ICD file naming it.
 NV=/usr/local/nvidia/lib64/libnvidia-opencl.so.1
 if [ -e "$NV" ]; then
@@ -79,11 +85,10 @@ fi
 # 2. Libraries: ours first; the driver's folder for what libnvidia-opencl loads (libcuda).
 LP="$PACK/lib"
 [ -d /usr/local/nvidia/lib64 ] && LP="$LP:/usr/local/nvidia/lib64"
-if ! { ldconfig -p 2>/dev/null | grep -q 'libOpenCL\.so\.1 ' ||
-  ls /usr/lib/x86_64-linux-gnu/libOpenCL.so.1 /usr/lib64/libOpenCL.so.1 /usr/local/cuda/lib64/libOpenCL.so.1 \
-    2>/dev/null | grep -q .; }; then
+if LD_LIBRARY_PATH="$LP${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" ldd "$PACK/bin/vismap" 2>&1 |
+  grep -q 'libOpenCL\.so\.1 => not found'; then
   LP="$LP:$PACK/lib/icd"
-  log "note: no ICD loader found on the machine: using the packed one (lib/icd)"
+  log "note: the machine has no ICD loader (libOpenCL.so.1): using the packed one (lib/icd)"
 fi
 export LD_LIBRARY_PATH="$LP${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export XDG_CACHE_HOME="${XDG_CACHE_HOME:-${HOME:+$HOME/.cache}}"
