@@ -10,8 +10,9 @@
 # the device tool returns at most 8): summary.md (printed at the end too), bench.jsonl, maps.tsv,
 # steps.tsv, log.txt, and maps_diff.tar.gz holding the GPU maps that differ, if any.
 #
-# Env: OUT (/tmp/vismap-gpu-out); VISMAP_GPU_DEVICE (NVIDIA: as `--device`, part of a device or
-# platform name, or P:D); VISMAP_POCL_DEVICE (Portable Computing Language); VISMAP_GPU_RES
+# Env: OUT (/tmp/vismap-gpu-out); VISMAP_GPU_DEVICE (NVIDIA) and VISMAP_POCL_DEVICE (Portable
+# Computing Language): part of a platform name, made P:D from `vismap devices` (a GPU name that
+# matches no platform goes to --device as it is; a PoCL one means no PoCL); VISMAP_GPU_RES
 # ("1024 4096"); VISMAP_GPU_RUNS (7); VISMAP_GPU_SCENES (all in .gpu/scenes/scenes.tsv, e.g.
 # "bunny teapot"); VISMAP_GPU_BUDGET_S (300: steps past it are skipped, so a call with
 # timeout_s 420 ends in time and a second call still fits in the 15 device minutes);
@@ -105,7 +106,7 @@ VB=("$PACK/bin/vismap_bench")
       --format=csv,noheader 2>&1 | head -1)"
   echo "icd: $(ls /etc/OpenCL/vendors/ 2>/dev/null | tr '\n' ' ')${OCL_ICD_VENDORS:+ (OCL_ICD_VENDORS=$OCL_ICD_VENDORS)}"
   echo "LD_LIBRARY_PATH: $LD_LIBRARY_PATH"
-  echo "gpu device: $GPU; pocl device: $POCL; res: $RES; runs: $RUNS; budget: ${BUDGET}s"
+  echo "gpu device: $GPU; pocl device: $POCL (as asked; resolved in the log); res: $RES; runs: $RUNS; budget: ${BUDGET}s"
   sed -n '1,3p;/newest symbol/p' "$PACK/MANIFEST.txt" 2>/dev/null | sed 's/^/pack /'
 } > "$TMP/env.txt"
 cat "$TMP/env.txt" >> "$LOG"
@@ -122,8 +123,19 @@ if [ "${VISMAP_GPU_FORCE_GLIBC:-0}" = 1 ] || grep -q 'GLIBC_\|GLIBCXX_\|CXXABI_\
   step devices_glibc 60 "${VM[@]}" devices
 fi
 cat "$TMP"/devices*.out > "$TMP/devices.txt" 2>/dev/null
+# A name to P:D by the platform first (`--device` matches device names too, first come first
+# served: a PoCL CUDA device named "NVIDIA ..." must not stand in for NVIDIA's own driver).
+resolve() {
+  awk -v s="$1" 'BEGIN { s = tolower(s) }
+    $1 ~ /^[0-9]+:[0-9]+$/ { line = $0; sub(/^[^ ]+ +[^ ]+ +/, "", line); split(line, pd, " / ");
+      if (index(tolower(pd[1]), s)) { print $1; exit } }' "$TMP/devices.txt"
+}
+for v in GPU POCL; do
+  id="$(resolve "${!v}")"
+  [ -n "$id" ] && log "device: $v '${!v}' is $id" && printf -v "$v" '%s' "$id"
+done
 have_pocl=0
-grep -qi -- "$POCL" "$TMP/devices.txt" 2>/dev/null && have_pocl=1
+[[ "$POCL" =~ ^[0-9]+:[0-9]+$ ]] && have_pocl=1
 command -v clinfo > /dev/null && step clinfo 30 clinfo -l
 
 # 4. Scenes.
