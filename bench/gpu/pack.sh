@@ -52,8 +52,9 @@ mkdir -p "$PACK"/{bin,lib/glibc,lib/icd,scenes,refs}
 # 3. Binaries and libraries. Not carried in lib/: the ICD loader (the machine has one; it must
 # be the one that reads /etc/OpenCL/vendors there), and glibc/libstdc++/libgcc_s, which every
 # machine with g++ has: the binaries need GLIBC_2.35 and GLIBCXX_3.4.29 at most (checked below),
-# which Ubuntu 22.04 and 24.04 (the CUDA 13 images) meet; a copy of ours would shadow a newer
-# libstdc++ that NVIDIA's OpenCL library may need. Those five go to lib/glibc/ as a fallback only.
+# which Ubuntu 22.04 and 24.04 (CUDA 13's; the image's OS is not recorded) meet; a copy of ours
+# would shadow a newer libstdc++ that the machine's own libraries may need. Those five go to
+# lib/glibc/ as a fallback only.
 for b in vismap bench/vismap_bench; do
   cp "$BUILD/$b" "$PACK/bin/"
   strip --strip-unneeded "$PACK/bin/$(basename "$b")"
