@@ -29,7 +29,8 @@ using namespace vismap::cli;
 const char* kRenderUsage =
     "  vismap render SCENE -o OUT [--format svg|bin] [--fill shade|id] [--width W --height H]\n"
     "                [--eye X,Y,Z --target X,Y,Z --up X,Y,Z] [--fov-y DEG | --ortho HEIGHT]\n"
-    "                [--near N --far F] [--device NAME] [--memory-budget BYTES] [--stats]\n";
+    "                [--near N --far F] [--device NAME] [--memory-budget BYTES]\n"
+    "                [--time-limit SECONDS] [--stats]\n";
 const char* kCheckUsage =
     "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
     "                [--memory-budget BYTES]\n"
@@ -67,6 +68,7 @@ struct RenderArgs {
   ViewArgs view;
   bool stats = false;
   uint64_t memory_budget = 0;
+  double time_limit_s = 0;
 };
 
 RenderArgs parse_render(int argc, char** argv) {
@@ -83,6 +85,13 @@ RenderArgs parse_render(int argc, char** argv) {
     else if (parse_view_flag(f, value, a.view)) continue;
     else if (f == "--stats") a.stats = true;
     else if (f == "--memory-budget") a.memory_budget = parse_bytes(f, value());
+    else if (f == "--time-limit") {
+      const std::string v = value();
+      char* end = nullptr;
+      a.time_limit_s = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end || !(a.time_limit_s > 0) || !std::isfinite(a.time_limit_s))
+        throw UsageError("--time-limit: expected a positive number of seconds, got '" + v + "'");
+    }
     else if (!f.empty() && f[0] == '-') throw UsageError("unknown option " + f);
     else if (a.scene.empty()) a.scene = f;
     else throw UsageError("unexpected argument " + f);
@@ -130,6 +139,7 @@ int cmd_render(int argc, char** argv) {
   RenderOptions opts;
   opts.attributes = a.format == "bin";
   opts.memory_budget = a.memory_budget;
+  opts.time_limit_s = a.time_limit_s;
   bool tty = ::isatty(2);
   if (tty) {
     opts.progress = [t0, shown = false](double f) mutable {

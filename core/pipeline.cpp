@@ -155,7 +155,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     *screen = ScreenTriangles{};
     screen->grid_scale = VM_GRID_SCALE;
   }
-  const stages::Deadline deadline(opts.time_limit_s);
+  const stages::Deadline deadline(opts.time_limit_s, scene.source);
   Tally tally;
 
   stages::Frame fr = stages::begin_frame(rt, sb, scene, cam, Stage::Transform);

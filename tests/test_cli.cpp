@@ -131,6 +131,22 @@ TEST_F(Cli, BadInputFailsCleanly) {
   EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator{}), 3);  // stderr.txt, nan.obj, scene.xyz
 }
 
+// --time-limit: a frame past it fails with one line naming the scene and the stage (exit 1,
+// nothing written); a bad value is a usage error.
+TEST_F(Cli, TimeLimitFailsCleanly) {
+  fs::path out = dir / "out.svg";
+  CliRun slow = run("render " + bunny + " -o " + out.string() + " --time-limit 0.0001", dir);
+  EXPECT_EQ(slow.status, 1) << slow.err;
+  EXPECT_NE(slow.err.find("bunny.ply"), std::string::npos) << slow.err;
+  EXPECT_NE(slow.err.find("time limit of 0.0001 s (in stage"), std::string::npos) << slow.err;
+  EXPECT_FALSE(fs::exists(out));
+  CliRun bad = run("render " + bunny + " -o " + out.string() + " --time-limit soon", dir);
+  EXPECT_EQ(bad.status, 2) << bad.err;
+  CliRun fine = run("render " + bunny + " -o " + out.string() + " --time-limit 600", dir);
+  EXPECT_EQ(fine.status, 0) << fine.err;
+  EXPECT_TRUE(fs::exists(out));
+}
+
 // --help, -h and help print the usage of every command on stdout and succeed; a command's
 // --help (or -h, or `help COMMAND`) prints that command's usage, even without its required
 // arguments. A usage error stays exit 2, in one line.
