@@ -81,7 +81,13 @@ struct Found {
 std::vector<Found> enumerate() {
   std::vector<Found> out;
   std::vector<cl::Platform> platforms;
-  if (cl::Platform::get(&platforms) != CL_SUCCESS) return out;
+  // With exceptions on, a loader that finds no ICD file throws (CL_PLATFORM_NOT_FOUND_KHR)
+  // instead of returning: no platform is "no device", said plainly by pick().
+  try {
+    if (cl::Platform::get(&platforms) != CL_SUCCESS) return out;
+  } catch (const cl::Error&) {
+    return out;
+  }
   for (size_t p = 0; p < platforms.size(); ++p) {
     std::vector<cl::Device> devices;
     try {
