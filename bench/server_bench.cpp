@@ -35,12 +35,18 @@ int main(int argc, char** argv) {
   int frames = 20, size = 512;
   for (int i = 1; i + 1 < argc; i += 2) {
     std::string a = argv[i], v = argv[i + 1];
-    if (a == "--scene") scene = v;
-    else if (a == "--url") url = v;
-    else if (a == "--format") format = v;
-    else if (a == "--frames") frames = std::stoi(v);
-    else if (a == "--size") size = std::stoi(v);
-    else if (a == "--device") device = v;
+    if (a == "--scene")
+      scene = v;
+    else if (a == "--url")
+      url = v;
+    else if (a == "--format")
+      format = v;
+    else if (a == "--frames")
+      frames = std::stoi(v);
+    else if (a == "--size")
+      size = std::stoi(v);
+    else if (a == "--device")
+      device = v;
     else if (a == "--sessions") {
       counts.clear();
       std::stringstream ss(v);
@@ -51,9 +57,10 @@ int main(int argc, char** argv) {
     }
   }
   if (scene.empty()) {
-    std::fprintf(stderr,
-                 "usage: server_bench --scene FILE [--sessions 1,8,50] [--frames N] [--format svg|bin] "
-                 "[--size PIXELS] [--url ws://...] [--device DEV]\n");
+    std::fprintf(
+        stderr,
+        "usage: server_bench --scene FILE [--sessions 1,8,50] [--frames N] [--format svg|bin] "
+        "[--size PIXELS] [--url ws://...] [--device DEV]\n");
     return 2;
   }
   std::ifstream f(scene, std::ios::binary);
@@ -72,9 +79,11 @@ int main(int argc, char** argv) {
     server = std::make_unique<vismap::server::Server>(cfg);
     url = "ws://127.0.0.1:" + std::to_string(server->start()) + "/";
   }
-  std::printf("scene %s (%zu bytes), %dx%d, format %s, %d frames per session, lock step\n\n", name.c_str(),
-              bytes.size(), size, size, format.c_str(), frames);
-  std::printf("| sessions | frames/s (all) | frames/s per session | latency p50 ms | latency p99 ms | bytes/frame | render ms mean |\n");
+  std::printf("scene %s (%zu bytes), %dx%d, format %s, %d frames per session, lock step\n\n",
+              name.c_str(), bytes.size(), size, size, format.c_str(), frames);
+  std::printf(
+      "| sessions | frames/s (all) | frames/s per session | latency p50 ms | latency p99 ms | "
+      "bytes/frame | render ms mean |\n");
   std::printf("|---:|---:|---:|---:|---:|---:|---:|\n");
   std::vector<json> rows;
   for (int S : counts) {
@@ -90,8 +99,11 @@ int main(int argc, char** argv) {
         try {
           vismap::client::WsClient c;
           c.connect(url, 30);
-          c.send_text(json{{"type", "hello"}, {"version", 1}, {"format", format},
-                           {"viewport", {{"width", size}, {"height", size}}}}.dump());
+          c.send_text(json{{"type", "hello"},
+                           {"version", 1},
+                           {"format", format},
+                           {"viewport", {{"width", size}, {"height", size}}}}
+                          .dump());
           c.read(60);
           c.send_text(json{{"type", "scene"}, {"name", name}, {"size", bytes.size()}}.dump());
           c.send_binary(bytes, 120);
@@ -135,12 +147,17 @@ int main(int argc, char** argv) {
     for (auto& t : threads) t.join();
     double secs = std::chrono::duration<double>(Clock::now() - t0).count();
     double fps = nframes / secs;
-    json row = {{"sessions", S}, {"frames", nframes}, {"fps", fps}, {"fps_per_session", fps / S},
-                {"latency_p50_ms", pct(lat, 50)}, {"latency_p99_ms", pct(lat, 99)},
+    json row = {{"sessions", S},
+                {"frames", nframes},
+                {"fps", fps},
+                {"fps_per_session", fps / S},
+                {"latency_p50_ms", pct(lat, 50)},
+                {"latency_p99_ms", pct(lat, 99)},
                 {"bytes_per_frame", nframes ? byte_sum / nframes : 0},
-                {"render_ms_mean", nframes ? render_sum / nframes : 0}, {"failures", failures.load()}};
-    std::printf("| %d | %.1f | %.2f | %.1f | %.1f | %llu | %.1f |\n", S, fps, fps / S, pct(lat, 50), pct(lat, 99),
-                static_cast<unsigned long long>(nframes ? byte_sum / nframes : 0),
+                {"render_ms_mean", nframes ? render_sum / nframes : 0},
+                {"failures", failures.load()}};
+    std::printf("| %d | %.1f | %.2f | %.1f | %.1f | %llu | %.1f |\n", S, fps, fps / S, pct(lat, 50),
+                pct(lat, 99), static_cast<unsigned long long>(nframes ? byte_sum / nframes : 0),
                 nframes ? render_sum / nframes : 0);
     std::fflush(stdout);
     rows.push_back(row);

@@ -60,7 +60,9 @@ std::string fmt(double v) {
   return b;
 }
 
-std::string vec_flag(const Vec3& v) { return fmt(v[0]) + "," + fmt(v[1]) + "," + fmt(v[2]); }
+std::string vec_flag(const Vec3& v) {
+  return fmt(v[0]) + "," + fmt(v[1]) + "," + fmt(v[2]);
+}
 
 std::string json_string(const std::string& s) {
   std::string o = "\"";
@@ -111,7 +113,8 @@ struct Args {
 int usage() {
   std::fputs(
       "usage: vismap_bench SCENE [--width W] [--height H] [--runs N] [--tile-pixels 0,16,...]\n"
-      "                    [--camera auto|bench|frame] [--device NAME] [--writes N] [--budget-s S]\n",
+      "                    [--camera auto|bench|frame] [--device NAME] [--writes N] [--budget-s "
+      "S]\n",
       stderr);
   return 2;
 }
@@ -131,16 +134,26 @@ int main(int argc, char** argv) {
       return argv[++i];
     };
     try {
-      if (f == "--width") a.width = std::stoul(value()), a.width_set = true;
-      else if (f == "--height") a.height = std::stoul(value());
-      else if (f == "--runs") a.runs = std::max<uint32_t>(1, std::stoul(value()));
-      else if (f == "--writes") a.writes = std::stoul(value());
-      else if (f == "--budget-s") a.budget_s = std::stod(value());
-      else if (f == "--tile-pixels") a.tiles = parse_list(value());
-      else if (f == "--camera") a.camera = value();
-      else if (f == "--device") a.device = value();
-      else if (!f.empty() && f[0] == '-') return usage();
-      else a.scene = f;
+      if (f == "--width")
+        a.width = std::stoul(value()), a.width_set = true;
+      else if (f == "--height")
+        a.height = std::stoul(value());
+      else if (f == "--runs")
+        a.runs = std::max<uint32_t>(1, std::stoul(value()));
+      else if (f == "--writes")
+        a.writes = std::stoul(value());
+      else if (f == "--budget-s")
+        a.budget_s = std::stod(value());
+      else if (f == "--tile-pixels")
+        a.tiles = parse_list(value());
+      else if (f == "--camera")
+        a.camera = value();
+      else if (f == "--device")
+        a.device = value();
+      else if (!f.empty() && f[0] == '-')
+        return usage();
+      else
+        a.scene = f;
     } catch (const std::exception&) {
       return usage();
     }
@@ -239,9 +252,12 @@ int main(int argc, char** argv) {
         zb_kernels.push_back(rs.kernels_ms);
       }
       uint64_t out_tris = 0;
-      for (size_t f = 0; f < map.fragment_count(); ++f) out_tris += map.offsets[f + 1] - map.offsets[f] - 2;
-      const uint32_t eff_tile = std::max<uint32_t>(st.tile_pixels, 1);  // the pipeline's choice when tile is 0
-      const uint64_t bins = uint64_t((cam.width + eff_tile - 1) / eff_tile) * ((cam.height + eff_tile - 1) / eff_tile);
+      for (size_t f = 0; f < map.fragment_count(); ++f)
+        out_tris += map.offsets[f + 1] - map.offsets[f] - 2;
+      const uint32_t eff_tile =
+          std::max<uint32_t>(st.tile_pixels, 1);  // the pipeline's choice when tile is 0
+      const uint64_t bins = uint64_t((cam.width + eff_tile - 1) / eff_tile) *
+                            ((cam.height + eff_tile - 1) / eff_tile);
 
       std::string o = "{";
       auto kv = [&](const std::string& k, const std::string& v) {

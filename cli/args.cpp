@@ -11,7 +11,8 @@ Vec3 parse_vec3(const std::string& flag, const std::string& s) {
   const char* p = s.c_str();
   for (int k = 0; k < 3; ++k) {
     v[k] = std::strtod(p, &end);
-    if (end == p || !std::isfinite(v[k])) throw UsageError(flag + ": expected X,Y,Z, got '" + s + "'");
+    if (end == p || !std::isfinite(v[k]))
+      throw UsageError(flag + ": expected X,Y,Z, got '" + s + "'");
     p = end;
     if (k < 2) {
       if (*p != ',') throw UsageError(flag + ": expected X,Y,Z, got '" + s + "'");
@@ -25,7 +26,8 @@ Vec3 parse_vec3(const std::string& flag, const std::string& s) {
 double parse_number(const std::string& flag, const std::string& s) {
   char* end = nullptr;
   double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || *end || !std::isfinite(v)) throw UsageError(flag + ": expected a number, got '" + s + "'");
+  if (s.empty() || *end || !std::isfinite(v))
+    throw UsageError(flag + ": expected a number, got '" + s + "'");
   return v;
 }
 
@@ -41,10 +43,14 @@ uint64_t parse_bytes(const std::string& flag, const std::string& s) {
   double v = std::strtod(s.c_str(), &end);
   double unit = 1;
   std::string suffix = end ? end : "";
-  if (suffix == "K" || suffix == "k") unit = 1024.0;
-  else if (suffix == "M" || suffix == "m") unit = 1024.0 * 1024;
-  else if (suffix == "G" || suffix == "g") unit = 1024.0 * 1024 * 1024;
-  else if (!suffix.empty()) unit = 0;
+  if (suffix == "K" || suffix == "k")
+    unit = 1024.0;
+  else if (suffix == "M" || suffix == "m")
+    unit = 1024.0 * 1024;
+  else if (suffix == "G" || suffix == "g")
+    unit = 1024.0 * 1024 * 1024;
+  else if (!suffix.empty())
+    unit = 0;
   v *= unit;
   if (s.empty() || end == s.c_str() || unit == 0 || !std::isfinite(v) || v < 1 || v > 1e18)
     throw UsageError(flag + ": expected a byte count such as 800M or 2G, got '" + s + "'");
@@ -52,17 +58,28 @@ uint64_t parse_bytes(const std::string& flag, const std::string& s) {
 }
 
 bool parse_view_flag(const std::string& f, const std::function<std::string()>& value, ViewArgs& a) {
-  if (f == "--width") a.width = parse_pixels(f, value());
-  else if (f == "--height") a.height = parse_pixels(f, value());
-  else if (f == "--eye") a.eye = parse_vec3(f, value());
-  else if (f == "--target") a.target = parse_vec3(f, value());
-  else if (f == "--up") a.up = parse_vec3(f, value());
-  else if (f == "--fov-y") a.fov_y = parse_number(f, value());
-  else if (f == "--ortho") a.ortho = parse_number(f, value());
-  else if (f == "--near") a.near_plane = parse_number(f, value());
-  else if (f == "--far") a.far_plane = parse_number(f, value());
-  else if (f == "--device") a.device = value();
-  else return false;
+  if (f == "--width")
+    a.width = parse_pixels(f, value());
+  else if (f == "--height")
+    a.height = parse_pixels(f, value());
+  else if (f == "--eye")
+    a.eye = parse_vec3(f, value());
+  else if (f == "--target")
+    a.target = parse_vec3(f, value());
+  else if (f == "--up")
+    a.up = parse_vec3(f, value());
+  else if (f == "--fov-y")
+    a.fov_y = parse_number(f, value());
+  else if (f == "--ortho")
+    a.ortho = parse_number(f, value());
+  else if (f == "--near")
+    a.near_plane = parse_number(f, value());
+  else if (f == "--far")
+    a.far_plane = parse_number(f, value());
+  else if (f == "--device")
+    a.device = value();
+  else
+    return false;
   return true;
 }
 

@@ -32,7 +32,8 @@ struct ViewArgs {
 };
 
 // If `flag` is one of the view flags, consumes its value through `value` and returns true.
-bool parse_view_flag(const std::string& flag, const std::function<std::string()>& value, ViewArgs& v);
+bool parse_view_flag(const std::string& flag, const std::function<std::string()>& value,
+                     ViewArgs& v);
 void validate_view(const ViewArgs& v);  // throws UsageError
 
 // The camera: the scene's own (or a framing one), then the flags on top.

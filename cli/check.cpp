@@ -33,15 +33,24 @@ CheckArgs parse_check(int argc, char** argv) {
     if (f == "--pixels") {
       a.opts.pixels = parse_pixels(f, value());
       pixels_given = true;
-    } else if (f == "--tile-pixels") a.opts.tile_pixels = parse_pixels(f, value());
-    else if (f == "--memory-budget") a.opts.memory_budget = parse_bytes(f, value());
-    else if (f == "--reverse") a.reverse = true;
-    else if (f == "--strict") a.tol.strict = true;
-    else if (f == "--no-reference") a.opts.reference = false;
-    else if (f == "--reference") force_reference = true;
-    else if (!f.empty() && f[0] == '-') throw UsageError("unknown option " + f);
-    else if (a.scene.empty()) a.scene = f;
-    else throw UsageError("unexpected argument " + f);
+    } else if (f == "--tile-pixels")
+      a.opts.tile_pixels = parse_pixels(f, value());
+    else if (f == "--memory-budget")
+      a.opts.memory_budget = parse_bytes(f, value());
+    else if (f == "--reverse")
+      a.reverse = true;
+    else if (f == "--strict")
+      a.tol.strict = true;
+    else if (f == "--no-reference")
+      a.opts.reference = false;
+    else if (f == "--reference")
+      force_reference = true;
+    else if (!f.empty() && f[0] == '-')
+      throw UsageError("unknown option " + f);
+    else if (a.scene.empty())
+      a.scene = f;
+    else
+      throw UsageError("unexpected argument " + f);
   }
   if (a.scene.empty()) throw UsageError("check: missing SCENE");
   validate_view(a.view);

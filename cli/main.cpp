@@ -13,13 +13,13 @@
 #include <string>
 #include <vector>
 
+#include "cli/args.h"
+#include "cli/check.h"
 #include "core/camera.h"
 #include "core/error.h"
 #include "core/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
-#include "cli/args.h"
-#include "cli/check.h"
 
 namespace {
 
@@ -34,11 +34,13 @@ const char* kRenderUsage =
 const char* kCheckUsage =
     "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
     "                [--memory-budget BYTES]\n"
-    "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 if over tolerance\n";
+    "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 "
+    "if over tolerance\n";
 const char* kDevicesUsage = "  vismap devices\n";
 const char* kNotes =
     "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb or a .json scene file.\n"
-    "--device (or $VISMAP_DEVICE): 'P:D' from `vismap devices`, or part of a device/platform name.\n";
+    "--device (or $VISMAP_DEVICE): 'P:D' from `vismap devices`, or part of a device/platform "
+    "name.\n";
 
 // The usage of one command ("" or unknown: all of them), with the notes and the general flags.
 std::string usage(const std::string& cmd) {
@@ -79,22 +81,30 @@ RenderArgs parse_render(int argc, char** argv) {
       if (i + 1 >= argc) throw UsageError(f + " needs a value");
       return argv[++i];
     };
-    if (f == "-o" || f == "--output") a.out = value();
-    else if (f == "--format") a.format = value();
-    else if (f == "--fill") a.fill = value();
-    else if (parse_view_flag(f, value, a.view)) continue;
-    else if (f == "--stats") a.stats = true;
-    else if (f == "--memory-budget") a.memory_budget = parse_bytes(f, value());
+    if (f == "-o" || f == "--output")
+      a.out = value();
+    else if (f == "--format")
+      a.format = value();
+    else if (f == "--fill")
+      a.fill = value();
+    else if (parse_view_flag(f, value, a.view))
+      continue;
+    else if (f == "--stats")
+      a.stats = true;
+    else if (f == "--memory-budget")
+      a.memory_budget = parse_bytes(f, value());
     else if (f == "--time-limit") {
       const std::string v = value();
       char* end = nullptr;
       a.time_limit_s = std::strtod(v.c_str(), &end);
       if (v.empty() || *end || !(a.time_limit_s > 0) || !std::isfinite(a.time_limit_s))
         throw UsageError("--time-limit: expected a positive number of seconds, got '" + v + "'");
-    }
-    else if (!f.empty() && f[0] == '-') throw UsageError("unknown option " + f);
-    else if (a.scene.empty()) a.scene = f;
-    else throw UsageError("unexpected argument " + f);
+    } else if (!f.empty() && f[0] == '-')
+      throw UsageError("unknown option " + f);
+    else if (a.scene.empty())
+      a.scene = f;
+    else
+      throw UsageError("unexpected argument " + f);
   }
   if (a.scene.empty()) throw UsageError("render: missing SCENE");
   if (a.out.empty()) throw UsageError("render: missing -o OUT");
@@ -152,47 +162,63 @@ int cmd_render(int argc, char** argv) {
   PlanarMap map = renderer.render(scene, cam, opts, &st);
   auto t_render = Clock::now();
   if (a.memory_budget && st.peak_device_bytes > a.memory_budget)
-    std::fprintf(stderr, "vismap: warning: device memory peaked at %.1f MB, over the budget of %.1f MB "
-                 "(a part of the screen holds more than the budget allows; see docs/PERFORMANCE.md)\n",
-                 st.peak_device_bytes / 1e6, a.memory_budget / 1e6);
-  std::string bytes = a.format == "bin" ? write_bin(map, scene)
-                                        : write_svg(map, scene, cam, a.fill == "id" ? Fill::Id : Fill::Shade);
+    std::fprintf(
+        stderr,
+        "vismap: warning: device memory peaked at %.1f MB, over the budget of %.1f MB "
+        "(a part of the screen holds more than the budget allows; see docs/PERFORMANCE.md)\n",
+        st.peak_device_bytes / 1e6, a.memory_budget / 1e6);
+  std::string bytes = a.format == "bin"
+                          ? write_bin(map, scene)
+                          : write_svg(map, scene, cam, a.fill == "id" ? Fill::Id : Fill::Shade);
   write_atomically(a.out, bytes);
   auto t_end = Clock::now();
-  if (tty && std::chrono::duration<double>(t_render - t0).count() >= 1.0) std::fprintf(stderr, "\r%30s\r", "");
+  if (tty && std::chrono::duration<double>(t_render - t0).count() >= 1.0)
+    std::fprintf(stderr, "\r%30s\r", "");
   if (a.stats) {
     auto ms = [](auto d) { return std::chrono::duration<double, std::milli>(d).count(); };
     uint64_t out_tris = 0;
-    for (size_t f = 0; f < map.fragment_count(); ++f) out_tris += map.offsets[f + 1] - map.offsets[f] - 2;
-    std::fprintf(stderr, "device: %s / %s\n", renderer.device().platform.c_str(), renderer.device().name.c_str());
+    for (size_t f = 0; f < map.fragment_count(); ++f)
+      out_tris += map.offsets[f + 1] - map.offsets[f] - 2;
+    std::fprintf(stderr, "device: %s / %s\n", renderer.device().platform.c_str(),
+                 renderer.device().name.c_str());
     std::fprintf(stderr, "%-12s %10s %9s %12s %12s\n", "stage", "ms", "launches", "in", "out");
     double sum = 0;
     for (const StageStat& s : st.stages) {
       std::fprintf(stderr, "%-12s %10.2f %9u %12llu %12llu\n", s.name.c_str(), s.ms, s.launches,
-                   static_cast<unsigned long long>(s.items_in), static_cast<unsigned long long>(s.items_out));
+                   static_cast<unsigned long long>(s.items_in),
+                   static_cast<unsigned long long>(s.items_out));
       sum += s.ms;
     }
-    std::fprintf(stderr, "%-12s %10.2f   (sum of stage times; pipeline wall %.2f ms, upload %.2f ms)\n",
+    std::fprintf(stderr,
+                 "%-12s %10.2f   (sum of stage times; pipeline wall %.2f ms, upload %.2f ms)\n",
                  "kernels", sum, st.pipeline_ms, st.upload_ms);
-    std::fprintf(stderr, "input triangles %llu (dropped degenerate %llu), screen triangles %llu, silhouette edges %llu\n",
+    std::fprintf(stderr,
+                 "input triangles %llu (dropped degenerate %llu), screen triangles %llu, "
+                 "silhouette edges %llu\n",
                  static_cast<unsigned long long>(st.input_triangles),
                  static_cast<unsigned long long>(scene.dropped_degenerate),
                  static_cast<unsigned long long>(st.screen_triangles),
                  static_cast<unsigned long long>(st.silhouette_edges));
-    std::fprintf(stderr, "fragments %llu, visible %llu, clip rounds %u, host syncs %u, device memory peak %.1f MB (%.1f MB allocated in all)\n",
+    std::fprintf(stderr,
+                 "fragments %llu, visible %llu, clip rounds %u, host syncs %u, device memory peak "
+                 "%.1f MB (%.1f MB allocated in all)\n",
                  static_cast<unsigned long long>(st.fragments),
-                 static_cast<unsigned long long>(st.visible_fragments), st.clip_rounds, st.host_syncs,
-                 st.peak_device_bytes / 1e6, st.allocated_device_bytes / 1e6);
-    std::fprintf(stderr, "entangled pairs %llu, crossing entries %llu, thin fragments %llu, deep tournaments %llu\n",
-                 static_cast<unsigned long long>(st.entangled_pairs),
-                 static_cast<unsigned long long>(st.crossing_lines),
-                 static_cast<unsigned long long>(st.thin_fragments),
-                 static_cast<unsigned long long>(st.deep_tournaments));
+                 static_cast<unsigned long long>(st.visible_fragments), st.clip_rounds,
+                 st.host_syncs, st.peak_device_bytes / 1e6, st.allocated_device_bytes / 1e6);
+    std::fprintf(
+        stderr,
+        "entangled pairs %llu, crossing entries %llu, thin fragments %llu, deep tournaments %llu\n",
+        static_cast<unsigned long long>(st.entangled_pairs),
+        static_cast<unsigned long long>(st.crossing_lines),
+        static_cast<unsigned long long>(st.thin_fragments),
+        static_cast<unsigned long long>(st.deep_tournaments));
     if (a.memory_budget)
-      std::fprintf(stderr, "memory budget %.1f MB: %u bucket(s), each planned under %.1f MB of work\n",
+      std::fprintf(stderr,
+                   "memory budget %.1f MB: %u bucket(s), each planned under %.1f MB of work\n",
                    a.memory_budget / 1e6, st.buckets, st.bucket_work_bytes / 1e6);
     std::fprintf(stderr, "output: %llu triangles in %zu fragments, %zu bytes (%s)\n",
-                 static_cast<unsigned long long>(out_tris), map.fragment_count(), bytes.size(), a.format.c_str());
+                 static_cast<unsigned long long>(out_tris), map.fragment_count(), bytes.size(),
+                 a.format.c_str());
     std::fprintf(stderr, "time: load %.1f ms, render %.1f ms, write %.1f ms, total %.1f ms\n",
                  ms(t_load - t0), ms(t_render - t_load), ms(t_end - t_render), ms(t_end - t0));
   }
@@ -206,8 +232,8 @@ int cmd_devices() {
     return 1;
   }
   for (const DeviceInfo& d : devs)
-    std::printf("%s  %-4s %s / %s (%s)\n", d.id.c_str(), d.is_gpu ? "gpu" : "cpu", d.platform.c_str(),
-                d.name.c_str(), d.version.c_str());
+    std::printf("%s  %-4s %s / %s (%s)\n", d.id.c_str(), d.is_gpu ? "gpu" : "cpu",
+                d.platform.c_str(), d.name.c_str(), d.version.c_str());
   return 0;
 }
 

@@ -20,17 +20,21 @@ static const char* kUsage =
     "usage: vismap-client --url ws://HOST:PORT/ (--scene FILE | --library NAME) --frames N\n"
     "                     [--format svg|bin] [--out DIR] [--width W] [--height H] [--attributes]\n"
     "                     [--token-file FILE] [--timeout S] [--retries N]\n"
-    "       vismap-client --health http://HOST:PORT/health   (exit 0 when the server answers 200 ok;\n"
-    "                                                         a container HEALTHCHECK without curl)\n";
+    "       vismap-client --health http://HOST:PORT/health   (exit 0 when the server answers 200 "
+    "ok;\n"
+    "                                                         a container HEALTHCHECK without "
+    "curl)\n";
 
-// GET /health: 0 when the server answers 200 with status ok, 1 otherwise (stopping, refused, timeout).
+// GET /health: 0 when the server answers 200 with status ok, 1 otherwise (stopping, refused,
+// timeout).
 static int health(const std::string& url_text, double timeout) {
   try {
     Url u = parse_url(url_text);
     HttpResponse r = http_get(u.host, u.port, u.target.empty() ? "/health" : u.target, timeout);
     while (!r.body.empty() && r.body.back() == '\n') r.body.pop_back();
     std::printf("%d %s\n", r.status, r.body.c_str());
-    return r.status == 200 && json::parse(r.body, nullptr, false).value("status", "") == "ok" ? 0 : 1;
+    return r.status == 200 && json::parse(r.body, nullptr, false).value("status", "") == "ok" ? 0
+                                                                                              : 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "vismap-client: health: %s\n", e.what());
     return 1;
@@ -69,7 +73,8 @@ static json next_json(WsClient& c, double timeout) {
     if (m.binary) throw std::runtime_error("unexpected binary message");
     json j = json::parse(m.data);
     if (j.value("type", "") == "error")
-      throw std::runtime_error("server error " + j.value("code", "") + ": " + j.value("message", ""));
+      throw std::runtime_error("server error " + j.value("code", "") + ": " +
+                               j.value("message", ""));
     return j;
   }
 }
@@ -94,26 +99,41 @@ int main(int argc, char** argv) {
         if (i + 1 >= argc) throw std::runtime_error(a + " needs a value");
         return argv[++i];
       };
-      if (a == "--url") url = val();
-      else if (a == "--scene") scene = val();
-      else if (a == "--library") library = val();
-      else if (a == "--frames") frames = std::stoi(val());
-      else if (a == "--format") format = val();
-      else if (a == "--out") out = val();
-      else if (a == "--width") width = static_cast<uint32_t>(std::stoul(val()));
-      else if (a == "--height") height = static_cast<uint32_t>(std::stoul(val()));
-      else if (a == "--token-file") token_file = val();
-      else if (a == "--timeout") timeout = std::stod(val());
-      else if (a == "--retries") retries = std::stoi(val());
-      else if (a == "--health") health_url = val();
-      else if (a == "--attributes") attributes = true;
+      if (a == "--url")
+        url = val();
+      else if (a == "--scene")
+        scene = val();
+      else if (a == "--library")
+        library = val();
+      else if (a == "--frames")
+        frames = std::stoi(val());
+      else if (a == "--format")
+        format = val();
+      else if (a == "--out")
+        out = val();
+      else if (a == "--width")
+        width = static_cast<uint32_t>(std::stoul(val()));
+      else if (a == "--height")
+        height = static_cast<uint32_t>(std::stoul(val()));
+      else if (a == "--token-file")
+        token_file = val();
+      else if (a == "--timeout")
+        timeout = std::stod(val());
+      else if (a == "--retries")
+        retries = std::stoi(val());
+      else if (a == "--health")
+        health_url = val();
+      else if (a == "--attributes")
+        attributes = true;
       else if (a == "--help" || a == "-h") {
         std::fputs(kUsage, stdout);
         return 0;
-      } else throw std::runtime_error("unknown flag " + a);
+      } else
+        throw std::runtime_error("unknown flag " + a);
     }
     if (!health_url.empty()) return health(health_url, std::min(timeout, 10.0));
-    if (url.empty() || (scene.empty() == library.empty()) || frames < 1 || (format != "svg" && format != "bin"))
+    if (url.empty() || (scene.empty() == library.empty()) || frames < 1 ||
+        (format != "svg" && format != "bin"))
       throw std::runtime_error("bad arguments");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "vismap-client: %s\n%s", e.what(), kUsage);
@@ -123,7 +143,10 @@ int main(int argc, char** argv) {
   try {
     WsClient c;
     connect_with_retry(c, url, retries);
-    json hello = {{"type", "hello"}, {"version", 1}, {"format", format}, {"attributes", attributes},
+    json hello = {{"type", "hello"},
+                  {"version", 1},
+                  {"format", format},
+                  {"attributes", attributes},
                   {"viewport", {{"width", width}, {"height", height}}}};
     if (!token_file.empty()) {
       std::string t = slurp(token_file);
@@ -145,8 +168,10 @@ int main(int argc, char** argv) {
     }
     json ready = next_json(c, timeout);
     if (ready.value("type", "") != "scene_ready") throw std::runtime_error("expected scene_ready");
-    double upload_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_up).count();
-    std::printf("scene: %s, %llu triangles, uploaded and loaded in %.1f ms\n", ready.value("name", "").c_str(),
+    double upload_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_up).count();
+    std::printf("scene: %s, %llu triangles, uploaded and loaded in %.1f ms\n",
+                ready.value("name", "").c_str(),
                 static_cast<unsigned long long>(ready.value("triangles", 0ull)), upload_ms);
 
     // Orbit: rotate the framing camera's eye about the target around its up axis (y here).
@@ -165,9 +190,11 @@ int main(int argc, char** argv) {
       auto ts = std::chrono::steady_clock::now();
       c.send_text(json{{"type", "camera"}, {"seq", i}, {"eye", e}}.dump());
       json header = next_json(c, timeout);
-      if (header.value("type", "") != "frame") throw std::runtime_error("expected frame, got " + header.dump());
+      if (header.value("type", "") != "frame")
+        throw std::runtime_error("expected frame, got " + header.dump());
       Message payload = c.read(timeout);
-      latency.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ts).count());
+      latency.push_back(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ts).count());
       bytes_sum += payload.data.size();
       render_ms_sum += header.value("render_ms", 0.0);
       if (!out.empty()) {
@@ -185,9 +212,10 @@ int main(int argc, char** argv) {
               {"bytes_per_frame", bytes_sum / frames},
               {"render_ms_mean", render_ms_sum / frames},
               {"format", format}};
-    std::printf("%d frames in %.2f s: %.1f fps, latency p50 %.1f ms p99 %.1f ms, %llu bytes/frame\n", frames, secs,
-                frames / secs, r["latency_p50_ms"].get<double>(), r["latency_p99_ms"].get<double>(),
-                static_cast<unsigned long long>(bytes_sum / frames));
+    std::printf(
+        "%d frames in %.2f s: %.1f fps, latency p50 %.1f ms p99 %.1f ms, %llu bytes/frame\n",
+        frames, secs, frames / secs, r["latency_p50_ms"].get<double>(),
+        r["latency_p99_ms"].get<double>(), static_cast<unsigned long long>(bytes_sum / frames));
     std::printf("%s\n", r.dump().c_str());
     return 0;
   } catch (const std::exception& e) {

@@ -1,8 +1,6 @@
 #include "clients/wsclient.h"
 
 // Boost 1.74 asio/awaitable.hpp uses std::exchange without <utility> (fails under C++20, g++ 12).
-#include <utility>
-
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
@@ -11,6 +9,7 @@
 #include <deque>
 #include <functional>
 #include <optional>
+#include <utility>
 
 namespace vismap::client {
 
@@ -84,9 +83,11 @@ struct WsClient::Impl {
     ws.binary(binary);
     std::optional<beast::error_code> result;
     ws.async_write(net::buffer(s), [&](beast::error_code ec, size_t) { result = ec; });
-    if (!run_until(ioc, [&] { return result.has_value(); }, Clock::now() + secs(timeout_s))) {
+    if (!run_until(
+            ioc, [&] { return result.has_value(); }, Clock::now() + secs(timeout_s))) {
       beast::get_lowest_layer(ws).cancel();
-      run_until(ioc, [&] { return result.has_value(); }, Clock::now() + secs(1));
+      run_until(
+          ioc, [&] { return result.has_value(); }, Clock::now() + secs(1));
       throw Timeout("write timed out");
     }
     if (*result) {
@@ -96,7 +97,8 @@ struct WsClient::Impl {
   }
 
   [[noreturn]] void throw_closed() {
-    if (*read_error == websocket::error::closed) throw Closed(ws.reason().code, std::string(ws.reason().reason.c_str()));
+    if (*read_error == websocket::error::closed)
+      throw Closed(ws.reason().code, std::string(ws.reason().reason.c_str()));
     throw Closed(1006, read_error->message());
   }
 };
@@ -112,28 +114,43 @@ void WsClient::connect(const std::string& url, double timeout_s) {
   auto& tcp_layer = beast::get_lowest_layer(impl_->ws);
   tcp_layer.expires_at(deadline);
   std::optional<beast::error_code> result;
-  tcp_layer.async_connect(results, [&](beast::error_code ec, const tcp::endpoint&) { result = ec; });
-  run_until(impl_->ioc, [&] { return result.has_value(); }, deadline + secs(1));
-  if (!result || *result) throw std::runtime_error("connect " + u.host + ":" + u.port + ": " + (result ? result->message() : "timeout"));
+  tcp_layer.async_connect(results,
+                          [&](beast::error_code ec, const tcp::endpoint&) { result = ec; });
+  run_until(
+      impl_->ioc, [&] { return result.has_value(); }, deadline + secs(1));
+  if (!result || *result)
+    throw std::runtime_error("connect " + u.host + ":" + u.port + ": " +
+                             (result ? result->message() : "timeout"));
   tcp_layer.expires_never();
   beast::error_code ignored;
   tcp_layer.socket().set_option(tcp::no_delay(true), ignored);
-  impl_->ws.set_option(websocket::stream_base::timeout{secs(timeout_s), websocket::stream_base::none(), false});
+  impl_->ws.set_option(
+      websocket::stream_base::timeout{secs(timeout_s), websocket::stream_base::none(), false});
   impl_->ws.read_message_max(1ull << 30);
   result.reset();
-  impl_->ws.async_handshake(u.host + ":" + u.port, u.target, [&](beast::error_code ec) { result = ec; });
-  if (!run_until(impl_->ioc, [&] { return result.has_value(); }, deadline + secs(1))) throw Timeout("handshake timed out");
-  if (*result) throw std::runtime_error("WebSocket handshake with " + url + ": " + result->message());
+  impl_->ws.async_handshake(u.host + ":" + u.port, u.target,
+                            [&](beast::error_code ec) { result = ec; });
+  if (!run_until(
+          impl_->ioc, [&] { return result.has_value(); }, deadline + secs(1)))
+    throw Timeout("handshake timed out");
+  if (*result)
+    throw std::runtime_error("WebSocket handshake with " + url + ": " + result->message());
 }
 
-void WsClient::send_text(const std::string& s, double t) { impl_->write(s, false, t); }
-void WsClient::send_binary(const std::string& s, double t) { impl_->write(s, true, t); }
+void WsClient::send_text(const std::string& s, double t) {
+  impl_->write(s, false, t);
+}
+void WsClient::send_binary(const std::string& s, double t) {
+  impl_->write(s, true, t);
+}
 
 Message WsClient::read(double timeout_s) {
   Impl& m = *impl_;
   if (m.inbox.empty()) {
     m.arm();
-    run_until(m.ioc, [&] { return !m.inbox.empty() || m.read_error.has_value(); }, Clock::now() + secs(timeout_s));
+    run_until(
+        m.ioc, [&] { return !m.inbox.empty() || m.read_error.has_value(); },
+        Clock::now() + secs(timeout_s));
   }
   if (!m.inbox.empty()) {
     Message msg = std::move(m.inbox.front());
@@ -149,7 +166,8 @@ void WsClient::close(double timeout_s) {
   if (m.read_error || !m.ws.is_open()) return drop();
   std::optional<beast::error_code> result;
   m.ws.async_close(websocket::close_code::normal, [&](beast::error_code ec) { result = ec; });
-  run_until(m.ioc, [&] { return result.has_value(); }, Clock::now() + secs(timeout_s));
+  run_until(
+      m.ioc, [&] { return result.has_value(); }, Clock::now() + secs(timeout_s));
   drop();
 }
 
@@ -162,34 +180,41 @@ void WsClient::drop() {
   impl_->ioc.poll();
 }
 
-HttpResponse http_get(const std::string& host, const std::string& port, const std::string& target, double timeout_s) {
+HttpResponse http_get(const std::string& host, const std::string& port, const std::string& target,
+                      double timeout_s) {
   net::io_context ioc;
   beast::tcp_stream stream(ioc);
   tcp::resolver resolver(ioc);
   auto deadline = Clock::now() + secs(timeout_s);
   stream.expires_at(deadline);
   std::optional<beast::error_code> result;
-  stream.async_connect(resolver.resolve(host, port), [&](beast::error_code ec, const tcp::endpoint&) { result = ec; });
-  run_until(ioc, [&] { return result.has_value(); }, deadline + secs(1));
-  if (!result || *result) throw std::runtime_error("connect: " + (result ? result->message() : std::string("timeout")));
+  stream.async_connect(resolver.resolve(host, port),
+                       [&](beast::error_code ec, const tcp::endpoint&) { result = ec; });
+  run_until(
+      ioc, [&] { return result.has_value(); }, deadline + secs(1));
+  if (!result || *result)
+    throw std::runtime_error("connect: " + (result ? result->message() : std::string("timeout")));
   http::request<http::empty_body> req(http::verb::get, target, 11);
   req.set(http::field::host, host);
   req.keep_alive(false);
   result.reset();
   http::async_write(stream, req, [&](beast::error_code ec, size_t) { result = ec; });
-  run_until(ioc, [&] { return result.has_value(); }, deadline + secs(1));
+  run_until(
+      ioc, [&] { return result.has_value(); }, deadline + secs(1));
   if (!result || *result) throw std::runtime_error("HTTP write failed");
   beast::flat_buffer buf;
   http::response<http::string_body> res;
   result.reset();
   http::async_read(stream, buf, res, [&](beast::error_code ec, size_t) { result = ec; });
-  run_until(ioc, [&] { return result.has_value(); }, deadline + secs(1));
+  run_until(
+      ioc, [&] { return result.has_value(); }, deadline + secs(1));
   if (!result || *result) throw std::runtime_error("HTTP read failed");
-  return {static_cast<int>(res.result_int()), std::string(res[http::field::content_type]), res.body()};
+  return {static_cast<int>(res.result_int()), std::string(res[http::field::content_type]),
+          res.body()};
 }
 
-double wait_for_server_close(const std::string& host, const std::string& port, const std::string& bytes,
-                             double timeout_s) {
+double wait_for_server_close(const std::string& host, const std::string& port,
+                             const std::string& bytes, double timeout_s) {
   net::io_context ioc;
   tcp::socket s(ioc);
   tcp::resolver resolver(ioc);
@@ -206,7 +231,9 @@ double wait_for_server_close(const std::string& host, const std::string& port, c
     s.async_read_some(net::buffer(buf), on_read);
   };
   s.async_read_some(net::buffer(buf), on_read);
-  if (!run_until(ioc, [&] { return closed; }, t0 + secs(timeout_s))) return -1;
+  if (!run_until(
+          ioc, [&] { return closed; }, t0 + secs(timeout_s)))
+    return -1;
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 

@@ -22,7 +22,8 @@ struct Message {
 
 // The peer closed the WebSocket (code: its close code, 1006 when the TCP connection just ended).
 struct Closed : std::runtime_error {
-  Closed(int c, const std::string& reason) : std::runtime_error("closed " + std::to_string(c) + " " + reason), code(c) {}
+  Closed(int c, const std::string& reason)
+      : std::runtime_error("closed " + std::to_string(c) + " " + reason), code(c) {}
   int code;
 };
 
@@ -63,7 +64,7 @@ HttpResponse http_get(const std::string& host, const std::string& port, const st
 
 // Opens a TCP connection, sends `bytes` (may be empty) and waits until the server closes it.
 // Returns the seconds waited, or -1 when the server kept it open for timeout_s.
-double wait_for_server_close(const std::string& host, const std::string& port, const std::string& bytes,
-                             double timeout_s);
+double wait_for_server_close(const std::string& host, const std::string& port,
+                             const std::string& bytes, double timeout_s);
 
 }  // namespace vismap::client

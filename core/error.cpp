@@ -4,17 +4,28 @@ namespace vismap {
 
 const char* to_string(InputErrorKind k) {
   switch (k) {
-    case InputErrorKind::FileNotFound: return "file_not_found";
-    case InputErrorKind::UnknownFormat: return "unknown_format";
-    case InputErrorKind::Truncated: return "truncated";
-    case InputErrorKind::ParseError: return "parse_error";
-    case InputErrorKind::NonFiniteVertex: return "non_finite_vertex";
-    case InputErrorKind::IndexOutOfRange: return "index_out_of_range";
-    case InputErrorKind::EmptyMesh: return "empty_mesh";
-    case InputErrorKind::BadScene: return "bad_scene";
-    case InputErrorKind::BadCamera: return "bad_camera";
-    case InputErrorKind::TooLarge: return "too_large";
-    case InputErrorKind::TimeLimit: return "time_limit";
+    case InputErrorKind::FileNotFound:
+      return "file_not_found";
+    case InputErrorKind::UnknownFormat:
+      return "unknown_format";
+    case InputErrorKind::Truncated:
+      return "truncated";
+    case InputErrorKind::ParseError:
+      return "parse_error";
+    case InputErrorKind::NonFiniteVertex:
+      return "non_finite_vertex";
+    case InputErrorKind::IndexOutOfRange:
+      return "index_out_of_range";
+    case InputErrorKind::EmptyMesh:
+      return "empty_mesh";
+    case InputErrorKind::BadScene:
+      return "bad_scene";
+    case InputErrorKind::BadCamera:
+      return "bad_camera";
+    case InputErrorKind::TooLarge:
+      return "too_large";
+    case InputErrorKind::TimeLimit:
+      return "time_limit";
   }
   return "unknown";
 }
@@ -31,8 +42,8 @@ static std::string compose(const std::string& file, const std::string& mesh,
   return s;
 }
 
-InputError::InputError(InputErrorKind kind, std::string file, std::string mesh,
-                       std::string element, int64_t index, std::string message)
+InputError::InputError(InputErrorKind kind, std::string file, std::string mesh, std::string element,
+                       int64_t index, std::string message)
     : std::runtime_error(compose(file, mesh, element, index, message)),
       kind_(kind),
       file_(std::move(file)),

@@ -224,8 +224,7 @@ bool has_duplicate_positions(const Mesh& m) {
 
 uint64_t finish_mesh(Mesh& m, const Source& src) {
   size_t nv = m.vertex_count();
-  if (m.indices.empty())
-    fail(InputErrorKind::EmptyMesh, src, m.name, "", -1, "no triangles");
+  if (m.indices.empty()) fail(InputErrorKind::EmptyMesh, src, m.name, "", -1, "no triangles");
   for (size_t i = 0; i < m.positions.size(); ++i)
     if (!std::isfinite(m.positions[i]))
       fail(InputErrorKind::NonFiniteVertex, src, m.name, "vertex", static_cast<int64_t>(i / 3),
@@ -337,8 +336,9 @@ Scene load_scene_from_memory(const std::string& name, const std::string& bytes,
   detail::Source src{name, "", &budget};
   std::string ext = detail::format_extension(name);
   if (!known_extension(ext))
-    detail::fail(InputErrorKind::UnknownFormat, src, "", "", -1,
-                 "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .json)");
+    detail::fail(
+        InputErrorKind::UnknownFormat, src, "", "", -1,
+        "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .json)");
   if (ext == ".json") return detail::read_scene_file(src, bytes, opts);
   return detail::load_mesh_bytes(src, bytes, opts);
 }

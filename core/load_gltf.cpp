@@ -18,7 +18,9 @@ namespace {
 
 using M4 = std::array<double, 16>;  // column-major
 
-M4 identity() { return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}; }
+M4 identity() {
+  return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+}
 
 M4 mul(const M4& a, const M4& b) {
   M4 r{};
@@ -66,7 +68,9 @@ struct Loader {
 
   const unsigned char* view(int ai, const std::string& mesh, size_t want_size, size_t& stride) {
     const tinygltf::Accessor& a = accessor(ai, mesh);
-    if (a.sparse.isSparse) fail(InputErrorKind::ParseError, src, mesh, "accessor", ai, "sparse accessors are not supported");
+    if (a.sparse.isSparse)
+      fail(InputErrorKind::ParseError, src, mesh, "accessor", ai,
+           "sparse accessors are not supported");
     if (a.bufferView < 0 || a.bufferView >= int(model.bufferViews.size()))
       fail(InputErrorKind::ParseError, src, mesh, "accessor", ai, "accessor has no buffer view");
     const tinygltf::BufferView& bv = model.bufferViews[a.bufferView];
@@ -93,10 +97,12 @@ struct Loader {
         p.mode != TINYGLTF_MODE_TRIANGLE_FAN)
       return;
     auto pos = p.attributes.find("POSITION");
-    if (pos == p.attributes.end()) fail(InputErrorKind::ParseError, src, name, "", -1, "primitive has no POSITION");
+    if (pos == p.attributes.end())
+      fail(InputErrorKind::ParseError, src, name, "", -1, "primitive has no POSITION");
     const tinygltf::Accessor& pa = accessor(pos->second, name);
     if (pa.type != TINYGLTF_TYPE_VEC3 || pa.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
-      fail(InputErrorKind::ParseError, src, name, "accessor", pos->second, "POSITION must be float VEC3");
+      fail(InputErrorKind::ParseError, src, name, "accessor", pos->second,
+           "POSITION must be float VEC3");
     size_t stride;
     const unsigned char* pp = view(pos->second, name, 12, stride);
     Mesh m;
@@ -114,12 +120,16 @@ struct Loader {
       size_t cs = tinygltf::GetComponentSizeInBytes(ia.componentType);
       if (ia.type != TINYGLTF_TYPE_SCALAR || (cs != 1 && cs != 2 && cs != 4) ||
           ia.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT)
-        fail(InputErrorKind::ParseError, src, name, "accessor", p.indices, "indices must be unsigned integer scalars");
+        fail(InputErrorKind::ParseError, src, name, "accessor", p.indices,
+             "indices must be unsigned integer scalars");
       const unsigned char* ip = view(p.indices, name, cs, stride);
       idx.resize(ia.count);
       for (size_t i = 0; i < ia.count; ++i) {
         const unsigned char* e = ip + i * stride;
-        idx[i] = cs == 1 ? e[0] : cs == 2 ? uint32_t(e[0] | e[1] << 8) : ((uint32_t)e[0] | (uint32_t)e[1] << 8 | (uint32_t)e[2] << 16 | (uint32_t)e[3] << 24);
+        idx[i] = cs == 1   ? e[0]
+                 : cs == 2 ? uint32_t(e[0] | e[1] << 8)
+                           : ((uint32_t)e[0] | (uint32_t)e[1] << 8 | (uint32_t)e[2] << 16 |
+                              (uint32_t)e[3] << 24);
       }
     } else {
       idx.resize(pa.count);
@@ -128,7 +138,8 @@ struct Loader {
     for (size_t i = 0; i < idx.size(); ++i)
       if (idx[i] >= pa.count)
         fail(InputErrorKind::IndexOutOfRange, src, name, "index", int64_t(i),
-             "vertex index " + std::to_string(idx[i]) + " out of range (" + std::to_string(pa.count) + " vertices)");
+             "vertex index " + std::to_string(idx[i]) + " out of range (" +
+                 std::to_string(pa.count) + " vertices)");
     if (p.mode == TINYGLTF_MODE_TRIANGLES) {
       idx.resize(idx.size() / 3 * 3);
       m.indices = std::move(idx);
@@ -145,7 +156,8 @@ struct Loader {
     double det = w[0] * (w[5] * w[10] - w[9] * w[6]) - w[4] * (w[1] * w[10] - w[9] * w[2]) +
                  w[8] * (w[1] * w[6] - w[5] * w[2]);
     if (det < 0)  // the spec: a mirroring node transform reverses the winding
-      for (size_t t = 0; t + 2 < m.indices.size(); t += 3) std::swap(m.indices[t + 1], m.indices[t + 2]);
+      for (size_t t = 0; t + 2 < m.indices.size(); t += 3)
+        std::swap(m.indices[t + 1], m.indices[t + 2]);
     if (p.material >= 0 && p.material < int(model.materials.size())) {
       const auto& f = model.materials[p.material].pbrMetallicRoughness.baseColorFactor;
       if (f.size() >= 3) m.color = {float(f[0]), float(f[1]), float(f[2])};
@@ -228,37 +240,49 @@ struct Loader {
 // is "truncated", not a vague parse error.
 void check_glb(const Source& src, std::string_view b) {
   if (b.size() < 12) {
-    bool prefix = std::string_view("glTF").substr(0, std::min<size_t>(4, b.size())) == b.substr(0, 4);
+    bool prefix =
+        std::string_view("glTF").substr(0, std::min<size_t>(4, b.size())) == b.substr(0, 4);
     fail(prefix ? InputErrorKind::Truncated : InputErrorKind::ParseError, src, "", "", -1,
          "GLB file shorter than its 12-byte header");
   }
-  if (b.substr(0, 4) != "glTF") fail(InputErrorKind::ParseError, src, "", "", -1, "not a GLB file (no 'glTF' magic)");
+  if (b.substr(0, 4) != "glTF")
+    fail(InputErrorKind::ParseError, src, "", "", -1, "not a GLB file (no 'glTF' magic)");
   uint32_t length;
   std::memcpy(&length, b.data() + 8, 4);
   if (length > b.size())
     fail(InputErrorKind::Truncated, src, "", "byte", int64_t(b.size()),
-         "GLB header promises " + std::to_string(length) + " bytes, file has " + std::to_string(b.size()));
+         "GLB header promises " + std::to_string(length) + " bytes, file has " +
+             std::to_string(b.size()));
   size_t at = 12;
   for (int chunk = 0; at < length; ++chunk) {
     uint32_t clen;
-    if (length - at < 8) fail(InputErrorKind::Truncated, src, "", "chunk", chunk, "chunk header cut short");
+    if (length - at < 8)
+      fail(InputErrorKind::Truncated, src, "", "chunk", chunk, "chunk header cut short");
     std::memcpy(&clen, b.data() + at, 4);
     if (uint64_t(clen) + 8 > length - at)
-      fail(InputErrorKind::Truncated, src, "", "chunk", chunk, "chunk runs past the end of the file");
+      fail(InputErrorKind::Truncated, src, "", "chunk", chunk,
+           "chunk runs past the end of the file");
     at += 8 + size_t(clen);
   }
 }
 
-bool no_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
+bool no_image(tinygltf::Image*, const int, std::string*, std::string*, int, int,
+              const unsigned char*, int, void*) {
   return true;  // images are not needed for visibility
 }
-bool no_file(const std::string&, void*) { return false; }
-std::string same_path(const std::string& p, void*) { return p; }
+bool no_file(const std::string&, void*) {
+  return false;
+}
+std::string same_path(const std::string& p, void*) {
+  return p;
+}
 bool no_read(std::vector<unsigned char>*, std::string* err, const std::string& p, void*) {
   if (err) *err += "File not found : " + p + " (external files are not read for uploads)\n";
   return false;
 }
-bool no_write(std::string*, const std::string&, const std::vector<unsigned char>&, void*) { return false; }
+bool no_write(std::string*, const std::string&, const std::vector<unsigned char>&, void*) {
+  return false;
+}
 
 // Files a .gltf / .glb on disk references (buffers, images) go through read_input_file like every
 // other file of the load: confined, regular files only, charged to the load's budget. tinygltf's
@@ -316,9 +340,11 @@ Scene read_gltf(const Source& src, std::string_view bytes, bool binary, const Lo
     gltf.SetFsCallbacks({file_exists, same_path, read_file, no_write, &access});
   tinygltf::Model model;
   std::string err, warn;
-  bool ok = binary ? gltf.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
+  bool ok = binary ? gltf.LoadBinaryFromMemory(&model, &err, &warn,
+                                               reinterpret_cast<const unsigned char*>(bytes.data()),
                                                unsigned(bytes.size()), src.base_dir)
-                   : gltf.LoadASCIIFromString(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), src.base_dir);
+                   : gltf.LoadASCIIFromString(&model, &err, &warn, bytes.data(),
+                                              unsigned(bytes.size()), src.base_dir);
   if (access.refused) {  // a referenced file refused (even an image, which tinygltf only warns of)
     const InputError& e = *access.refused;
     throw InputError(e.kind(), e.file(), "", "", -1,
@@ -326,9 +352,12 @@ Scene read_gltf(const Source& src, std::string_view bytes, bool binary, const Lo
   }
   if (!ok) {
     while (!err.empty() && (err.back() == '\n' || err.back() == '\r')) err.pop_back();
-    for (char& ch : err) if (ch == '\n') ch = ';';
-    InputErrorKind kind = err.find("File not found") != std::string::npos || err.find("File open error") != std::string::npos
-                              ? InputErrorKind::FileNotFound : InputErrorKind::ParseError;
+    for (char& ch : err)
+      if (ch == '\n') ch = ';';
+    InputErrorKind kind = err.find("File not found") != std::string::npos ||
+                                  err.find("File open error") != std::string::npos
+                              ? InputErrorKind::FileNotFound
+                              : InputErrorKind::ParseError;
     fail(kind, src, "", "", -1, "glTF: " + (err.empty() ? std::string("cannot parse") : err));
   }
   Loader L{src, opts, model, {}, {}, 0};
@@ -340,12 +369,16 @@ Scene read_gltf(const Source& src, std::string_view bytes, bool binary, const Lo
   } else {  // no scene: every node that is nobody's child
     std::vector<bool> child(model.nodes.size());
     for (const auto& n : model.nodes)
-      for (int c : n.children) if (c >= 0 && c < int(child.size())) child[c] = true;
-    for (size_t i = 0; i < child.size(); ++i) if (!child[i]) roots.push_back(int(i));
+      for (int c : n.children)
+        if (c >= 0 && c < int(child.size())) child[c] = true;
+    for (size_t i = 0; i < child.size(); ++i)
+      if (!child[i]) roots.push_back(int(i));
   }
   for (int r : roots) L.visit(r);
   if (L.scene.triangle_count() == 0)
-    fail(InputErrorKind::EmptyMesh, src, "", "", -1, L.scene.meshes.empty() ? "no triangles in the scene" : "every triangle is degenerate (zero area)");
+    fail(InputErrorKind::EmptyMesh, src, "", "", -1,
+         L.scene.meshes.empty() ? "no triangles in the scene"
+                                : "every triangle is degenerate (zero area)");
   return std::move(L.scene);
 }
 

@@ -61,7 +61,7 @@ struct Source {
 // Lower-cased extension, compound for ".ply.gz" (".ply.gz", ".obj", ... or "" if none).
 std::string format_extension(const std::string& name);
 std::string file_stem(const std::string& name);
-std::string dir_of(const std::string& path);           // "" or ending in '/'
+std::string dir_of(const std::string& path);  // "" or ending in '/'
 
 // Reads a file that a load opens (the scene itself or a file it references), by `path` as given.
 // Refuses, as FileNotFound naming `path`: a missing file; anything but a regular file (a FIFO,

@@ -23,7 +23,8 @@ using Materials = std::map<std::string, std::array<float, 3>, std::less<>>;
 void read_mtl(const Source& src, std::string_view name, const LoadOptions& opts, Materials& out) {
   if (src.base_dir.empty()) return;  // bytes from memory never reach the file system
   std::string rel(name), file;
-  for (const std::string& cand : {src.base_dir + rel, src.base_dir + rel.substr(rel.find_last_of('/') + 1)}) {
+  for (const std::string& cand :
+       {src.base_dir + rel, src.base_dir + rel.substr(rel.find_last_of('/') + 1)}) {
     struct stat st;
     if (::stat(cand.c_str(), &st) != 0) continue;  // not there: try the next place, or no colors
     file = read_input_file(cand, opts, *src.budget);
@@ -67,7 +68,8 @@ std::vector<Mesh> read_obj(const Source& src, std::string_view bytes, const Load
   std::vector<uint32_t> poly;
   int64_t face = 0;
   uint64_t triangles = 0;
-  auto bad = [&](InputErrorKind kind, const std::string& element, int64_t i, const std::string& msg) {
+  auto bad = [&](InputErrorKind kind, const std::string& element, int64_t i,
+                 const std::string& msg) {
     fail(kind, src, group.empty() ? stem : group, element, i,
          "line " + std::to_string(c.line()) + ": " + msg);
   };
@@ -79,16 +81,19 @@ std::vector<Mesh> read_obj(const Source& src, std::string_view bytes, const Load
         std::string_view t = c.token_on_line();
         float v;
         if (t.empty()) bad(InputErrorKind::ParseError, "vertex", vi, "expected 3 coordinates");
-        if (!parse_number(t, v)) bad(InputErrorKind::ParseError, "vertex", vi, "expected a number, got " + quote(t));
+        if (!parse_number(t, v))
+          bad(InputErrorKind::ParseError, "vertex", vi, "expected a number, got " + quote(t));
         if (!std::isfinite(v))
-          bad(InputErrorKind::NonFiniteVertex, "vertex", vi, "coordinate " + std::string(1, "xyz"[k]) + " is not finite");
+          bad(InputErrorKind::NonFiniteVertex, "vertex", vi,
+              "coordinate " + std::string(1, "xyz"[k]) + " is not finite");
         positions.push_back(v);
       }
     } else if (kw == "f" || kw == "fo") {
       if (!part) {
         // One part per material (the Cornell box's "g" lines trail their faces, its usemtl lines
         // mark the objects); files without materials split by group / object.
-        auto key = material.empty() ? std::make_pair(group, std::string()) : std::make_pair(std::string(), material);
+        auto key = material.empty() ? std::make_pair(group, std::string())
+                                    : std::make_pair(std::string(), material);
         auto [it, fresh] = part_of.try_emplace(key, parts.size());
         if (fresh) parts.push_back(Part{group, material, {}});
         part = &parts[it->second];
@@ -151,7 +156,8 @@ std::vector<Mesh> read_obj(const Source& src, std::string_view bytes, const Load
         if (local[v] == UINT32_MAX) {
           touched.push_back(v);
           local[v] = uint32_t(m.positions.size() / 3);
-          m.positions.insert(m.positions.end(), &positions[3 * size_t(v)], &positions[3 * size_t(v)] + 3);
+          m.positions.insert(m.positions.end(), &positions[3 * size_t(v)],
+                             &positions[3 * size_t(v)] + 3);
         }
         v = local[v];
       }

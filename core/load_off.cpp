@@ -31,13 +31,15 @@ std::vector<Mesh> read_off(const Source& src, std::string_view bytes, const Load
     std::string_view t = c.token();
     int64_t n = -1;
     if (t.empty()) fail(InputErrorKind::Truncated, src, m.name, "", -1, "file ends in the header");
-    if (!parse_number(t, n) || n < 0) bad("", -1, std::string("bad ") + what + " count " + quote(t));
+    if (!parse_number(t, n) || n < 0)
+      bad("", -1, std::string("bad ") + what + " count " + quote(t));
     return n;
   };
   int64_t nv = count("vertex"), nf = count("face");
   count("edge");
   skip_rest_of_line();
-  if (nv > int64_t(UINT32_MAX)) fail(InputErrorKind::TooLarge, src, m.name, "", -1, "too many vertices");
+  if (nv > int64_t(UINT32_MAX))
+    fail(InputErrorKind::TooLarge, src, m.name, "", -1, "too many vertices");
   check_size(uint64_t(nf), opts, src, m.name);
 
   auto number = [&](const char* element, int64_t i, auto& out) {

@@ -50,10 +50,18 @@ bool parse_type(std::string_view t, PType& out) {
 
 size_t type_size(PType t) {
   switch (t) {
-    case PType::I8: case PType::U8: return 1;
-    case PType::I16: case PType::U16: return 2;
-    case PType::I32: case PType::U32: case PType::F32: return 4;
-    case PType::F64: return 8;
+    case PType::I8:
+    case PType::U8:
+      return 1;
+    case PType::I16:
+    case PType::U16:
+      return 2;
+    case PType::I32:
+    case PType::U32:
+    case PType::F32:
+      return 4;
+    case PType::F64:
+      return 8;
   }
   return 0;
 }
@@ -74,14 +82,40 @@ class BinaryReader {
     if (big_ != (std::endian::native == std::endian::big))
       for (size_t i = 0; i < n / 2; ++i) std::swap(raw[i], raw[n - 1 - i]);
     switch (t) {
-      case PType::I8: return static_cast<int8_t>(raw[0]);
-      case PType::U8: return raw[0];
-      case PType::I16: { int16_t v; std::memcpy(&v, raw, 2); return v; }
-      case PType::U16: { uint16_t v; std::memcpy(&v, raw, 2); return v; }
-      case PType::I32: { int32_t v; std::memcpy(&v, raw, 4); return v; }
-      case PType::U32: { uint32_t v; std::memcpy(&v, raw, 4); return v; }
-      case PType::F32: { float v; std::memcpy(&v, raw, 4); return v; }
-      case PType::F64: { double v; std::memcpy(&v, raw, 8); return v; }
+      case PType::I8:
+        return static_cast<int8_t>(raw[0]);
+      case PType::U8:
+        return raw[0];
+      case PType::I16: {
+        int16_t v;
+        std::memcpy(&v, raw, 2);
+        return v;
+      }
+      case PType::U16: {
+        uint16_t v;
+        std::memcpy(&v, raw, 2);
+        return v;
+      }
+      case PType::I32: {
+        int32_t v;
+        std::memcpy(&v, raw, 4);
+        return v;
+      }
+      case PType::U32: {
+        uint32_t v;
+        std::memcpy(&v, raw, 4);
+        return v;
+      }
+      case PType::F32: {
+        float v;
+        std::memcpy(&v, raw, 4);
+        return v;
+      }
+      case PType::F64: {
+        double v;
+        std::memcpy(&v, raw, 8);
+        return v;
+      }
     }
     return 0;
   }
@@ -95,8 +129,8 @@ class BinaryReader {
 struct Header {
   Format format = Format::Ascii;
   std::vector<Element> elements;
-  size_t body = 0;       // byte offset of the data
-  int64_t body_line = 0; // line number where the data starts (ascii)
+  size_t body = 0;        // byte offset of the data
+  int64_t body_line = 0;  // line number where the data starts (ascii)
 };
 
 Header parse_header(const Source& src, std::string_view bytes) {
@@ -118,10 +152,14 @@ Header parse_header(const Source& src, std::string_view bytes) {
     }
     if (kw == "format") {
       std::string_view f = c.token_on_line();
-      if (f == "ascii") h.format = Format::Ascii;
-      else if (f == "binary_little_endian") h.format = Format::BinaryLE;
-      else if (f == "binary_big_endian") h.format = Format::BinaryBE;
-      else bad("unknown format " + quote(f));
+      if (f == "ascii")
+        h.format = Format::Ascii;
+      else if (f == "binary_little_endian")
+        h.format = Format::BinaryLE;
+      else if (f == "binary_big_endian")
+        h.format = Format::BinaryBE;
+      else
+        bad("unknown format " + quote(f));
       have_format = true;
     } else if (kw == "element") {
       Element e;
@@ -150,7 +188,8 @@ Header parse_header(const Source& src, std::string_view bytes) {
     }
     c.next_line();
   }
-  if (!have_format) fail(InputErrorKind::ParseError, src, "", "", -1, "PLY header has no format line");
+  if (!have_format)
+    fail(InputErrorKind::ParseError, src, "", "", -1, "PLY header has no format line");
   h.body = c.pos();
   h.body_line = c.line();
   return h;
@@ -223,7 +262,8 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
     if (role == Role::Vertex) {
       if (ix < 0 || iy < 0 || iz < 0)
         fail(InputErrorKind::ParseError, src, m.name, "", -1, "vertex element lacks x, y or z");
-      if (e.count > UINT32_MAX) fail(InputErrorKind::TooLarge, src, m.name, "", -1, "too many vertices");
+      if (e.count > UINT32_MAX)
+        fail(InputErrorKind::TooLarge, src, m.name, "", -1, "too many vertices");
       r.nv = e.count;
       have_vertices = true;
     } else if (role != Role::Skip) {
@@ -282,9 +322,12 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
           double v;
           number(v);
           if (!pr.list) {
-            if (int(p) == ix) vals[0] = v;
-            else if (int(p) == iy) vals[1] = v;
-            else if (int(p) == iz) vals[2] = v;
+            if (int(p) == ix)
+              vals[0] = v;
+            else if (int(p) == iy)
+              vals[1] = v;
+            else if (int(p) == iz)
+              vals[2] = v;
             continue;
           }
           if (!(v >= 0 && v <= 1e9))
@@ -333,14 +376,18 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
           if (!pr.list) {
             need(type_size(pr.type));
             double v = b.number(pr.type);
-            if (int(p) == ix) xyz[0] = float(v);
-            else if (int(p) == iy) xyz[1] = float(v);
-            else if (int(p) == iz) xyz[2] = float(v);
+            if (int(p) == ix)
+              xyz[0] = float(v);
+            else if (int(p) == iy)
+              xyz[1] = float(v);
+            else if (int(p) == iz)
+              xyz[2] = float(v);
             continue;
           }
           need(type_size(pr.count_type));
           double kd = b.number(pr.count_type);
-          if (!(kd >= 0)) fail(InputErrorKind::ParseError, src, m.name, e.name, int64_t(i), "bad list length");
+          if (!(kd >= 0))
+            fail(InputErrorKind::ParseError, src, m.name, e.name, int64_t(i), "bad list length");
           // Held against the bytes left before any size is computed from it: a count of 2^62
           // times 4 bytes wrapped to 0, and the reader ran off the end of the buffer.
           if (kd > double(b.remaining()))
@@ -355,7 +402,8 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
             b.skip(k * type_size(pr.type));
           } else if (role == Role::Face) {
             r.poly.clear();
-            for (size_t j = 0; j < k; ++j) r.poly.push_back(r.vertex_index(b.number(pr.type), "face", i));
+            for (size_t j = 0; j < k; ++j)
+              r.poly.push_back(r.vertex_index(b.number(pr.type), "face", i));
             r.end_face();
           } else {
             raw.resize(k);

@@ -1,10 +1,9 @@
 // Scene files (.json, docs/SCENE_FORMAT.md): meshes from other files placed with transforms and
 // colors, and a camera. A file named by several entries is loaded once and copied per instance.
 // Every key is checked: an unknown key or a wrong type is BadScene naming the JSON path.
-#include <nlohmann/json.hpp>
-
 #include <cmath>
 #include <map>
+#include <nlohmann/json.hpp>
 
 #include "core/load_internal.h"
 
@@ -28,10 +27,22 @@ M4 rotation(double x, double y, double z, double deg) {
   double l = std::sqrt(x * x + y * y + z * z);
   x /= l, y /= l, z /= l;
   double a = deg * M_PI / 180.0, c = std::cos(a), s = std::sin(a), t = 1 - c;
-  return {t * x * x + c,     t * x * y + s * z, t * x * z - s * y, 0,
-          t * x * y - s * z, t * y * y + c,     t * y * z + s * x, 0,
-          t * x * z + s * y, t * y * z - s * x, t * z * z + c,     0,
-          0,                 0,                 0,                 1};
+  return {t * x * x + c,
+          t * x * y + s * z,
+          t * x * z - s * y,
+          0,
+          t * x * y - s * z,
+          t * y * y + c,
+          t * y * z + s * x,
+          0,
+          t * x * z + s * y,
+          t * y * z - s * x,
+          t * z * z + c,
+          0,
+          0,
+          0,
+          0,
+          1};
 }
 
 struct Checker {
@@ -39,7 +50,8 @@ struct Checker {
   [[noreturn]] void bad(const std::string& path, const std::string& msg) const {
     fail(InputErrorKind::BadScene, src, "", path, -1, msg);
   }
-  void keys(const json& j, const std::string& path, std::initializer_list<const char*> allowed) const {
+  void keys(const json& j, const std::string& path,
+            std::initializer_list<const char*> allowed) const {
     if (!j.is_object()) bad(path.empty() ? "(top level)" : path, "expected an object");
     for (auto it = j.begin(); it != j.end(); ++it) {
       bool ok = it.key() == "comment";
@@ -54,7 +66,8 @@ struct Checker {
     return v;
   }
   std::vector<double> numbers(const json& j, const std::string& path, size_t n) const {
-    if (!j.is_array() || j.size() != n) bad(path, "expected an array of " + std::to_string(n) + " numbers");
+    if (!j.is_array() || j.size() != n)
+      bad(path, "expected an array of " + std::to_string(n) + " numbers");
     std::vector<double> v;
     for (size_t i = 0; i < n; ++i) v.push_back(number(j[i], path + "[" + std::to_string(i) + "]"));
     return v;
@@ -73,7 +86,8 @@ struct Checker {
 M4 entry_transform(const Checker& ck, const json& e, const std::string& path) {
   if (e.contains("matrix")) {
     for (const char* k : {"translate", "rotate_deg", "rotate_axis_angle", "scale"})
-      if (e.contains(k)) ck.bad(path + ".matrix", std::string("'matrix' cannot be combined with '") + k + "'");
+      if (e.contains(k))
+        ck.bad(path + ".matrix", std::string("'matrix' cannot be combined with '") + k + "'");
     auto v = ck.numbers(e["matrix"], path + ".matrix", 16);
     M4 m{};
     std::copy(v.begin(), v.end(), m.begin());
@@ -98,8 +112,9 @@ M4 entry_transform(const Checker& ck, const json& e, const std::string& path) {
   if (e.contains("scale")) {
     const json& j = e["scale"];
     Vec3 v = j.is_number() ? Vec3{ck.number(j, path + ".scale"), j.get<double>(), j.get<double>()}
-                           : j.is_array() ? ck.vec3(j, path + ".scale")
-                                          : (ck.bad(path + ".scale", "expected a number or an array of 3 numbers"), Vec3{});
+             : j.is_array()
+                 ? ck.vec3(j, path + ".scale")
+                 : (ck.bad(path + ".scale", "expected a number or an array of 3 numbers"), Vec3{});
     if (v[0] == 0 || v[1] == 0 || v[2] == 0) ck.bad(path + ".scale", "scale must not be zero");
     s[0] = v[0], s[5] = v[1], s[10] = v[2];
   }
@@ -107,24 +122,31 @@ M4 entry_transform(const Checker& ck, const json& e, const std::string& path) {
 }
 
 Camera read_camera(const Checker& ck, const json& j) {
-  ck.keys(j, "camera", {"type", "eye", "target", "up", "fov_y_deg", "ortho_height", "near", "far", "width", "height"});
+  ck.keys(j, "camera",
+          {"type", "eye", "target", "up", "fov_y_deg", "ortho_height", "near", "far", "width",
+           "height"});
   Camera c;
   if (j.contains("type")) {
     const json& t = j["type"];
-    if (t == "perspective") c.projection = Camera::Projection::Perspective;
-    else if (t == "orthographic") c.projection = Camera::Projection::Orthographic;
-    else ck.bad("camera.type", "expected \"perspective\" or \"orthographic\"");
+    if (t == "perspective")
+      c.projection = Camera::Projection::Perspective;
+    else if (t == "orthographic")
+      c.projection = Camera::Projection::Orthographic;
+    else
+      ck.bad("camera.type", "expected \"perspective\" or \"orthographic\"");
   }
   if (j.contains("eye")) c.eye = ck.vec3(j["eye"], "camera.eye");
   if (j.contains("target")) c.target = ck.vec3(j["target"], "camera.target");
   if (j.contains("up")) c.up = ck.vec3(j["up"], "camera.up");
   if (j.contains("fov_y_deg")) c.fov_y_deg = ck.number(j["fov_y_deg"], "camera.fov_y_deg");
-  if (j.contains("ortho_height")) c.ortho_height = ck.number(j["ortho_height"], "camera.ortho_height");
+  if (j.contains("ortho_height"))
+    c.ortho_height = ck.number(j["ortho_height"], "camera.ortho_height");
   if (j.contains("near")) c.near_plane = ck.number(j["near"], "camera.near");
   if (j.contains("far")) c.far_plane = ck.number(j["far"], "camera.far");
   if (j.contains("width")) c.width = ck.pixels(j["width"], "camera.width");
   if (j.contains("height")) c.height = ck.pixels(j["height"], "camera.height");
-  if (c.eye == c.target) fail(InputErrorKind::BadCamera, ck.src, "", "camera", -1, "eye equals target");
+  if (c.eye == c.target)
+    fail(InputErrorKind::BadCamera, ck.src, "", "camera", -1, "eye equals target");
   return c;
 }
 
@@ -137,14 +159,15 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
   } catch (const json::parse_error& e) {
     size_t at = std::min<size_t>(e.byte, bytes.size());
     int64_t line = 1 + std::count(bytes.begin(), bytes.begin() + (at ? at - 1 : 0), '\n');
-    fail(at >= bytes.size() ? InputErrorKind::Truncated : InputErrorKind::ParseError, src, "", "line", line,
-         std::string("JSON: ") + e.what());
+    fail(at >= bytes.size() ? InputErrorKind::Truncated : InputErrorKind::ParseError, src, "",
+         "line", line, std::string("JSON: ") + e.what());
   } catch (const json::exception& e) {  // e.g. a number too large for any JSON number type
     fail(InputErrorKind::ParseError, src, "", "", -1, std::string("JSON: ") + e.what());
   }
   Checker ck{src};
   ck.keys(doc, "", {"meshes", "camera"});
-  if (!doc.contains("meshes") || !doc["meshes"].is_array()) ck.bad("meshes", "expected an array of mesh entries");
+  if (!doc.contains("meshes") || !doc["meshes"].is_array())
+    ck.bad("meshes", "expected an array of mesh entries");
   Scene scene;
   scene.source = src.file;
   std::map<std::string, Scene> loaded;  // file -> untransformed scene, loaded once
@@ -153,11 +176,14 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
   for (size_t i = 0; i < meshes.size(); ++i) {
     std::string path = "meshes[" + std::to_string(i) + "]";
     const json& e = meshes[i];
-    ck.keys(e, path, {"file", "name", "translate", "rotate_deg", "rotate_axis_angle", "scale", "matrix", "color"});
+    ck.keys(e, path,
+            {"file", "name", "translate", "rotate_deg", "rotate_axis_angle", "scale", "matrix",
+             "color"});
     if (!e.contains("file") || !e["file"].is_string() || e["file"].get<std::string>().empty())
       ck.bad(path + ".file", "expected a file name");
     std::string file = e["file"].get<std::string>();
-    if (src.base_dir.empty()) ck.bad(path + ".file", "a scene sent as bytes cannot reference files");
+    if (src.base_dir.empty())
+      ck.bad(path + ".file", "a scene sent as bytes cannot reference files");
     if (format_extension(file) == ".json") ck.bad(path + ".file", "scene files do not nest");
     M4 m = entry_transform(ck, e, path);
     std::optional<std::array<float, 3>> color;
@@ -182,7 +208,8 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
     const Scene& part = it->second;
     for (const Mesh& pm : part.meshes) {
       Mesh mesh = pm;
-      if (e.contains("name")) mesh.name = e["name"].get<std::string>() + (part.meshes.size() > 1 ? "/" + pm.name : "");
+      if (e.contains("name"))
+        mesh.name = e["name"].get<std::string>() + (part.meshes.size() > 1 ? "/" + pm.name : "");
       if (color) mesh.color = *color;
       for (size_t v = 0; v < mesh.positions.size(); v += 3) {
         double x = mesh.positions[v], y = mesh.positions[v + 1], z = mesh.positions[v + 2];
@@ -195,14 +222,16 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
         }
       }
       if (det < 0)  // a mirroring transform keeps outward normals by reversing the winding
-        for (size_t t = 0; t < mesh.indices.size(); t += 3) std::swap(mesh.indices[t + 1], mesh.indices[t + 2]);
+        for (size_t t = 0; t < mesh.indices.size(); t += 3)
+          std::swap(mesh.indices[t + 1], mesh.indices[t + 2]);
       triangles += mesh.source_triangles;
       check_size(triangles, opts, src, mesh.name);
       scene.meshes.push_back(std::move(mesh));
     }
     scene.dropped_degenerate += part.dropped_degenerate;
   }
-  if (scene.meshes.empty()) fail(InputErrorKind::EmptyMesh, src, "", "meshes", -1, "the scene has no meshes");
+  if (scene.meshes.empty())
+    fail(InputErrorKind::EmptyMesh, src, "", "meshes", -1, "the scene has no meshes");
   if (doc.contains("camera")) scene.camera = read_camera(ck, doc["camera"]);
   return scene;
 }

@@ -25,7 +25,8 @@ std::vector<Mesh> read_stl(const Source& src, std::string_view bytes, const Load
   m.soup = true;
   if (!looks_ascii(bytes)) {
     if (bytes.size() < 84)
-      fail(InputErrorKind::Truncated, src, m.name, "", -1, "binary STL shorter than its 84-byte header");
+      fail(InputErrorKind::Truncated, src, m.name, "", -1,
+           "binary STL shorter than its 84-byte header");
     uint32_t n;
     std::memcpy(&n, bytes.data() + 80, 4);  // little endian on every platform we build for
     check_size(n, opts, src, m.name);
@@ -50,13 +51,15 @@ std::vector<Mesh> read_stl(const Source& src, std::string_view bytes, const Load
     auto expect = [&](int64_t i, std::string_view want) {
       std::string_view t = c.token();
       if (t.empty())
-        fail(InputErrorKind::Truncated, src, m.name, "facet", i, "file ends inside facet " + std::to_string(i));
+        fail(InputErrorKind::Truncated, src, m.name, "facet", i,
+             "file ends inside facet " + std::to_string(i));
       if (t != want) bad(i, "expected '" + std::string(want) + "', got " + quote(t));
     };
     auto number = [&](int64_t i, float& out) {
       std::string_view t = c.token();
       if (t.empty())
-        fail(InputErrorKind::Truncated, src, m.name, "facet", i, "file ends inside facet " + std::to_string(i));
+        fail(InputErrorKind::Truncated, src, m.name, "facet", i,
+             "file ends inside facet " + std::to_string(i));
       if (!parse_number(t, out)) bad(i, "expected a number, got " + quote(t));
     };
     for (int64_t i = 0;; ++i) {
@@ -73,7 +76,9 @@ std::vector<Mesh> read_stl(const Source& src, std::string_view bytes, const Load
       while (true) {
         t = c.token();
         if (t == "endloop") break;
-        if (t.empty()) fail(InputErrorKind::Truncated, src, m.name, "facet", i, "file ends inside facet " + std::to_string(i));
+        if (t.empty())
+          fail(InputErrorKind::Truncated, src, m.name, "facet", i,
+               "file ends inside facet " + std::to_string(i));
         if (t != "vertex") bad(i, "expected 'vertex' or 'endloop', got " + quote(t));
         for (int k = 0; k < 3; ++k) number(i, v), m.positions.push_back(v);
         ++corners;

@@ -24,9 +24,9 @@ double to_pixels(__int128 num, __int128 w, uint32_t grid_scale);
 
 struct VisibleFragments {
   uint32_t maxl = 0;
-  std::vector<VmFragMeta> meta;            // per fragment (meta.tri = screen triangle)
-  std::vector<VmLine> lines;               // maxl per fragment
-  std::vector<uint32_t> mesh, triangle;    // per fragment: source
+  std::vector<VmFragMeta> meta;          // per fragment (meta.tri = screen triangle)
+  std::vector<VmLine> lines;             // maxl per fragment
+  std::vector<uint32_t> mesh, triangle;  // per fragment: source
 };
 
 // Appends the fragments to `map` (vertices, ids; exact vertices when `exact`). When `tris` and

@@ -29,10 +29,10 @@ std::string write_bin(const PlanarMap& map, const Scene& scene);
 // Reader for the binary format (tests, clients). Throws InputError on malformed bytes.
 struct BinFrame {
   uint32_t version = 0, width = 0, height = 0, flags = 0;
-  std::vector<float> xy;             // 6 per triangle
+  std::vector<float> xy;                    // 6 per triangle
   std::vector<uint32_t> mesh, triangle_id;  // per triangle: mesh index, global source triangle id
-  std::vector<float> bary;           // 9 per triangle when flags & 1
-  std::vector<float> inv_w;          // 3 per triangle when flags & 1
+  std::vector<float> bary;                  // 9 per triangle when flags & 1
+  std::vector<float> inv_w;                 // 3 per triangle when flags & 1
   size_t triangle_count() const { return mesh.size(); }
 };
 BinFrame read_bin(const std::string& bytes);

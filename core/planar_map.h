@@ -30,8 +30,8 @@ struct PlanarMap {
   // vertex in its source triangle (3 floats, perspective-correct: they are 3D barycentrics) and
   // the vertex's 1/w (clip w), so a client interpolates attributes perspective-correctly inside a
   // fragment: interpolate b/w and 1/w linearly on screen, divide.
-  std::vector<float> bary;         // 3 per vertex
-  std::vector<float> inv_w;        // 1 per vertex (1 for orthographic)
+  std::vector<float> bary;   // 3 per vertex
+  std::vector<float> inv_w;  // 1 per vertex (1 for orthographic)
 
   // Filled when RenderOptions::exact is set: vertex v is (hx/hw, hy/hw) in grid units
   // (grid_scale grid units per pixel), exactly; hw > 0.
@@ -54,9 +54,9 @@ struct PlanarMap {
 // The scene as the pipeline saw it after transform, clipping, culling and snapping: the input
 // of every 2D decision. Filled when RenderOptions::keep_screen_triangles is set (for checks).
 struct ScreenTriangles {
-  uint32_t grid_scale = 0;         // grid units per pixel
-  std::vector<int32_t> xy;         // 6 per triangle: grid coordinates, y down
-  std::vector<double> depth;       // 3 per triangle: nearness (larger is closer), affine on screen
+  uint32_t grid_scale = 0;    // grid units per pixel
+  std::vector<int32_t> xy;    // 6 per triangle: grid coordinates, y down
+  std::vector<double> depth;  // 3 per triangle: nearness (larger is closer), affine on screen
   std::vector<uint32_t> mesh, triangle;
   // Per triangle: k when its depth plane was snapped to integers over 2^k (depth * 2^k is an
   // integer at each vertex, and crossing lines between two such triangles are exact), else

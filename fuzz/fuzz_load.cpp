@@ -10,7 +10,8 @@
 #include "core/scene.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  static const char* names[] = {"f.ply", "f.ply.gz", "f.obj", "f.off", "f.stl", "f.gltf", "f.glb", "f.json"};
+  static const char* names[] = {"f.ply", "f.ply.gz", "f.obj", "f.off",
+                                "f.stl", "f.gltf",   "f.glb", "f.json"};
   if (size < 1) return 0;
   const std::string name = names[data[0] % 8];
   const std::string bytes(reinterpret_cast<const char*>(data + 1), size - 1);

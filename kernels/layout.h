@@ -133,7 +133,8 @@ static_assert(sizeof(VmGrid) == 16, "VmGrid layout");
  * scratch by VM_PAIRS_INLINE. */
 static_assert(VM_TOTAL_STATUS == 0 && VM_TOTAL_SLOTS == 7, "totals slots 0..6");
 static_assert(VM_TOTAL_DEEP == VM_TOTAL_THIN + 1, "occlusion reads both in one read");
-static_assert(VM_SCAN_BLOCK == VM_SCAN_WG * VM_SCAN_PER_ITEM && (VM_SCAN_WG & (VM_SCAN_WG - 1)) == 0,
+static_assert(VM_SCAN_BLOCK == VM_SCAN_WG * VM_SCAN_PER_ITEM &&
+                  (VM_SCAN_WG & (VM_SCAN_WG - 1)) == 0,
               "scan blocks of a power-of-two work-group");
 static_assert(VM_PAIRS_INLINE >= 1, "inline pair slots");
 #endif

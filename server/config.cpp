@@ -48,49 +48,71 @@ void apply_json(Config& cfg, const std::string& text, const std::string& origin)
   json j = json::parse(text, nullptr, false);
   if (j.is_discarded() || !j.is_object()) throw std::runtime_error(origin + ": not a JSON object");
   for (auto& [k, v] : j.items()) {
-    if (k == "address") get(j, "address", cfg.address, origin);
-    else if (k == "port") get(j, "port", cfg.port, origin);
-    else if (k == "library") get(j, "library", cfg.library, origin);
-    else if (k == "www") get(j, "www", cfg.www, origin);
+    if (k == "address")
+      get(j, "address", cfg.address, origin);
+    else if (k == "port")
+      get(j, "port", cfg.port, origin);
+    else if (k == "library")
+      get(j, "library", cfg.library, origin);
+    else if (k == "www")
+      get(j, "www", cfg.www, origin);
     else if (k == "token_file") {
       std::string path;
       get(j, "token_file", path, origin);
       cfg.token = read_token(path);
-    }
-    else if (k == "device") get(j, "device", cfg.device, origin);
-    else if (k == "renderers") get(j, "renderers", cfg.renderers, origin);
-    else if (k == "io_threads") get(j, "io_threads", cfg.io_threads, origin);
-    else if (k == "load_threads") get(j, "load_threads", cfg.load_threads, origin);
-    else if (k == "encode_threads") get(j, "encode_threads", cfg.encode_threads, origin);
-    else if (k == "drain_timeout_s") get(j, "drain_timeout_s", cfg.drain_timeout_s, origin);
-    else if (k == "log_level") get(j, "log_level", cfg.log_level, origin);
+    } else if (k == "device")
+      get(j, "device", cfg.device, origin);
+    else if (k == "renderers")
+      get(j, "renderers", cfg.renderers, origin);
+    else if (k == "io_threads")
+      get(j, "io_threads", cfg.io_threads, origin);
+    else if (k == "load_threads")
+      get(j, "load_threads", cfg.load_threads, origin);
+    else if (k == "encode_threads")
+      get(j, "encode_threads", cfg.encode_threads, origin);
+    else if (k == "drain_timeout_s")
+      get(j, "drain_timeout_s", cfg.drain_timeout_s, origin);
+    else if (k == "log_level")
+      get(j, "log_level", cfg.log_level, origin);
     else if (k == "limits") {
       if (!v.is_object()) throw std::runtime_error(origin + ": 'limits' is not an object");
       Limits& l = cfg.limits;
       for (auto& [lk, lv] : v.items()) {
         const char* key = lk.c_str();
-        if (lk == "max_message_bytes") get(v, key, l.max_message_bytes, origin);
-        else if (lk == "max_control_bytes") get(v, key, l.max_control_bytes, origin);
-        else if (lk == "max_scene_bytes") get(v, key, l.max_scene_bytes, origin);
-        else if (lk == "max_triangles") get(v, key, l.max_triangles, origin);
-        else if (lk == "max_session_bytes") get(v, key, l.max_session_bytes, origin);
-        else if (lk == "render_memory_bytes") get(v, key, l.render_memory_bytes, origin);
-        else if (lk == "max_sessions") get(v, key, l.max_sessions, origin);
-        else if (lk == "max_connections") get(v, key, l.max_connections, origin);
+        if (lk == "max_message_bytes")
+          get(v, key, l.max_message_bytes, origin);
+        else if (lk == "max_control_bytes")
+          get(v, key, l.max_control_bytes, origin);
+        else if (lk == "max_scene_bytes")
+          get(v, key, l.max_scene_bytes, origin);
+        else if (lk == "max_triangles")
+          get(v, key, l.max_triangles, origin);
+        else if (lk == "max_session_bytes")
+          get(v, key, l.max_session_bytes, origin);
+        else if (lk == "render_memory_bytes")
+          get(v, key, l.render_memory_bytes, origin);
+        else if (lk == "max_sessions")
+          get(v, key, l.max_sessions, origin);
+        else if (lk == "max_connections")
+          get(v, key, l.max_connections, origin);
         else if (lk == "max_connections_per_address")
           get(v, key, l.max_connections_per_address, origin);
-        else if (lk == "max_viewport") get(v, key, l.max_viewport, origin);
-        else if (lk == "handshake_timeout_s") get(v, key, l.handshake_timeout_s, origin);
-        else if (lk == "idle_timeout_s") get(v, key, l.idle_timeout_s, origin);
-        else if (lk == "render_time_limit_s") get(v, key, l.render_time_limit_s, origin);
-        else throw std::runtime_error(origin + ": unknown key 'limits." + lk + "'");
+        else if (lk == "max_viewport")
+          get(v, key, l.max_viewport, origin);
+        else if (lk == "handshake_timeout_s")
+          get(v, key, l.handshake_timeout_s, origin);
+        else if (lk == "idle_timeout_s")
+          get(v, key, l.idle_timeout_s, origin);
+        else if (lk == "render_time_limit_s")
+          get(v, key, l.render_time_limit_s, origin);
+        else
+          throw std::runtime_error(origin + ": unknown key 'limits." + lk + "'");
       }
     } else {
       throw std::runtime_error(origin + ": unknown key '" + k + "'");
     }
   }
-  if (cfg.renderers == 0 || cfg.io_threads == 0 || cfg.load_threads == 0 ||
-      cfg.encode_threads == 0)
+  if (cfg.renderers == 0 || cfg.io_threads == 0 || cfg.load_threads == 0 || cfg.encode_threads == 0)
     throw std::runtime_error(
         origin + ": renderers, io_threads, load_threads and encode_threads must be >= 1");
   if (cfg.limits.render_time_limit_s < 0)
@@ -128,18 +150,28 @@ bool parse_args(Config& cfg, int argc, char** argv, std::string& usage) {
         throw std::runtime_error("flag " + a + ": bad number '" + v + "'");
       return n;
     };
-    if (a == "--config") continue;
-    else if (a == "--port") cfg.port = static_cast<uint16_t>(num(65535));
-    else if (a == "--address") cfg.address = v;
-    else if (a == "--library") cfg.library = v;
-    else if (a == "--www") cfg.www = v;
-    else if (a == "--token-file") cfg.token = read_token(v);
-    else if (a == "--device") cfg.device = v;
+    if (a == "--config")
+      continue;
+    else if (a == "--port")
+      cfg.port = static_cast<uint16_t>(num(65535));
+    else if (a == "--address")
+      cfg.address = v;
+    else if (a == "--library")
+      cfg.library = v;
+    else if (a == "--www")
+      cfg.www = v;
+    else if (a == "--token-file")
+      cfg.token = read_token(v);
+    else if (a == "--device")
+      cfg.device = v;
     else if (a == "--renderers")
       cfg.renderers = static_cast<uint32_t>(std::max<uint64_t>(1, num(64)));
-    else if (a == "--max-sessions") cfg.limits.max_sessions = static_cast<uint32_t>(num(100000));
-    else if (a == "--log-level") cfg.log_level = v;
-    else throw std::runtime_error("unknown flag " + a + " (see --help)");
+    else if (a == "--max-sessions")
+      cfg.limits.max_sessions = static_cast<uint32_t>(num(100000));
+    else if (a == "--log-level")
+      cfg.log_level = v;
+    else
+      throw std::runtime_error("unknown flag " + a + " (see --help)");
   }
   return true;
 }

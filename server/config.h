@@ -13,10 +13,10 @@ struct RenderOptions;
 namespace vismap::server {
 
 struct Limits {
-  uint64_t max_message_bytes = 0;        // one WebSocket message; 0: derived from max_scene_bytes
-  uint64_t max_control_bytes = 64 << 10; // one JSON control message
-  uint64_t max_scene_bytes = 64ull << 20;     // one uploaded scene file
-  uint64_t max_triangles = 5'000'000;         // per scene
+  uint64_t max_message_bytes = 0;          // one WebSocket message; 0: derived from max_scene_bytes
+  uint64_t max_control_bytes = 64 << 10;   // one JSON control message
+  uint64_t max_scene_bytes = 64ull << 20;  // one uploaded scene file
+  uint64_t max_triangles = 5'000'000;      // per scene
   uint64_t max_session_bytes = 512ull << 20;  // upload + loaded scene, per session
   uint64_t render_memory_bytes = 2ull << 30;  // device memory per frame (RenderOptions::
                                               // memory_budget)
@@ -24,9 +24,9 @@ struct Limits {
   uint32_t max_connections = 256;             // TCP connections, upgraded or not
   uint32_t max_connections_per_address = 64;  // of those, from one peer address; 0: no cap
   uint32_t max_viewport = 8192;               // width and height
-  double handshake_timeout_s = 5;        // TCP accept -> WebSocket upgrade, and upgrade -> hello
-  double idle_timeout_s = 60;            // no message from the client for this long
-  double render_time_limit_s = 30;       // one frame (RenderOptions::time_limit_s); 0: none
+  double handshake_timeout_s = 5;   // TCP accept -> WebSocket upgrade, and upgrade -> hello
+  double idle_timeout_s = 60;       // no message from the client for this long
+  double render_time_limit_s = 30;  // one frame (RenderOptions::time_limit_s); 0: none
 
   // What Beast enforces per message: a base64 scene in JSON must fit.
   uint64_t message_max() const {
@@ -39,15 +39,15 @@ struct Limits {
 struct Config {
   std::string address = "127.0.0.1";
   uint16_t port = 8080;
-  std::string library;        // folder of scenes clients may name; empty: none
-  std::string www;            // folder served at /; empty: the built-in default
-  std::string token;          // non-empty: hello must carry it
-  std::string device;         // Renderer device string ("" = default)
-  uint32_t renderers = 1;     // Renderer instances (worker threads) sharing the device
+  std::string library;     // folder of scenes clients may name; empty: none
+  std::string www;         // folder served at /; empty: the built-in default
+  std::string token;       // non-empty: hello must carry it
+  std::string device;      // Renderer device string ("" = default)
+  uint32_t renderers = 1;  // Renderer instances (worker threads) sharing the device
   uint32_t io_threads = 2;
-  uint32_t load_threads = 2;  // scene parsing off the network threads
-  uint32_t encode_threads = 2;  // SVG / bin encoding, off the render workers
-  double drain_timeout_s = 10;  // graceful stop: longest wait for frames in flight
+  uint32_t load_threads = 2;       // scene parsing off the network threads
+  uint32_t encode_threads = 2;     // SVG / bin encoding, off the render workers
+  double drain_timeout_s = 10;     // graceful stop: longest wait for frames in flight
   std::string log_level = "info";  // info | warn | off
   Limits limits;
 

@@ -3,9 +3,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
-#include <thread>
-
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "core/pipeline.h"
 #include "server/server.h"

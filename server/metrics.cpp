@@ -27,14 +27,15 @@ std::string Metrics::prometheus() const {
   };
   metric("vismap_sessions_active", "gauge", "Open WebSocket sessions.", sessions_active.load());
   metric("vismap_sessions_total", "counter", "Sessions accepted.", sessions_total.load());
-  metric("vismap_sessions_refused_total", "counter", "Sessions refused (busy, unauthorized, stopping).",
-         sessions_refused.load());
+  metric("vismap_sessions_refused_total", "counter",
+         "Sessions refused (busy, unauthorized, stopping).", sessions_refused.load());
   metric("vismap_frames_total", "counter", "Frames sent.", frames.load());
   metric("vismap_frames_skipped_total", "counter",
          "Camera updates replaced by a newer one before rendering (latest camera wins).",
          frames_skipped.load());
   metric("vismap_bytes_sent_total", "counter", "Frame payload bytes sent.", bytes_sent.load());
-  metric("vismap_bytes_received_total", "counter", "Message bytes received.", bytes_received.load());
+  metric("vismap_bytes_received_total", "counter", "Message bytes received.",
+         bytes_received.load());
   metric("vismap_scenes_loaded_total", "counter", "Scenes loaded.", scenes_loaded.load());
   metric("vismap_http_requests_total", "counter", "Plain HTTP requests.", http_requests.load());
   std::lock_guard lk(mu_);
@@ -45,8 +46,10 @@ std::string Metrics::prometheus() const {
   o << "vismap_render_ms_bucket{le=\"+Inf\"} " << render_count_ << '\n'
     << "vismap_render_ms_sum " << render_sum_ms_ << '\n'
     << "vismap_render_ms_count " << render_count_ << '\n';
-  o << "# HELP vismap_errors_total Error messages sent, by code.\n# TYPE vismap_errors_total counter\n";
-  for (const auto& [code, n] : errors_) o << "vismap_errors_total{code=\"" << code << "\"} " << n << '\n';
+  o << "# HELP vismap_errors_total Error messages sent, by code.\n# TYPE vismap_errors_total "
+       "counter\n";
+  for (const auto& [code, n] : errors_)
+    o << "vismap_errors_total{code=\"" << code << "\"} " << n << '\n';
   return o.str();
 }
 

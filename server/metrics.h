@@ -6,9 +6,8 @@
 #include <cstdint>
 #include <map>
 #include <mutex>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 namespace vismap::server {
 
@@ -20,7 +19,7 @@ class Metrics {
   std::atomic<uint64_t> scenes_loaded{0}, http_requests{0};
 
   void error(const std::string& code);
-  void render_ms(double ms);            // pipeline + encode time of one frame
+  void render_ms(double ms);  // pipeline + encode time of one frame
   std::string prometheus() const;
 
  private:

@@ -10,7 +10,9 @@ using nlohmann::json;
 
 namespace {
 
-[[noreturn]] void bad(const std::string& msg) { throw ProtoError(code::bad_message, msg); }
+[[noreturn]] void bad(const std::string& msg) {
+  throw ProtoError(code::bad_message, msg);
+}
 
 const json* field(const json& j, const char* key) {
   auto it = j.find(key);
@@ -87,9 +89,12 @@ Hello parse_hello(const json& j, uint32_t max_viewport) {
                      "server speaks protocol version " + std::to_string(kProtocolVersion), true);
   if (field(j, "format")) {
     std::string f = string(j, "format");
-    if (f == "svg") h.format = Format::Svg;
-    else if (f == "bin") h.format = Format::Bin;
-    else bad("'format' must be \"svg\" or \"bin\"");
+    if (f == "svg")
+      h.format = Format::Svg;
+    else if (f == "bin")
+      h.format = Format::Bin;
+    else
+      bad("'format' must be \"svg\" or \"bin\"");
   }
   if (const json* v = field(j, "attributes")) {
     if (!v->is_boolean()) bad("'attributes' must be a boolean");
@@ -272,7 +277,9 @@ Request parse_request(const std::string& text, uint64_t max_scene_bytes, uint32_
   throw ProtoError(code::unknown_message, "unknown message type '" + shown + "'");
 }
 
-std::string error_code(const vismap::InputError& e) { return vismap::to_string(e.kind()); }
+std::string error_code(const vismap::InputError& e) {
+  return vismap::to_string(e.kind());
+}
 
 std::string error_json(const std::string& c, const std::string& message, bool fatal,
                        std::optional<uint64_t> seq) {

@@ -56,7 +56,7 @@ struct Hello {
 // Scene upload header. Exactly one source: `library` (a file in the server's library), `data`
 // (base64 bytes inline) or `size` (bytes follow as the next binary message).
 struct SceneRequest {
-  std::string name;       // file name; its extension picks the loader
+  std::string name;  // file name; its extension picks the loader
   std::string library;
   std::optional<std::string> data;  // decoded bytes
   uint64_t size = 0;

@@ -12,7 +12,9 @@ RenderQueue::RenderQueue(uint32_t workers, RendererFactory make) : make_(std::mo
     workers_.emplace_back([this, i] { work(i); });
 }
 
-RenderQueue::~RenderQueue() { stop(); }
+RenderQueue::~RenderQueue() {
+  stop();
+}
 
 uint64_t RenderQueue::add_session() {
   std::lock_guard lk(mu_);

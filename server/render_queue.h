@@ -52,9 +52,9 @@ class RenderQueue {
 
  private:
   struct Slot {
-    Task task;                 // empty: nothing pending
-    double vtime_ms = 0;       // render time used
-    uint64_t order = 0;        // submission order, breaks ties
+    Task task;            // empty: nothing pending
+    double vtime_ms = 0;  // render time used
+    uint64_t order = 0;   // submission order, breaks ties
   };
   void work(uint32_t index);
 
@@ -63,7 +63,7 @@ class RenderQueue {
   std::condition_variable cv_, idle_cv_;
   std::map<uint64_t, Slot> sessions_;
   uint64_t next_session_ = 1, next_order_ = 1;
-  double clock_ms_ = 0;        // virtual time of the last task started
+  double clock_ms_ = 0;  // virtual time of the last task started
   size_t pending_ = 0, running_ = 0;
   bool stopping_ = false;
   std::string device_error_;

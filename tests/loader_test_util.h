@@ -141,8 +141,14 @@ inline void expect_error_within(double seconds, const std::string& path, InputEr
   EXPECT_EQ(r.failure, "") << path;
 }
 
-inline std::string data_dir() { return std::string(VISMAP_SOURCE_DIR) + "/data"; }
-inline std::string shared_dir() { return VISMAP_SHARED_DATA_DIR; }
-inline bool have_shared() { return std::filesystem::exists(shared_dir() + "/SOURCES.md"); }
+inline std::string data_dir() {
+  return std::string(VISMAP_SOURCE_DIR) + "/data";
+}
+inline std::string shared_dir() {
+  return VISMAP_SHARED_DATA_DIR;
+}
+inline bool have_shared() {
+  return std::filesystem::exists(shared_dir() + "/SOURCES.md");
+}
 
 }  // namespace vismap::test

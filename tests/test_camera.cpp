@@ -15,7 +15,9 @@ using vismap::Vec3;
 
 namespace {
 
-double el(const Mat4& m, int row, int col) { return m[col * 4 + row]; }
+double el(const Mat4& m, int row, int col) {
+  return m[col * 4 + row];
+}
 
 void expect_matrix(const Mat4& m, const std::array<double, 16>& rows_major) {
   for (int r = 0; r < 4; ++r)
@@ -108,8 +110,7 @@ TEST(Camera, PerspectiveMatchesGluPerspective) {
   c.near_plane = 1;
   c.far_plane = 3;
   // fovy 90: cot(45) = 1; (f+n)/(n-f) = -2; 2fn/(n-f) = -3.
-  expect_matrix(c.projection_matrix(),
-                {0.5, 0, 0, 0, 0, 1, 0, 0, 0, 0, -2, -3, 0, 0, -1, 0});
+  expect_matrix(c.projection_matrix(), {0.5, 0, 0, 0, 0, 1, 0, 0, 0, 0, -2, -3, 0, 0, -1, 0});
 }
 
 TEST(Camera, OrthoMatchesGlOrtho) {
@@ -119,8 +120,7 @@ TEST(Camera, OrthoMatchesGlOrtho) {
   c.width = 200;  // aspect 2: glOrtho(-4, 4, -2, 2, 1, 5)
   c.near_plane = 1;
   c.far_plane = 5;
-  expect_matrix(c.projection_matrix(),
-                {0.25, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, -0.5, -1.5, 0, 0, 0, 1});
+  expect_matrix(c.projection_matrix(), {0.25, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, -0.5, -1.5, 0, 0, 0, 1});
 }
 
 TEST(Camera, WorldPointToPixelYDown) {
@@ -194,11 +194,11 @@ TEST(Camera, FrameSceneKeepsBoundsInView) {
     Vec3 lo, hi;
     uint32_t w, h;
   };
-  for (const Case& k : {Case{{10, -2, 5}, {14, 1, 6}, 640, 480},
-                        Case{{-1, -1, -1}, {1, 1, 1}, 300, 900},
-                        Case{{-1, -1, -1}, {1, 1, 1}, 2000, 100},
-                        Case{{1e6, 1e6, 1e6}, {1e6 + 3, 1e6 + 1, 1e6 + 2}, 512, 512},
-                        Case{{0, 0, 0}, {1e-6, 2e-6, 1e-6}, 512, 256}}) {
+  for (const Case& k :
+       {Case{{10, -2, 5}, {14, 1, 6}, 640, 480}, Case{{-1, -1, -1}, {1, 1, 1}, 300, 900},
+        Case{{-1, -1, -1}, {1, 1, 1}, 2000, 100},
+        Case{{1e6, 1e6, 1e6}, {1e6 + 3, 1e6 + 1, 1e6 + 2}, 512, 512},
+        Case{{0, 0, 0}, {1e-6, 2e-6, 1e-6}, 512, 256}}) {
     SCOPED_TRACE(testing::Message() << "box " << k.lo[0] << " " << k.w << "x" << k.h);
     const auto s = box_scene(k.lo, k.hi);
     const Camera c = frame_scene(s, k.w, k.h);
@@ -227,8 +227,8 @@ TEST(Camera, FitNearFarFromBounds) {
   fit_near_far(c, s);
   EXPECT_NO_THROW(c.validate());
   expect_box_in_view(c, s);
-  EXPECT_LE(c.near_plane, 9.0);   // the box's front face is at depth 9
-  EXPECT_GE(c.far_plane, 11.0);   // its back face at depth 11
+  EXPECT_LE(c.near_plane, 9.0);  // the box's front face is at depth 9
+  EXPECT_GE(c.far_plane, 11.0);  // its back face at depth 11
   // Camera inside the bounds: near stays positive.
   c = good_camera();
   c.eye = {0, 0, 0.5};

@@ -159,7 +159,7 @@ TEST(Check, CorrectMapHasNoErrors) {
 TEST(Check, MissingPieceGivesCoverageError) {
   ScreenTriangles s = two_squares();
   PlanarMap m = empty_map(12, 8, 4);
-  add_fragment(m, 0, 0, {{0, 0}, {4, 0}, {4, 4}});  
+  add_fragment(m, 0, 0, {{0, 0}, {4, 0}, {4, 4}});
   add_fragment(m, 1, 0, {{4, 0}, {12, 0}, {12, 8}});
   add_fragment(m, 1, 1, {{4, 0}, {12, 8}, {4, 8}});  // (0,1)'s quad, area 24 of 96, missing
   CheckReport r = check_planar_map(m, s);
@@ -186,10 +186,10 @@ TEST(Check, WrongSourceIsOutside) {
 
 TEST(Check, DegenerateAndNonConvexAreCounted) {
   PlanarMap m = empty_map(8, 8, 4);
-  add_fragment(m, 0, 0, {{0, 0}, {2, 2}, {4, 4}});                      // collinear
-  add_fragment(m, 0, 1, {{0, 0}, {0, 4}, {4, 4}});                      // negative orientation
-  add_fragment(m, 0, 2, {{0, 0}, {4, 0}, {1, 1}, {0, 4}});              // reflex vertex
-  add_fragment(m, 0, 3, {{0, 0}, {4, 0}, {4, 0}, {4, 4}, {0, 4}});      // duplicate vertex: fine
+  add_fragment(m, 0, 0, {{0, 0}, {2, 2}, {4, 4}});                  // collinear
+  add_fragment(m, 0, 1, {{0, 0}, {0, 4}, {4, 4}});                  // negative orientation
+  add_fragment(m, 0, 2, {{0, 0}, {4, 0}, {1, 1}, {0, 4}});          // reflex vertex
+  add_fragment(m, 0, 3, {{0, 0}, {4, 0}, {4, 0}, {4, 4}, {0, 4}});  // duplicate vertex: fine
   ScreenTriangles s = screen_with_gs(4);
   CheckOptions o;
   o.coverage = false, o.outside = false;

@@ -51,8 +51,9 @@ std::string slurp(const fs::path& p) {
 class Cli : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir = fs::temp_directory_path() / ("vismap_cli_" + std::to_string(::getpid()) + "_" +
-                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir = fs::temp_directory_path() /
+          ("vismap_cli_" + std::to_string(::getpid()) + "_" +
+           ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::create_directories(dir);
   }
   void TearDown() override { fs::remove_all(dir); }
@@ -62,7 +63,8 @@ class Cli : public ::testing::Test {
 
 TEST_F(Cli, RendersBunnySvgWithStats) {
   fs::path out = dir / "bunny.svg";
-  CliRun r = run("render " + bunny + " -o " + out.string() + " --width 512 --height 512 --stats", dir);
+  CliRun r =
+      run("render " + bunny + " -o " + out.string() + " --width 512 --height 512 --stats", dir);
   ASSERT_EQ(r.status, 0) << r.err;
   std::string svg = slurp(out);
   EXPECT_EQ(svg.rfind("<svg", 0), 0u);
@@ -78,9 +80,10 @@ TEST_F(Cli, RendersBunnySvgWithStats) {
 
 TEST_F(Cli, BinaryOutputRoundTrips) {
   fs::path out = dir / "bunny.bin";
-  CliRun r = run("render " + bunny + " -o " + out.string() + " --format bin --width 300 --height 200 "
-              "--eye 0,0.1,0.4 --target 0,0.1,0 --fov-y 40",
-              dir);
+  CliRun r = run("render " + bunny + " -o " + out.string() +
+                     " --format bin --width 300 --height 200 "
+                     "--eye 0,0.1,0.4 --target 0,0.1,0 --fov-y 40",
+                 dir);
   ASSERT_EQ(r.status, 0) << r.err;
   vismap::BinFrame f = vismap::read_bin(slurp(out));
   EXPECT_EQ(f.width, 300u);
@@ -99,7 +102,8 @@ TEST_F(Cli, BinaryOutputRoundTrips) {
 
 TEST_F(Cli, IdFillIsCrisp) {
   fs::path out = dir / "id.svg";
-  CliRun r = run("render " + bunny + " -o " + out.string() + " --fill id --ortho 0.2 --width 256", dir);
+  CliRun r =
+      run("render " + bunny + " -o " + out.string() + " --fill id --ortho 0.2 --width 256", dir);
   ASSERT_EQ(r.status, 0) << r.err;
   std::string svg = slurp(out);
   EXPECT_NE(svg.find("crispEdges"), std::string::npos);
@@ -128,7 +132,8 @@ TEST_F(Cli, BadInputFailsCleanly) {
   CliRun usage = run("render " + bunny + " -o " + out.string() + " --format pdf", dir);
   EXPECT_EQ(usage.status, 2);
   EXPECT_FALSE(fs::exists(out));
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator{}), 3);  // stderr.txt, nan.obj, scene.xyz
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator{}),
+            3);  // stderr.txt, nan.obj, scene.xyz
 }
 
 // --time-limit: a frame past it fails with one line naming the scene and the stage (exit 1,

@@ -4,9 +4,8 @@
 #include <sys/wait.h>
 
 #include <cstdio>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 namespace {
 
@@ -33,8 +32,9 @@ TEST(CliCheck, PrintsAllFiguresForAStiffCase) {
   Out r = check(kData + "stiff/vertex_on_edge.json --width 200 --height 200");
   ASSERT_EQ(r.status, 0) << r.out;
   auto j = nlohmann::json::parse(r.out);
-  for (const char* k : {"area_error", "overlap_area", "wrong_source", "pixel_error", "pipeline_ms",
-                        "reference_ms", "coverage_error", "outside_source", "fragments", "screen_triangles"})
+  for (const char* k :
+       {"area_error", "overlap_area", "wrong_source", "pixel_error", "pipeline_ms", "reference_ms",
+        "coverage_error", "outside_source", "fragments", "screen_triangles"})
     EXPECT_TRUE(j.contains(k)) << k;
   EXPECT_EQ(j["area_error"].get<double>(), 0.0);
   EXPECT_EQ(j["overlap_area"].get<double>(), 0.0);

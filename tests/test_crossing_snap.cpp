@@ -1,13 +1,13 @@
 // Regression model: crossing lines of simple slope (docs/NUMERICS.md §2). The crossing line of a
-// penetrating pair used to be snapped to a line through two grid points. Searching the columns next to
-// the overlap for the one where the line passes closest to a grid point gives ~1/512 grid unit
+// penetrating pair used to be snapped to a line through two grid points. Searching the columns next
+// to the overlap for the one where the line passes closest to a grid point gives ~1/512 grid unit
 // for a generic slope, but a horizontal, vertical or diagonal line (slope near p/q with small q)
 // rounds alike in every column: up to 1/2 grid unit off over the whole overlap. That was the
 // area_error of nearly_touching (9.5e-6, a horizontal line 0.41 grid units off) and of
 // far_coordinates_1e6 / tiny_scene_1e-6 (4.5e-6, a vertical one), 20-50x below snap_area_bound and
 // untouched by the column search. Crossing lines are now integer (a, b, c), which can be exactly
-// axis-parallel at any offset to 2^-24 grid units. Here: a pair of large triangles crossing along lines of such
-// slopes, at offsets off the grid, against the exact reference.
+// axis-parallel at any offset to 2^-24 grid units. Here: a pair of large triangles crossing along
+// lines of such slopes, at offsets off the grid, against the exact reference.
 #include <gtest/gtest.h>
 
 #include <cmath>

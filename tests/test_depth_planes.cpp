@@ -56,9 +56,12 @@ void expect_integer_planes(const ScreenTriangles& st, std::set<int32_t>* ks) {
       y[i] = st.xy[6 * t + 2 * i + 1];
     }
     // A det = (N1 - N0) dy2 - (N2 - N0) dy1 exactly, A an integer within 2^29 (same for B).
-    const __int128 det = __int128(x[1] - x[0]) * (y[2] - y[0]) - __int128(x[2] - x[0]) * (y[1] - y[0]);
-    const __int128 an = __int128(N[1] - N[0]) * (y[2] - y[0]) - __int128(N[2] - N[0]) * (y[1] - y[0]);
-    const __int128 bn = __int128(N[2] - N[0]) * (x[1] - x[0]) - __int128(N[1] - N[0]) * (x[2] - x[0]);
+    const __int128 det =
+        __int128(x[1] - x[0]) * (y[2] - y[0]) - __int128(x[2] - x[0]) * (y[1] - y[0]);
+    const __int128 an =
+        __int128(N[1] - N[0]) * (y[2] - y[0]) - __int128(N[2] - N[0]) * (y[1] - y[0]);
+    const __int128 bn =
+        __int128(N[2] - N[0]) * (x[1] - x[0]) - __int128(N[1] - N[0]) * (x[2] - x[0]);
     ASSERT_NE(det, 0);
     EXPECT_EQ(an % det, 0) << "triangle " << t;
     EXPECT_EQ(bn % det, 0) << "triangle " << t;
@@ -112,7 +115,8 @@ TEST(DepthPlanes, OneExponentAcrossBuckets) {
   const int n = 120;
   for (int j = 0; j <= n; ++j)
     for (int i = 0; i <= n; ++i)
-      for (double c : {256.0 * i / n, 256.0 * j / n, 0.05 * i}) floor_mesh.positions.push_back(float(c));
+      for (double c : {256.0 * i / n, 256.0 * j / n, 0.05 * i})
+        floor_mesh.positions.push_back(float(c));
   test_support::add_grid_triangles(floor_mesh, n);
   s.meshes.push_back(std::move(floor_mesh));
   Camera cam = test_support::ortho_view_256(s);

@@ -4,14 +4,13 @@
 // a type or builtin the target lacks, an implicit conversion the language forbids. It is not
 // NVIDIA's own compiler (NVVM), so a pass here does not prove the driver builds the program.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
-
-#include <unistd.h>
 
 #include "core/cl_runtime.h"
 
@@ -45,7 +44,8 @@ TEST(Kernels, CompileAsOpenCL12ForNvptx) {
     const std::string code((std::istreambuf_iterator<char>(ptx)), {});
     // Every kernel made it to the back end: count the entry points against the source's.
     size_t entries = 0, kernels = 0;
-    for (size_t at = code.find(".entry"); at != std::string::npos; at = code.find(".entry", at + 1)) ++entries;
+    for (size_t at = code.find(".entry"); at != std::string::npos; at = code.find(".entry", at + 1))
+      ++entries;
     const std::string source = vismap::program_source();
     for (size_t at = source.find("__kernel "); at != std::string::npos;
          at = source.find("__kernel ", at + 1))

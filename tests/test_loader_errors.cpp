@@ -73,9 +73,11 @@ TEST(LoadErrors, TruncatedAsciiAndBinaryPly) {
   TempDir dir;
   expect_error(dir.write("a.ply", std::string(kTriPlyHead) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0"),
                K::Truncated, {"face 1"});
-  expect_error(dir.write("v.ply", std::string(kTriPlyHead) + "0 0 0\n1 0"), K::Truncated, {"vertex 1"});
+  expect_error(dir.write("v.ply", std::string(kTriPlyHead) + "0 0 0\n1 0"), K::Truncated,
+               {"vertex 1"});
   expect_error(dir.write("b.ply", binary_ply(2)), K::Truncated, {"face 2"});
-  expect_error(dir.write("h.ply", "ply\nformat ascii 1.0\nelement vertex 3\n"), K::Truncated, {"end_header"});
+  expect_error(dir.write("h.ply", "ply\nformat ascii 1.0\nelement vertex 3\n"), K::Truncated,
+               {"end_header"});
   EXPECT_EQ(load_scene(dir.write("ok.ply", binary_ply(3))).meshes[0].source_triangles, 3u);
 }
 
@@ -99,8 +101,9 @@ TEST(LoadErrors, TruncatedGzipAndGlb) {
 
 TEST(LoadErrors, NonFiniteVertices) {
   TempDir dir;
-  expect_error(dir.write("nan.ply", std::string(kTriPlyHead) + "0 0 0\n1 0 0\n0 nan 0\n3 0 1 2\n3 0 1 2\n"),
-               K::NonFiniteVertex, {"vertex 2", "y"});
+  expect_error(
+      dir.write("nan.ply", std::string(kTriPlyHead) + "0 0 0\n1 0 0\n0 nan 0\n3 0 1 2\n3 0 1 2\n"),
+      K::NonFiniteVertex, {"vertex 2", "y"});
   expect_error(dir.write("inf.obj", "v 0 0 0\nv 1 0 0\nv 0 1 inf\nf 1 2 3\n"), K::NonFiniteVertex,
                {"vertex 2", "line 3"});
   expect_error(dir.write("inf.off", "OFF\n3 1 0\n0 0 0\n-inf 0 0\n0 1 0\n3 0 1 2\n"),
@@ -120,12 +123,14 @@ TEST(LoadErrors, NonFiniteVertices) {
 
 TEST(LoadErrors, IndexOutOfRange) {
   TempDir dir;
-  expect_error(dir.write("i.ply", std::string(kTriPlyHead) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 99 2\n"),
-               K::IndexOutOfRange, {"face 1", "99"});
-  expect_error(dir.write("neg.ply", std::string(kTriPlyHead) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 -1 2\n"),
-               K::IndexOutOfRange, {"face 1", "-1"});
-  expect_error(dir.write("i.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n"), K::IndexOutOfRange,
-               {"face 1", "7", "line 5"});
+  expect_error(
+      dir.write("i.ply", std::string(kTriPlyHead) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 99 2\n"),
+      K::IndexOutOfRange, {"face 1", "99"});
+  expect_error(
+      dir.write("neg.ply", std::string(kTriPlyHead) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 -1 2\n"),
+      K::IndexOutOfRange, {"face 1", "-1"});
+  expect_error(dir.write("i.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n"),
+               K::IndexOutOfRange, {"face 1", "7", "line 5"});
   expect_error(dir.write("i.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 3\n"),
                K::IndexOutOfRange, {"face 1", "3"});
   // glTF: an index accessor pointing past the 3 vertices of triangle_camera.gltf's buffer.
@@ -151,15 +156,17 @@ TEST(LoadErrors, IndexOutOfRange) {
 
 TEST(LoadErrors, EmptyMeshes) {
   TempDir dir;
-  expect_error(dir.write("e.ply",
-                         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                         "property float z\nelement face 0\nproperty list uchar int vertex_indices\n"
-                         "end_header\n0 0 0\n"),
-               K::EmptyMesh, {"no triangles"});
+  expect_error(
+      dir.write("e.ply",
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                "property float z\nelement face 0\nproperty list uchar int vertex_indices\n"
+                "end_header\n0 0 0\n"),
+      K::EmptyMesh, {"no triangles"});
   expect_error(dir.write("e.obj", "v 0 0 0\n"), K::EmptyMesh, {});
   expect_error(dir.write("e.off", "OFF\n0 0 0\n"), K::EmptyMesh, {});
   expect_error(dir.write("e.stl", "solid x\nendsolid x\n"), K::EmptyMesh, {});
-  expect_error(dir.write("d.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"), K::EmptyMesh, {"degenerate"});
+  expect_error(dir.write("d.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"), K::EmptyMesh,
+               {"degenerate"});
   expect_error(dir.write("e.json", R"({"meshes": []})"), K::EmptyMesh, {"meshes"});
 }
 
@@ -167,45 +174,58 @@ TEST(LoadErrors, ParseErrorsNameTheLine) {
   TempDir dir;
   expect_error(dir.write("p.off", "OFF\n3 1 0\n0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n"), K::ParseError,
                {"vertex 1", "line 4", "zero"});
-  expect_error(dir.write("p.ply", std::string(kTriPlyHead) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 x 2\n"),
-               K::ParseError, {"face 1", "line 14"});
-  expect_error(dir.write("h.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty blob x\nend_header\n"),
-               K::ParseError, {"header line 4", "blob"});
+  expect_error(
+      dir.write("p.ply", std::string(kTriPlyHead) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 x 2\n"),
+      K::ParseError, {"face 1", "line 14"});
+  expect_error(
+      dir.write("h.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty blob x\nend_header\n"),
+      K::ParseError, {"header line 4", "blob"});
   expect_error(dir.write("p.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 three\n"), K::ParseError,
                {"face 0", "line 4"});
   expect_error(dir.write("p.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0\nendloop\n"),
                K::ParseError, {"facet 0", "line 5"});
-  expect_error(dir.write("p.gltf", "{\"asset\": {\"version\": \"2.0\"}, \"meshes\": ["), K::ParseError, {"glTF"});
+  expect_error(dir.write("p.gltf", "{\"asset\": {\"version\": \"2.0\"}, \"meshes\": ["),
+               K::ParseError, {"glTF"});
 }
 
 TEST(LoadErrors, BadJsonAndSceneKeys) {
   TempDir dir;
   dir.write("tri.obj", "v 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n");
-  expect_error(dir.write("j1.json", "{\"meshes\": [\n {\"file\": \"tri.obj\",}\n]}"), K::ParseError, {"line 2"});
-  expect_error(dir.write("j2.json", "{\"meshes\": [\n {\"file\": \"tri.obj\""), K::Truncated, {"line 2"});
-  expect_error(dir.write("k1.json", R"({"meshes":[{"file":"tri.obj"},{"file":"tri.obj","scal":2}]})"),
-               K::BadScene, {"meshes[1].scal", "unknown key"});
-  expect_error(dir.write("k2.json", R"({"meshes":[{"file":"tri.obj","scale":"big"}]})"), K::BadScene,
-               {"meshes[0].scale"});
-  expect_error(dir.write("k3.json", R"({"meshes":[{"file":"tri.obj","translate":[1,2]}]})"), K::BadScene,
-               {"meshes[0].translate"});
-  expect_error(dir.write("k4.json", R"({"meshes":[{"file":"tri.obj","color":[1,"r",0]}]})"), K::BadScene,
-               {"meshes[0].color[1]"});
-  expect_error(dir.write("k5.json", R"({"meshes":[{"file":"tri.obj"}],"camera":{"width":-4}})"), K::BadScene,
-               {"camera.width"});
-  expect_error(dir.write("k6.json", R"({"meshes":[{"file":"tri.obj"}],"camera":{"fov":30}})"), K::BadScene,
-               {"camera.fov", "unknown key"});
-  expect_error(dir.write("k7.json", R"({"meshes":[{"file":"tri.obj"}],"lights":[]})"), K::BadScene, {"lights"});
-  expect_error(dir.write("k8.json", R"({"meshes":[{"file":"tri.obj","matrix":[1,0,0],"scale":2}]})"),
-               K::BadScene, {"meshes[0].matrix"});
-  expect_error(dir.write("k9.json", R"({"meshes":[{"translate":[0,0,0]}]})"), K::BadScene, {"meshes[0].file"});
-  expect_error(dir.write("c.json", R"({"meshes":[{"file":"tri.obj"}],"camera":{"eye":[0,0,0],"target":[0,0,0]}})"),
-               K::BadCamera, {"camera"});
+  expect_error(dir.write("j1.json", "{\"meshes\": [\n {\"file\": \"tri.obj\",}\n]}"), K::ParseError,
+               {"line 2"});
+  expect_error(dir.write("j2.json", "{\"meshes\": [\n {\"file\": \"tri.obj\""), K::Truncated,
+               {"line 2"});
+  expect_error(
+      dir.write("k1.json", R"({"meshes":[{"file":"tri.obj"},{"file":"tri.obj","scal":2}]})"),
+      K::BadScene, {"meshes[1].scal", "unknown key"});
+  expect_error(dir.write("k2.json", R"({"meshes":[{"file":"tri.obj","scale":"big"}]})"),
+               K::BadScene, {"meshes[0].scale"});
+  expect_error(dir.write("k3.json", R"({"meshes":[{"file":"tri.obj","translate":[1,2]}]})"),
+               K::BadScene, {"meshes[0].translate"});
+  expect_error(dir.write("k4.json", R"({"meshes":[{"file":"tri.obj","color":[1,"r",0]}]})"),
+               K::BadScene, {"meshes[0].color[1]"});
+  expect_error(dir.write("k5.json", R"({"meshes":[{"file":"tri.obj"}],"camera":{"width":-4}})"),
+               K::BadScene, {"camera.width"});
+  expect_error(dir.write("k6.json", R"({"meshes":[{"file":"tri.obj"}],"camera":{"fov":30}})"),
+               K::BadScene, {"camera.fov", "unknown key"});
+  expect_error(dir.write("k7.json", R"({"meshes":[{"file":"tri.obj"}],"lights":[]})"), K::BadScene,
+               {"lights"});
+  expect_error(
+      dir.write("k8.json", R"({"meshes":[{"file":"tri.obj","matrix":[1,0,0],"scale":2}]})"),
+      K::BadScene, {"meshes[0].matrix"});
+  expect_error(dir.write("k9.json", R"({"meshes":[{"translate":[0,0,0]}]})"), K::BadScene,
+               {"meshes[0].file"});
+  expect_error(
+      dir.write("c.json",
+                R"({"meshes":[{"file":"tri.obj"}],"camera":{"eye":[0,0,0],"target":[0,0,0]}})"),
+      K::BadCamera, {"camera"});
   // A missing referenced file names that file.
-  expect_error(dir.write("m.json", R"({"meshes":[{"file":"gone.ply"}]})"), K::FileNotFound, {"gone.ply"});
+  expect_error(dir.write("m.json", R"({"meshes":[{"file":"gone.ply"}]})"), K::FileNotFound,
+               {"gone.ply"});
   // A number too large for any JSON number type (found by the loader fuzzer): ParseError, not
   // an escaping nlohmann exception.
-  expect_error(dir.write("n.json", R"({"meshes":[{"file":"tri.obj","scale":)" + std::string(400, '2') + "}]}"),
+  expect_error(dir.write("n.json", R"({"meshes":[{"file":"tri.obj","scale":)" +
+                                       std::string(400, '2') + "}]}"),
                K::ParseError, {"n.json"});
   // Uploaded scene files cannot reach the file system.
   try {

@@ -20,8 +20,8 @@ void expect_ids_in_order(const Mesh& m) {
   }
 }
 
-#define REQUIRE_SHARED()                  \
-  if (!vismap::test::have_shared()) {     \
+#define REQUIRE_SHARED()                 \
+  if (!vismap::test::have_shared()) {    \
     GTEST_SKIP() << "no ../shared/data"; \
   }
 
@@ -74,8 +74,8 @@ TEST(LoadPly, AsciiBinaryLittleAndBigEndianAgree) {
   std::string ascii = std::string("ply\nformat ascii 1.0\ncomment test\n") + head +
                       "0 0 0 1\n1 0 0 2\n1 1 0 3\n0 1 0 4\n0.5 0.5 1 5\n4 0 1 2 3 7\n3 3 2 4 8\n";
   auto binary = [&](bool big) {
-    std::string b = std::string("ply\nformat ") + (big ? "binary_big_endian" : "binary_little_endian") +
-                    " 1.0\n" + head;
+    std::string b = std::string("ply\nformat ") +
+                    (big ? "binary_big_endian" : "binary_little_endian") + " 1.0\n" + head;
     auto put = [&](const void* p, size_t n) {
       std::string s(static_cast<const char*>(p), n);
       if (big) std::reverse(s.begin(), s.end());
@@ -139,8 +139,8 @@ TEST(LoadObj, CornellBoxSplitsByMaterialWithKdColors) {
   Scene s = load_scene(test::data_dir() + "/cornell_box/CornellBox-Original.obj");
   std::vector<std::string> names;
   for (const Mesh& m : s.meshes) names.push_back(m.name);
-  EXPECT_EQ(names, (std::vector<std::string>{"floor", "ceiling", "backWall", "rightWall", "leftWall",
-                                             "shortBox", "tallBox", "light"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"floor", "ceiling", "backWall", "rightWall",
+                                             "leftWall", "shortBox", "tallBox", "light"}));
   EXPECT_EQ(s.triangle_count(), 36u);
   EXPECT_FLOAT_EQ(s.meshes[4].color[0], 0.63f);  // leftWall Kd 0.63 0.065 0.05
   EXPECT_FLOAT_EQ(s.meshes[3].color[1], 0.45f);  // rightWall Kd 0.14 0.45 0.091
@@ -149,9 +149,10 @@ TEST(LoadObj, CornellBoxSplitsByMaterialWithKdColors) {
 
 TEST(LoadObj, NegativeIndicesTexturesNormalsAndPolygons) {
   TempDir dir;
-  std::string p = dir.write("p.obj",
-                            "# comment\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 1.5 0\nvt 0 0\nvn 0 0 1\n"
-                            "f 1/1/1 2/1/1 3/1/1 5//1 4\nf -3 -2 -1\n");
+  std::string p =
+      dir.write("p.obj",
+                "# comment\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 1.5 0\nvt 0 0\nvn 0 0 1\n"
+                "f 1/1/1 2/1/1 3/1/1 5//1 4\nf -3 -2 -1\n");
   Scene s = load_scene(p);
   EXPECT_EQ(s.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 4, 0, 4, 3, 2, 3, 4}));
   EXPECT_EQ(s.meshes[0].face_ids, (std::vector<uint32_t>{0, 1, 2, 3}));
@@ -231,7 +232,8 @@ TEST(LoadGltf, NodeHierarchyColorAndCamera) {
 
 TEST(LoadGltf, GlbStripFanOrthographicFromFileAndMemory) {
   std::string path = test::data_dir() + "/scenes/strip_fan.glb";
-  for (const Scene& s : {load_scene(path), load_scene_from_memory("up.glb", test::read_bytes(path))}) {
+  for (const Scene& s :
+       {load_scene(path), load_scene_from_memory("up.glb", test::read_bytes(path))}) {
     ASSERT_EQ(s.meshes.size(), 2u);
     EXPECT_EQ(s.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2, 2, 1, 3}));  // strip
     EXPECT_EQ(s.meshes[1].indices, (std::vector<uint32_t>{1, 3, 0, 3, 2, 0}));  // fan around 0

@@ -2,12 +2,12 @@
 // seam strokes only on shared edges, exact shared vertices) and the binary format (round trip,
 // malformed input, size).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <unistd.h>
 #include <fstream>
 #include <map>
 #include <random>
@@ -194,9 +194,10 @@ void expect_python_parses(const std::string& svg) {
     std::ofstream f(path, std::ios::binary);
     f << svg;
   }
-  const std::string cmd = std::string("/usr/bin/python3 -c \"import sys,xml.etree.ElementTree as E; "
-                                      "r=E.parse(sys.argv[1]).getroot(); "
-                                      "sys.exit(0 if r.tag.endswith('svg') else 1)\" ") +
+  const std::string cmd = std::string(
+                              "/usr/bin/python3 -c \"import sys,xml.etree.ElementTree as E; "
+                              "r=E.parse(sys.argv[1]).getroot(); "
+                              "sys.exit(0 if r.tag.endswith('svg') else 1)\" ") +
                           path + " 2>/dev/null";
   EXPECT_EQ(std::system(cmd.c_str()), 0) << "python3 xml.etree rejects the SVG";
   std::remove(path);
@@ -222,7 +223,8 @@ std::vector<Subpath> parse_d(const std::string& d) {
     const size_t a = i;
     if (i < d.size() && d[i] == '-') ++i;
     bool dot = false;
-    while (i < d.size() && (std::isdigit(static_cast<unsigned char>(d[i])) || (d[i] == '.' && !dot))) {
+    while (i < d.size() &&
+           (std::isdigit(static_cast<unsigned char>(d[i])) || (d[i] == '.' && !dot))) {
       dot = dot || d[i] == '.';
       ++i;
     }
@@ -433,7 +435,8 @@ TEST(Svg, ShadeIsLambertTimesColourTwoSided) {
   c.projection = Camera::Projection::Orthographic;  // light along the view: quad faces it fully
   auto colors = [&](const Scene& sc) {
     std::vector<std::string> r;
-    for (const auto& p : paths_of(write_svg(square_map(), sc, c, Fill::Shade))) r.push_back(p.color);
+    for (const auto& p : paths_of(write_svg(square_map(), sc, c, Fill::Shade)))
+      r.push_back(p.color);
     return r;
   };
   auto cl = colors(s);
@@ -464,8 +467,9 @@ TEST(Svg, SharedVerticesReconstructExactly) {
     for (const auto& p : paths_of(write_svg(m, s, eye_camera(), fill)))
       for (const auto& sp : p.subpaths) written.insert(sp.pts.begin(), sp.pts.end());
     for (size_t v = 0; v < m.vertex_count(); ++v) {
-      const std::pair<int64_t, int64_t> q{std::llround(std::stod(svg_number(m.xy[2 * v])) * 1000),
-                                          std::llround(std::stod(svg_number(m.xy[2 * v + 1])) * 1000)};
+      const std::pair<int64_t, int64_t> q{
+          std::llround(std::stod(svg_number(m.xy[2 * v])) * 1000),
+          std::llround(std::stod(svg_number(m.xy[2 * v + 1])) * 1000)};
       EXPECT_TRUE(written.count(q)) << "vertex " << v << " not reconstructed exactly";
     }
   }
@@ -480,13 +484,17 @@ TEST(Svg, SeamStrokesOnlyOnSharedEdges) {
   const auto st = stroked(paths_of(svg));
   using P = std::pair<int64_t, int64_t>;
   const int64_t x0 = 10100, x1 = 15100, x2 = 20100, y0 = 20200, y1 = 25200, y2 = 30200;
-  for (auto [a, b] : std::vector<std::pair<P, P>>{{{x0, y0}, {x1, y0}}, {{x1, y0}, {x2, y0}},
-                                                  {{x2, y0}, {x2, y1}}, {{x2, y1}, {x2, y2}},
-                                                  {{x2, y2}, {x1, y2}}, {{x1, y2}, {x0, y2}},
-                                                  {{x0, y2}, {x0, y1}}, {{x0, y1}, {x0, y0}}})
+  for (auto [a, b] : std::vector<std::pair<P, P>>{{{x0, y0}, {x1, y0}},
+                                                  {{x1, y0}, {x2, y0}},
+                                                  {{x2, y0}, {x2, y1}},
+                                                  {{x2, y1}, {x2, y2}},
+                                                  {{x2, y2}, {x1, y2}},
+                                                  {{x1, y2}, {x0, y2}},
+                                                  {{x0, y2}, {x0, y1}},
+                                                  {{x0, y1}, {x0, y0}}})
     EXPECT_FALSE(has_segment(st, a, b)) << "outline edge stroked";
-  for (auto [a, b] : std::vector<std::pair<P, P>>{{{x1, y0}, {x1, y1}}, {{x1, y1}, {x1, y2}},
-                                                  {{x0, y1}, {x1, y1}}, {{x1, y1}, {x2, y1}}})
+  for (auto [a, b] : std::vector<std::pair<P, P>>{
+           {{x1, y0}, {x1, y1}}, {{x1, y1}, {x1, y2}}, {{x0, y1}, {x1, y1}}, {{x1, y1}, {x2, y1}}})
     EXPECT_TRUE(has_segment(st, a, b)) << "shared edge not stroked";
 }
 
@@ -515,8 +523,8 @@ TEST(Svg, TJunctionVertexJoinsTheLongEdgeAfterRounding) {
   Scene s = two_mesh_scene();
   PlanarMap m;
   m.width = m.height = 64;
-  add_fragment(m, 1, 0, {{10, 10}, {30, 10.006}, {10, 30}});            // edge to (10,30)
-  add_fragment(m, 0, 0, {{30, 10.006}, {40, 10}, {20, 20.003}});        // rounds to (20,20)
+  add_fragment(m, 1, 0, {{10, 10}, {30, 10.006}, {10, 30}});      // edge to (10,30)
+  add_fragment(m, 0, 0, {{30, 10.006}, {40, 10}, {20, 20.003}});  // rounds to (20,20)
   add_fragment(m, 0, 1, {{20, 20.003}, {40, 10}, {40, 30}, {10, 30}});
   bool found = false;
   for (const SvgPath& p : paths_of(write_svg(m, s, eye_camera(), Fill::Id)))
@@ -541,9 +549,12 @@ TEST(Svg, IsolatedFragmentHasNoStrokedEdge) {
   for (const auto& sp : paths[0].subpaths) area += signed_area(sp);
   EXPECT_NEAR(area, 400e6, 1);
   const auto st = stroked(paths);
-  for (auto [a, b] : std::vector<std::pair<std::pair<int64_t, int64_t>, std::pair<int64_t, int64_t>>>{
-           {{10000, 10000}, {30000, 10000}}, {{30000, 10000}, {30000, 30000}},
-           {{30000, 30000}, {10000, 30000}}, {{10000, 30000}, {10000, 10000}}})
+  for (auto [a, b] :
+       std::vector<std::pair<std::pair<int64_t, int64_t>, std::pair<int64_t, int64_t>>>{
+           {{10000, 10000}, {30000, 10000}},
+           {{30000, 10000}, {30000, 30000}},
+           {{30000, 30000}, {10000, 30000}},
+           {{10000, 30000}, {10000, 10000}}})
     EXPECT_FALSE(has_segment(st, a, b));
 }
 
@@ -589,8 +600,9 @@ TEST(Svg, SizeOfABunnySizedMap) {
       for (auto tri : {std::array<int, 3>{a, b, c}, std::array<int, 3>{a, c, d}}) {
         for (int k : tri) mesh.indices.push_back(uint32_t(k));
         mesh.face_ids.push_back(t);
-        add_fragment(m, 0, t++, {{px[tri[0]], py[tri[0]]}, {px[tri[1]], py[tri[1]]},
-                                 {px[tri[2]], py[tri[2]]}});
+        add_fragment(
+            m, 0, t++,
+            {{px[tri[0]], py[tri[0]]}, {px[tri[1]], py[tri[1]]}, {px[tri[2]], py[tri[2]]}});
       }
     }
   mesh.source_triangles = t;
@@ -652,8 +664,8 @@ void expect_round_trip(const PlanarMap& m, const Scene& s) {
   ASSERT_EQ(f.triangle_count(), 6u);
   // Expected fan: fragment f's vertices (0, i, i+1).
   const std::vector<uint32_t> src_frag = {0, 1, 1, 1, 2, 2};
-  const std::vector<std::array<uint32_t, 3>> verts = {
-      {0, 1, 2}, {3, 4, 5}, {3, 5, 6}, {3, 6, 7}, {8, 9, 10}, {8, 10, 11}};
+  const std::vector<std::array<uint32_t, 3>> verts = {{0, 1, 2}, {3, 4, 5},  {3, 5, 6},
+                                                      {3, 6, 7}, {8, 9, 10}, {8, 10, 11}};
   const std::vector<uint32_t> ids = {3, 2, 2, 2, 0, 0};  // global: mesh1 base 3; mesh0 faces 0, 2
   for (size_t t = 0; t < 6; ++t) {
     EXPECT_EQ(f.mesh[t], m.mesh[src_frag[t]]) << t;
@@ -677,7 +689,8 @@ void expect_round_trip(const PlanarMap& m, const Scene& s) {
     std::vector<uint32_t> tri_of_id = {0, 0, 1, 0};  // mesh 0: face 0 -> tri 0, face 2 -> tri 1
     for (size_t t = 0; t < f.triangle_count(); ++t)
       add_fragment(back, f.mesh[t], f.mesh[t] == 1 ? 0 : tri_of_id[f.triangle_id[t]],
-                   {{f.xy[6 * t], f.xy[6 * t + 1]}, {f.xy[6 * t + 2], f.xy[6 * t + 3]},
+                   {{f.xy[6 * t], f.xy[6 * t + 1]},
+                    {f.xy[6 * t + 2], f.xy[6 * t + 3]},
                     {f.xy[6 * t + 4], f.xy[6 * t + 5]}});
     EXPECT_EQ(write_bin(back, s), bytes);
   }
@@ -699,7 +712,9 @@ void set_u32(std::string& b, size_t at, uint32_t v) {
 
 }  // namespace
 
-TEST(Bin, RoundTripWithoutAttributes) { expect_round_trip(small_map(), two_mesh_scene()); }
+TEST(Bin, RoundTripWithoutAttributes) {
+  expect_round_trip(small_map(), two_mesh_scene());
+}
 
 TEST(Bin, RoundTripWithAttributes) {
   expect_round_trip(with_attributes(small_map()), two_mesh_scene());
@@ -712,13 +727,13 @@ TEST(Bin, LayoutIsLittleEndianAtSpecOffsets) {
     for (int i = 0; i < 4; ++i) v |= uint32_t(uint8_t(b[at + i])) << (8 * i);
     return v;
   };
-  EXPECT_EQ(u32(4), 1u);     // version
-  EXPECT_EQ(u32(8), 320u);   // width
-  EXPECT_EQ(u32(12), 200u);  // height
-  EXPECT_EQ(u32(16), 0u);    // flags
-  EXPECT_EQ(u32(20), 6u);    // triangles
-  EXPECT_EQ(u32(24), 0x3FC00000u);           // x of the first vertex: 1.5f
-  EXPECT_EQ(u32(24 + 6 * 4 * 6), 1u);        // mesh of triangle 0
+  EXPECT_EQ(u32(4), 1u);                       // version
+  EXPECT_EQ(u32(8), 320u);                     // width
+  EXPECT_EQ(u32(12), 200u);                    // height
+  EXPECT_EQ(u32(16), 0u);                      // flags
+  EXPECT_EQ(u32(20), 6u);                      // triangles
+  EXPECT_EQ(u32(24), 0x3FC00000u);             // x of the first vertex: 1.5f
+  EXPECT_EQ(u32(24 + 6 * 4 * 6), 1u);          // mesh of triangle 0
   EXPECT_EQ(u32(24 + 6 * 4 * 6 + 4 * 6), 3u);  // global id of triangle 0
   EXPECT_EQ(write_bin(PlanarMap{}, two_mesh_scene()).size(), 24u);
   EXPECT_EQ(read_bin(write_bin(PlanarMap{}, two_mesh_scene())).triangle_count(), 0u);

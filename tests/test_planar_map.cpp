@@ -1,22 +1,24 @@
 // Planar-map invariants on real meshes (DESIGN §4), checked exactly with CGAL: no two output
 // fragments overlap, the output covers exactly the union of the projected scene, every fragment
 // lies in its source triangle; and a z-buffer id raster agrees away from edges.
-#include <algorithm>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
 #include "core/camera.h"
 #include "core/pipeline.h"
-#include "core/scene.h"
 #include "core/reference/planar_check.h"
+#include "core/scene.h"
 
 namespace {
 
 using namespace vismap;
 
-std::string shared(const std::string& rel) { return std::string(VISMAP_SHARED_DATA_DIR) + "/" + rel; }
+std::string shared(const std::string& rel) {
+  return std::string(VISMAP_SHARED_DATA_DIR) + "/" + rel;
+}
 
 Renderer& renderer() {
   static Renderer r;
@@ -29,7 +31,9 @@ struct Case {
   bool ortho;
 };
 
-void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
+void PrintTo(const Case& c, std::ostream* os) {
+  *os << c.name;
+}
 
 class PlanarMapInvariants : public ::testing::TestWithParam<Case> {};
 
@@ -60,7 +64,8 @@ TEST_P(PlanarMapInvariants, ExactAndComplete) {
   EXPECT_EQ(rep.overlap_pairs, 0u) << rep.summary();
   EXPECT_EQ(rep.overlap_area, 0.0) << rep.summary();
   EXPECT_EQ(rep.outside_source, 0u) << rep.summary();
-  EXPECT_LT(rep.coverage_error, 1e-12) << rep.summary();  // area sums are fixed point (docs/CHECKS.md)
+  EXPECT_LT(rep.coverage_error, 1e-12)
+      << rep.summary();  // area sums are fixed point (docs/CHECKS.md)
 
   check::PixelReport px = check::pixel_compare(map, screen, 1024);
   EXPECT_LT(px.fraction, 1e-3) << px.mismatched << " of " << px.samples;
@@ -68,15 +73,16 @@ TEST_P(PlanarMapInvariants, ExactAndComplete) {
 
 INSTANTIATE_TEST_SUITE_P(
     RealMeshes, PlanarMapInvariants,
-    ::testing::Values(Case{"bunny_res4", shared("stanford/bun_zipper_res4.ply"), 512, false},
-                      Case{"bunny_res3_ortho", shared("stanford/bun_zipper_res3.ply"), 768, true},
-                      Case{"bunny", std::string(VISMAP_SOURCE_DIR) + "/data/bunny.ply", 1024, false},
-                      Case{"teapot", shared("teapot/teapot_c3d.obj"), 1024, false},
-                      Case{"cow", shared("cgal/cow.off"), 800, false},
-                      Case{"elephant_with_holes", shared("cgal/elephant-with-holes.off"), 800, false},
-                      Case{"fandisk", shared("cgal/fandisk.off"), 800, false},
-                      Case{"mech_holes_shark", shared("cgal/mech-holes-shark.off"), 800, false},
-                      Case{"cornell_box", shared("cornell_box/CornellBox-Original.obj"), 800, false}),
+    ::testing::Values(
+        Case{"bunny_res4", shared("stanford/bun_zipper_res4.ply"), 512, false},
+        Case{"bunny_res3_ortho", shared("stanford/bun_zipper_res3.ply"), 768, true},
+        Case{"bunny", std::string(VISMAP_SOURCE_DIR) + "/data/bunny.ply", 1024, false},
+        Case{"teapot", shared("teapot/teapot_c3d.obj"), 1024, false},
+        Case{"cow", shared("cgal/cow.off"), 800, false},
+        Case{"elephant_with_holes", shared("cgal/elephant-with-holes.off"), 800, false},
+        Case{"fandisk", shared("cgal/fandisk.off"), 800, false},
+        Case{"mech_holes_shark", shared("cgal/mech-holes-shark.off"), 800, false},
+        Case{"cornell_box", shared("cornell_box/CornellBox-Original.obj"), 800, false}),
     [](const ::testing::TestParamInfo<Case>& i) { return i.param.name; });
 
 }  // namespace
@@ -88,9 +94,10 @@ using namespace vismap;
 // The planar map against the exact reference visibility (DESIGN §4) on scenes small enough for
 // CGAL's Boolean operations: every fragment is visible where it claims to be.
 TEST(PlanarMapReference, SmallScenesMatchExactVisibility) {
-  for (const std::string& path : {shared("stanford/bun_zipper_res4.ply"),
-                                  std::string(VISMAP_SOURCE_DIR) + "/data/cornell_box/CornellBox-Original.obj",
-                                  shared("cgal/tetra_intersected_by_triangle.off")}) {
+  for (const std::string& path :
+       {shared("stanford/bun_zipper_res4.ply"),
+        std::string(VISMAP_SOURCE_DIR) + "/data/cornell_box/CornellBox-Original.obj",
+        shared("cgal/tetra_intersected_by_triangle.off")}) {
     if (!std::filesystem::exists(path)) continue;
     Scene scene = load_scene(path);
     Camera cam = frame_scene(scene, 400, 300);

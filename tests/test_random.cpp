@@ -42,9 +42,9 @@ void check_seed(uint64_t seed, bool coplanar = false) {
     fs::create_directories("random_failures");
     std::string path = "random_failures/seed_" + std::to_string(seed);
     randomized::write_scene(rs, path);
-    ADD_FAILURE() << "seed " << seed << " (" << randomized::kind_name(rs.kind) << "): " << bad.front()
-                  << "\n  reproduce: vismap check " << fs::absolute(path + ".json").string()
-                  << "\n  " << check::to_json(f).dump();
+    ADD_FAILURE() << "seed " << seed << " (" << randomized::kind_name(rs.kind)
+                  << "): " << bad.front() << "\n  reproduce: vismap check "
+                  << fs::absolute(path + ".json").string() << "\n  " << check::to_json(f).dump();
   }
 }
 

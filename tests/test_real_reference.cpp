@@ -15,9 +15,13 @@ struct RealCase {
   std::string name, path;
   bool reference;
 };
-void PrintTo(const RealCase& c, std::ostream* os) { *os << c.name; }
+void PrintTo(const RealCase& c, std::ostream* os) {
+  *os << c.name;
+}
 
-std::string shared(const std::string& rel) { return std::string(VISMAP_SHARED_DATA_DIR) + "/" + rel; }
+std::string shared(const std::string& rel) {
+  return std::string(VISMAP_SHARED_DATA_DIR) + "/" + rel;
+}
 
 class RealMeshes : public ::testing::TestWithParam<RealCase> {};
 
@@ -44,12 +48,13 @@ TEST_P(RealMeshes, WithinTolerance) {
 
 INSTANTIATE_TEST_SUITE_P(
     Meshes, RealMeshes,
-    ::testing::Values(RealCase{"bunny_res4_reference", shared("stanford/bun_zipper_res4.ply"), true},
-                      RealCase{"teapot_reference", shared("teapot/teapot_c3d.obj"), true},
-                      RealCase{"bunny_res2_pixels", shared("stanford/bun_zipper_res2.ply"), false},
-                      RealCase{"happy_vrip_res3_pixels", shared("stanford/happy_vrip_res3.ply"), false},
-                      RealCase{"cornell_armadillo_pixels",
-                               std::string(VISMAP_SOURCE_DIR) + "/data/scenes/cornell_armadillo.json", false}),
+    ::testing::Values(
+        RealCase{"bunny_res4_reference", shared("stanford/bun_zipper_res4.ply"), true},
+        RealCase{"teapot_reference", shared("teapot/teapot_c3d.obj"), true},
+        RealCase{"bunny_res2_pixels", shared("stanford/bun_zipper_res2.ply"), false},
+        RealCase{"happy_vrip_res3_pixels", shared("stanford/happy_vrip_res3.ply"), false},
+        RealCase{"cornell_armadillo_pixels",
+                 std::string(VISMAP_SOURCE_DIR) + "/data/scenes/cornell_armadillo.json", false}),
     [](const ::testing::TestParamInfo<RealCase>& i) { return i.param.name; });
 
 }  // namespace

@@ -14,8 +14,8 @@
 #include "core/error.h"
 #include "core/pipeline.h"
 #include "core/stages/bin.h"
-#include "tests/support/triangle_scene.h"
 #include "kernels/layout.h"
+#include "tests/support/triangle_scene.h"
 
 namespace {
 
@@ -80,7 +80,9 @@ TEST(Stages, AdaptiveLeavesListEveryBoxAndOwnEveryPairOnce) {
 
   // Host model: leaf coordinates per tile, an item's leaves, its class in a leaf.
   auto tc = [](int v, int count) { return std::clamp(v >> 6, 0, count - 1); };
-  auto lc = [&](int v, int origin, int d) { return std::clamp((v - origin) >> (shift - d), 0, (1 << d) - 1); };
+  auto lc = [&](int v, int origin, int d) {
+    return std::clamp((v - origin) >> (shift - d), 0, (1 << d) - 1);
+  };
   struct Leaf {
     int tx, ty, d, lx, ly;
     uint32_t id;
@@ -105,7 +107,8 @@ TEST(Stages, AdaptiveLeavesListEveryBoxAndOwnEveryPairOnce) {
   std::vector<std::vector<Leaf>> item_leaves(n);
   for (uint32_t i = 0; i < n; ++i) {
     item_leaves[i] = leaves_of(boxes[i]);
-    for (const Leaf& l : item_leaves[i]) expect[l.id].push_back(uint64_t(klass(boxes[i], l)) << 32 | i);
+    for (const Leaf& l : item_leaves[i])
+      expect[l.id].push_back(uint64_t(klass(boxes[i], l)) << 32 | i);
   }
   for (uint32_t l = 0; l < nleaves; ++l) {
     std::sort(expect[l].begin(), expect[l].end());
@@ -129,7 +132,8 @@ TEST(Stages, AdaptiveLeavesListEveryBoxAndOwnEveryPairOnce) {
         uint32_t cj = k < cs[l.id].s[0] ? 0 : k < cs[l.id].s[1] ? 1 : k < cs[l.id].s[2] ? 2 : 3;
         if (j <= i || !((want >> cj) & 1)) continue;
         const cl_int4 &a = boxes[i], &b = boxes[j];
-        if (std::max(a.s[0], b.s[0]) >= std::min(a.s[2], b.s[2]) || std::max(a.s[1], b.s[1]) >= std::min(a.s[3], b.s[3]))
+        if (std::max(a.s[0], b.s[0]) >= std::min(a.s[2], b.s[2]) ||
+            std::max(a.s[1], b.s[1]) >= std::min(a.s[3], b.s[3]))
           continue;
         ++found[{i, j}];
       }
@@ -138,7 +142,8 @@ TEST(Stages, AdaptiveLeavesListEveryBoxAndOwnEveryPairOnce) {
   for (uint32_t i = 0; i < n; ++i)
     for (uint32_t j = i + 1; j < n; ++j) {
       const cl_int4 &a = boxes[i], &b = boxes[j];
-      if (std::max(a.s[0], b.s[0]) >= std::min(a.s[2], b.s[2]) || std::max(a.s[1], b.s[1]) >= std::min(a.s[3], b.s[3]))
+      if (std::max(a.s[0], b.s[0]) >= std::min(a.s[2], b.s[2]) ||
+          std::max(a.s[1], b.s[1]) >= std::min(a.s[3], b.s[3]))
         continue;
       ++overlapping;
       auto it = found.find({i, j});
@@ -163,17 +168,24 @@ std::vector<HostTri> host_clip(const Scene& s, const Camera& cam) {
       for (int k = 0; k < 3; ++k) {
         const float* p = &mesh.positions[3 * mesh.indices[3 * t + k]];
         std::array<double, 4> c{};
-        for (int r = 0; r < 4; ++r) c[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
+        for (int r = 0; r < 4; ++r)
+          c[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
         poly.push_back(c);
       }
       auto dist = [](const std::array<double, 4>& p, int k) {
         switch (k) {
-          case 0: return p[2] + p[3];
-          case 1: return p[3] - p[2];
-          case 2: return p[0] + p[3];
-          case 3: return p[3] - p[0];
-          case 4: return p[1] + p[3];
-          default: return p[3] - p[1];
+          case 0:
+            return p[2] + p[3];
+          case 1:
+            return p[3] - p[2];
+          case 2:
+            return p[0] + p[3];
+          case 3:
+            return p[3] - p[0];
+          case 4:
+            return p[1] + p[3];
+          default:
+            return p[3] - p[1];
         }
       };
       for (int k = 0; k < 6 && !poly.empty(); ++k) {
@@ -194,10 +206,12 @@ std::vector<HostTri> host_clip(const Scene& s, const Camera& cam) {
       if (poly.size() < 3) continue;
       std::vector<std::array<int, 2>> g;
       for (auto& p : poly)
-        g.push_back({int(std::rint((p[0] / p[3] + 1) * sx)), int(std::rint((1 - p[1] / p[3]) * sy))});
+        g.push_back(
+            {int(std::rint((p[0] / p[3] + 1) * sx)), int(std::rint((1 - p[1] / p[3]) * sy))});
       for (size_t i = 1; i + 1 < g.size(); ++i) {
         HostTri h{{g[0][0], g[i][0], g[i + 1][0]}, {g[0][1], g[i][1], g[i + 1][1]}};
-        long o = long(h.x[1] - h.x[0]) * (h.y[2] - h.y[0]) - long(h.y[1] - h.y[0]) * (h.x[2] - h.x[0]);
+        long o =
+            long(h.x[1] - h.x[0]) * (h.y[2] - h.y[0]) - long(h.y[1] - h.y[0]) * (h.x[2] - h.x[0]);
         if (o != 0) out.push_back(h);
       }
     }
@@ -274,7 +288,12 @@ uint64_t host_silhouettes(const ScreenTriangles& st) {
   for (size_t t = 0; t < st.size(); ++t)
     for (int k = 0; k < 3; ++k) {
       int k1 = (k + 1) % 3;
-      Key a{st.xy[6 * t + 2 * k], st.xy[6 * t + 2 * k + 1], st.xy[6 * t + 2 * k1], st.xy[6 * t + 2 * k1 + 1], 0, 0};
+      Key a{st.xy[6 * t + 2 * k],
+            st.xy[6 * t + 2 * k + 1],
+            st.xy[6 * t + 2 * k1],
+            st.xy[6 * t + 2 * k1 + 1],
+            0,
+            0};
       if (std::tie(a.x1, a.y1, a.q1) < std::tie(a.x0, a.y0, a.q0)) {
         std::swap(a.x0, a.x1);
         std::swap(a.y0, a.y1);
@@ -356,7 +375,6 @@ TEST(Stages, HostSyncsAreOnePerClipRoundPlusAFewPerStage) {
     EXPECT_LE(stats.host_syncs, stats.clip_rounds + 14) << "fold " << fold;
   }
 }
-
 
 // Launch errors name the kernel and the stage: a wrong argument count is caught before anything
 // is set (CL_KERNEL_NUM_ARGS), and an argument the runtime refuses names its index.

@@ -32,11 +32,13 @@ std::vector<std::string> corpus() {
 // Cases where the tie rule (lower mesh, then triangle, in front) decides part of the picture, so
 // reversing the order legitimately changes which source shows there.
 bool has_ties(const std::string& name) {
-  return name == "coplanar_overlap" || name == "soup_duplicated_vertices" || name == "coplanar_near_tie" ||
-         name == "tie_cycle";
+  return name == "coplanar_overlap" || name == "soup_duplicated_vertices" ||
+         name == "coplanar_near_tie" || name == "tie_cycle";
 }
 
-std::string describe(const check::SceneFigures& f) { return check::to_json(f).dump(); }
+std::string describe(const check::SceneFigures& f) {
+  return check::to_json(f).dump();
+}
 
 // coverage_error of a hole-free map: only the 2^-96 fixed-point area sums, ~1e-37 (far below
 // the 1e-12 "exact" tolerance of check::Tolerances, which a 1e-13 hole would pass). Holes at
@@ -47,7 +49,8 @@ class Stiff : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(Stiff, MatchesReferenceInBothOrders) {
   const std::string name = GetParam();
-  Scene scene = load_scene((fs::path(VISMAP_SOURCE_DIR) / "data/stiff" / (name + ".json")).string());
+  Scene scene =
+      load_scene((fs::path(VISMAP_SOURCE_DIR) / "data/stiff" / (name + ".json")).string());
   ASSERT_TRUE(scene.camera);
   Camera cam = *scene.camera;
   fit_near_far(cam, scene);
@@ -107,7 +110,8 @@ TEST_P(Stiff, MatchesReferenceInBothOrders) {
 TEST_P(Stiff, DISABLED_SameFragmentsInBothOrders) {
   const std::string name = GetParam();
   if (has_ties(name)) GTEST_SKIP();
-  Scene scene = load_scene((fs::path(VISMAP_SOURCE_DIR) / "data/stiff" / (name + ".json")).string());
+  Scene scene =
+      load_scene((fs::path(VISMAP_SOURCE_DIR) / "data/stiff" / (name + ".json")).string());
   Camera cam = *scene.camera;
   fit_near_far(cam, scene);
   check::SceneCheckOptions opts;
@@ -123,7 +127,8 @@ TEST_P(Stiff, DISABLED_SameFragmentsInBothOrders) {
 INSTANTIATE_TEST_SUITE_P(Corpus, Stiff, ::testing::ValuesIn(corpus()),
                          [](const ::testing::TestParamInfo<std::string>& i) {
                            std::string s = i.param;
-                           std::replace_if(s.begin(), s.end(), [](char c) { return !isalnum(c); }, '_');
+                           std::replace_if(
+                               s.begin(), s.end(), [](char c) { return !isalnum(c); }, '_');
                            return s;
                          });
 

@@ -4,9 +4,9 @@
 // dropped as a sliver, a hole. It is now decided at an exact rational point inside it.
 //
 // The scene: three front triangles F1..F3, each with an edge on one of three lines L1..L3 that
-// bound a triangle Δ of height 6e-10 grid units (found by a search: L3 passes 2^-30.6 grid units from
-// L1 ^ L2), each on the side of its line away from Δ, so that together they
-// cover a small back triangle B everywhere except Δ. B's only visible piece is Δ.
+// bound a triangle Δ of height 6e-10 grid units (found by a search: L3 passes 2^-30.6 grid units
+// from L1 ^ L2), each on the side of its line away from Δ, so that together they cover a small back
+// triangle B everywhere except Δ. B's only visible piece is Δ.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -107,7 +107,9 @@ TEST(ThinCells, AFragmentThinnerThanTheFineGridIsDecidedNotDropped) {
     EXPECT_EQ(st.sliver_fragments, 0u) << what;
     // B (mesh 0) is visible in Δ only, and only while nothing covers Δ.
     EXPECT_EQ(fragments_of(map, 0), covered ? 0u : 1u) << what;
-    if (covered) { EXPECT_GE(fragments_of(map, 4), 1u) << what; }
+    if (covered) {
+      EXPECT_GE(fragments_of(map, 4), 1u) << what;
+    }
 
     check::SceneCheckOptions opts;
     opts.pixels = 256;

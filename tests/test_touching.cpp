@@ -45,8 +45,8 @@ TEST(Touching, SurfacePassingBehindAcrossAMeshEdge) {
       check::SceneCheckOptions o;
       o.pixels = 256;
       check::SceneFigures f = check::check_scene(r, scene, test_support::ortho_view_256(scene), o);
-      const std::string what = "tilt " + std::to_string(tilt) + (reversed ? " reversed" : "") + ": " +
-                               check::to_json(f).dump();
+      const std::string what = "tilt " + std::to_string(tilt) + (reversed ? " reversed" : "") +
+                               ": " + check::to_json(f).dump();
       EXPECT_EQ(f.crossing_lines > 0, true) << what;  // the touching pair's edges
       EXPECT_EQ(*f.overlap_area, 0.0) << what;
       EXPECT_EQ(*f.area_error, 0.0) << what;

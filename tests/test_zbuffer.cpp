@@ -42,9 +42,9 @@ TEST(ZBuffer, NearestTriangleWinsEachPixel) {
   ASSERT_EQ(ids.size(), 64u * 64u);
   EXPECT_EQ(rs.screen_triangles, 4u);
   auto at = [&](int x, int y) { return ids[size_t(y) * 64 + x]; };
-  EXPECT_EQ(at(0, 0), 0xffffffffu);            // outside both
-  EXPECT_LT(at(16, 32), 2u);                   // left half: only the back quad
-  EXPECT_GE(at(48, 32), 2u);                   // right half: the front quad
+  EXPECT_EQ(at(0, 0), 0xffffffffu);  // outside both
+  EXPECT_LT(at(16, 32), 2u);         // left half: only the back quad
+  EXPECT_GE(at(48, 32), 2u);         // right half: the front quad
   EXPECT_NE(at(48, 32), 0xffffffffu);
 }
 

@@ -30,8 +30,8 @@ struct SceneFigures {
   size_t input_triangles = 0, screen_triangles = 0, fragments = 0, thin_fragments = 0,
          sliver_fragments = 0;
   size_t deep_tournaments = 0;  // fragments decided by occlude_deep (> VM_TOUR_MAX competitors)
-  size_t crossing_lines = 0;  // clipping lines from penetrating pairs (snapped)
-  double pipeline_ms = 0;     // Renderer::render wall time
+  size_t crossing_lines = 0;    // clipping lines from penetrating pairs (snapped)
+  double pipeline_ms = 0;       // Renderer::render wall time
   std::optional<double> area_error, xor_area, visible_area;  // vs the exact reference
   std::optional<size_t> wrong_source, partly_outside;
   // The same outside the crossing pairs' snap bands (ReferenceReport): exact with or without

@@ -1,7 +1,6 @@
 // vismapd's configuration: flags and the JSON config file, and what the binary refuses to start
 // with. The binary tests run build/server/vismapd itself (VISMAPD_PATH).
 #include <gtest/gtest.h>
-
 #include <sys/wait.h>
 #include <unistd.h>
 

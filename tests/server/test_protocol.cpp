@@ -18,7 +18,9 @@ static std::string code_of(const std::string& text, uint64_t max_scene = 1000) {
 }
 
 TEST(Protocol, HelloNegotiatesVersion) {
-  auto r = parse_request(R"({"type":"hello","versions":[3,1],"format":"bin","viewport":{"width":64,"height":32}})", 10, 4096);
+  auto r = parse_request(
+      R"({"type":"hello","versions":[3,1],"format":"bin","viewport":{"width":64,"height":32}})", 10,
+      4096);
   auto& h = std::get<Hello>(r);
   EXPECT_EQ(h.version, 1);
   EXPECT_EQ(h.format, Format::Bin);
@@ -44,8 +46,10 @@ TEST(Protocol, ErrorCodes) {
   EXPECT_EQ(code_of(R"({"type":"dance"})"), "unknown_message");
   EXPECT_EQ(code_of(R"({"type":"hello"})"), "bad_message");
   EXPECT_EQ(code_of(R"({"type":"hello","version":1,"format":"png"})"), "bad_message");
-  EXPECT_EQ(code_of(R"({"type":"hello","version":1,"viewport":{"width":0,"height":5}})"), "bad_message");
-  EXPECT_EQ(code_of(R"({"type":"hello","version":1,"viewport":{"width":99999,"height":5}})"), "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":1,"viewport":{"width":0,"height":5}})"),
+            "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":1,"viewport":{"width":99999,"height":5}})"),
+            "bad_message");
   EXPECT_EQ(code_of(R"({"type":"scene","name":"a.obj"})"), "bad_message");
   EXPECT_EQ(code_of(R"({"type":"scene","name":"a.obj","size":10,"library":"x"})"), "bad_message");
   EXPECT_EQ(code_of(R"({"type":"scene","name":"a.obj","size":1001})"), "too_large");
@@ -69,7 +73,9 @@ TEST(Protocol, Base64Scene) {
 }
 
 TEST(Protocol, CameraFieldsApply) {
-  auto r = parse_request(R"({"type":"camera","seq":7,"eye":[1,2,3],"projection":"orthographic","ortho_height":4})", 1, 4096);
+  auto r = parse_request(
+      R"({"type":"camera","seq":7,"eye":[1,2,3],"projection":"orthographic","ortho_height":4})", 1,
+      4096);
   auto& c = std::get<CameraRequest>(r);
   vismap::Camera cam;
   c.apply_to(cam);
@@ -81,12 +87,16 @@ TEST(Protocol, CameraFieldsApply) {
 
 TEST(Protocol, InputErrorKindsMirrorToCodes) {
   using K = vismap::InputErrorKind;
-  const std::pair<K, const char*> kinds[] = {
-      {K::FileNotFound, "file_not_found"},     {K::UnknownFormat, "unknown_format"},
-      {K::Truncated, "truncated"},             {K::ParseError, "parse_error"},
-      {K::NonFiniteVertex, "non_finite_vertex"}, {K::IndexOutOfRange, "index_out_of_range"},
-      {K::EmptyMesh, "empty_mesh"},            {K::BadScene, "bad_scene"},
-      {K::BadCamera, "bad_camera"},            {K::TooLarge, "too_large"}};
+  const std::pair<K, const char*> kinds[] = {{K::FileNotFound, "file_not_found"},
+                                             {K::UnknownFormat, "unknown_format"},
+                                             {K::Truncated, "truncated"},
+                                             {K::ParseError, "parse_error"},
+                                             {K::NonFiniteVertex, "non_finite_vertex"},
+                                             {K::IndexOutOfRange, "index_out_of_range"},
+                                             {K::EmptyMesh, "empty_mesh"},
+                                             {K::BadScene, "bad_scene"},
+                                             {K::BadCamera, "bad_camera"},
+                                             {K::TooLarge, "too_large"}};
   for (auto [k, name] : kinds)
     EXPECT_EQ(error_code(vismap::InputError(k, "f", "", "", -1, "m")), name);
 }
@@ -112,6 +122,7 @@ TEST(Protocol, ErrorJson) {
 
 // Found by tests/fuzz/fuzz_protocol.cpp: a viewport without "height" dereferenced a null field.
 TEST(Protocol, RegressionViewportMissingHeight) {
-  EXPECT_EQ(code_of(R"({"type":"hello","version":1,"viewport":{"width":64,"h*ight":64}})"), "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":1,"viewport":{"width":64,"h*ight":64}})"),
+            "bad_message");
   EXPECT_EQ(code_of(R"({"type":"camera","viewport":{"height":64}})"), "bad_message");
 }

@@ -19,10 +19,16 @@ TEST(RenderQueue, LatestTaskWinsPerSession) {
   std::atomic<bool> release{false};
   std::atomic<int> ran{0}, last{-1};
   uint64_t blocker = q.add_session();
-  q.submit(blocker, [&](vismap::Renderer*) { while (!release) std::this_thread::sleep_for(1ms); });
+  q.submit(blocker, [&](vismap::Renderer*) {
+    while (!release) std::this_thread::sleep_for(1ms);
+  });
   std::this_thread::sleep_for(20ms);  // the worker is now busy with the blocker
   int replaced = 0;
-  for (int i = 0; i < 100; ++i) replaced += q.submit(a, [&, i](vismap::Renderer*) { ++ran; last = i; });
+  for (int i = 0; i < 100; ++i)
+    replaced += q.submit(a, [&, i](vismap::Renderer*) {
+      ++ran;
+      last = i;
+    });
   EXPECT_EQ(replaced, 99);
   EXPECT_EQ(q.pending(), 1u);
   release = true;
@@ -62,7 +68,9 @@ TEST(RenderQueue, RemovedSessionDropsPendingTask) {
   RenderQueue q(1, nullptr);
   uint64_t blocker = q.add_session(), s = q.add_session();
   std::atomic<bool> release{false}, ran{false};
-  q.submit(blocker, [&](vismap::Renderer*) { while (!release) std::this_thread::sleep_for(1ms); });
+  q.submit(blocker, [&](vismap::Renderer*) {
+    while (!release) std::this_thread::sleep_for(1ms);
+  });
   std::this_thread::sleep_for(20ms);
   q.submit(s, [&](vismap::Renderer*) { ran = true; });
   q.remove_session(s);
@@ -73,7 +81,9 @@ TEST(RenderQueue, RemovedSessionDropsPendingTask) {
 }
 
 TEST(RenderQueue, FactoryFailureIsReportedNotFatal) {
-  RenderQueue q(1, [] () -> std::unique_ptr<vismap::Renderer> { throw std::runtime_error("no OpenCL platform"); });
+  RenderQueue q(1, []() -> std::unique_ptr<vismap::Renderer> {
+    throw std::runtime_error("no OpenCL platform");
+  });
   uint64_t s = q.add_session();
   std::atomic<bool> got_null{false};
   q.submit(s, [&](vismap::Renderer* r) { got_null = r == nullptr; });

@@ -2,26 +2,23 @@
 // formats, every error code a session can get, every limit, concurrency, slow and vanishing
 // clients, a bounded soak and the graceful stop. Every wait is bounded.
 #include <gtest/gtest.h>
-
-#include <atomic>
-#include <chrono>
-#include <cmath>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <mutex>
-#include <random>
-#include <thread>
-
-#include <nlohmann/json.hpp>
-
 #include <signal.h>
 #include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <boost/asio.hpp>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <thread>
 
 #include "clients/wsclient.h"
 #include "core/error.h"
@@ -102,7 +99,10 @@ class ServerTest : public ::testing::Test {
   }
   void hello(WsClient& c, const std::string& format = "svg", json extra = json::object()) {
     c.connect(url());
-    json h = {{"type", "hello"}, {"version", 1}, {"format", format}, {"viewport", {{"width", 128}, {"height", 96}}}};
+    json h = {{"type", "hello"},
+              {"version", 1},
+              {"format", format},
+              {"viewport", {{"width", 128}, {"height", 96}}}};
     h.update(extra);
     c.send_text(h.dump());
     json w = next(c);
@@ -125,8 +125,11 @@ class ServerTest : public ::testing::Test {
   }
   // Sends a camera and returns {header, payload}.
   std::pair<json, Message> frame(WsClient& c, uint64_t seq, double angle = 0) {
-    c.send_text(json{{"type", "camera"}, {"seq", seq}, {"eye", {3 * std::sin(angle), 1.5, 3 * std::cos(angle)}},
-                     {"target", {0.25, 0.25, 0.25}}}.dump());
+    c.send_text(json{{"type", "camera"},
+                     {"seq", seq},
+                     {"eye", {3 * std::sin(angle), 1.5, 3 * std::cos(angle)}},
+                     {"target", {0.25, 0.25, 0.25}}}
+                    .dump());
     json h = next(c, 60);
     EXPECT_EQ(h["type"], "frame") << h.dump();
     Message p = c.read(60);
@@ -188,7 +191,8 @@ TEST_F(ServerTest, UploadAndSvgFrames) {
   // Counted when the server's write completes, which may be just after the client has the bytes.
   bool counted = false;
   for (int i = 0; i < 200 && !counted; ++i) {
-    counted = http_get("127.0.0.1", port_, "/metrics").body.find("vismap_frames_total 3\n") != std::string::npos;
+    counted = http_get("127.0.0.1", port_, "/metrics").body.find("vismap_frames_total 3\n") !=
+              std::string::npos;
     if (!counted) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   EXPECT_TRUE(counted);
@@ -252,9 +256,10 @@ TEST_F(ServerTest, ErrorCodesKeepTheSessionGoing) {
   // The loaders' remaining kinds, end to end: each an error with its code, the session goes on.
   upload(c, "empty.obj", "# no faces\nv 0 0 0\n");
   EXPECT_EQ(next(c, 60)["code"], "empty_mesh");
-  upload(c, "short.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
-                         "property float y\nproperty float z\nelement face 1\n"
-                         "property list uchar int vertex_indices\nend_header\n\x01\x02");
+  upload(c, "short.ply",
+         "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+         "property float y\nproperty float z\nelement face 1\n"
+         "property list uchar int vertex_indices\nend_header\n\x01\x02");
   EXPECT_EQ(next(c, 60)["code"], "truncated");
   upload(c, "scene.json", R"({"meshes":[{"file":"x.obj","scal":2}]})");
   EXPECT_EQ(next(c, 60)["code"], "bad_scene");
@@ -282,7 +287,8 @@ TEST_F(ServerTest, LimitsOnSizes) {
   hello(c);
   c.send_text(json{{"type", "scene"}, {"name", "big.obj"}, {"size", 2000}}.dump());
   expect_error(c, "too_large");
-  c.send_text(json{{"type", "scene"}, {"name", "big.obj"}, {"data", b64(std::string(1500, 'v'))}}.dump());
+  c.send_text(
+      json{{"type", "scene"}, {"name", "big.obj"}, {"data", b64(std::string(1500, 'v'))}}.dump());
   expect_error(c, "too_large");
   c.send_text(json{{"type", "ping"}, {"pad", std::string(300, 'x')}}.dump());
   expect_error(c, "too_large");
@@ -315,7 +321,9 @@ TEST_F(ServerTest, LimitOnRenderMemory) {
   WsClient c;
   hello(c);
   ready(c);
-  c.send_text(json{{"type", "camera"}, {"seq", 1}, {"eye", {0, 1.5, 3}}, {"target", {0.25, 0.25, 0.25}}}.dump());
+  c.send_text(
+      json{{"type", "camera"}, {"seq", 1}, {"eye", {0, 1.5, 3}}, {"target", {0.25, 0.25, 0.25}}}
+          .dump());
   json e = next(c, 60);
   EXPECT_EQ(e["type"], "error") << e.dump();
   EXPECT_EQ(e["code"], "too_large") << e.dump();
@@ -375,7 +383,8 @@ TEST_F(ServerTest, HandshakeAndIdleTimeouts) {
   double waited = wait_for_server_close("127.0.0.1", port_, "", 10);
   EXPECT_GE(waited, 0.2);
   EXPECT_LT(waited, 5);
-  waited = wait_for_server_close("127.0.0.1", port_, "GET / HTTP/1.1\r\nHost: x\r\n", 10);  // never ends
+  waited =
+      wait_for_server_close("127.0.0.1", port_, "GET / HTTP/1.1\r\nHost: x\r\n", 10);  // never ends
   EXPECT_GE(waited, 0.2);
   WsClient silent;
   silent.connect(url());
@@ -424,8 +433,9 @@ std::string grid_obj(int n) {
   std::string s;
   for (int j = 0; j <= n; ++j)
     for (int i = 0; i <= n; ++i)
-      s += "v " + std::to_string(double(i) / n) + " " + std::to_string(0.1 * std::sin(i * 0.7) * std::cos(j * 0.3)) +
-           " " + std::to_string(double(j) / n) + "\n";
+      s += "v " + std::to_string(double(i) / n) + " " +
+           std::to_string(0.1 * std::sin(i * 0.7) * std::cos(j * 0.3)) + " " +
+           std::to_string(double(j) / n) + "\n";
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) {
       int a = j * (n + 1) + i + 1, b = a + 1, c = a + n + 1, d = c + 1;
@@ -451,8 +461,12 @@ TEST_F(ServerTest, HeavySessionCannotStarveALightOne) {
     try {
       for (uint64_t i = 0; !stop;) {
         for (int k = 0; k < 5; ++k, ++i)
-          heavy.send_text(json{{"type", "camera"}, {"seq", i}, {"eye", {0.5 + 2 * std::sin(0.01 * i), 1.5, 2 * std::cos(0.01 * i)}},
-                               {"target", {0.5, 0, 0.5}}}.dump());
+          heavy.send_text(json{
+              {"type", "camera"},
+              {"seq", i},
+              {"eye", {0.5 + 2 * std::sin(0.01 * i), 1.5, 2 * std::cos(0.01 * i)}},
+              {"target",
+               {0.5, 0, 0.5}}}.dump());
         heavy_sent = i;
         EXPECT_EQ(next(heavy, 60)["type"], "frame");
         heavy.read(60);
@@ -466,11 +480,13 @@ TEST_F(ServerTest, HeavySessionCannotStarveALightOne) {
   ready(light);
   uint64_t frames_before = server_->metrics().frames;
   for (int i = 0; i < 20; ++i) frame(light, i, 0.2 * i);
-  uint64_t total = server_->metrics().frames - frames_before;  // light (20) + heavy frames meanwhile
+  uint64_t total =
+      server_->metrics().frames - frames_before;  // light (20) + heavy frames meanwhile
   stop = true;
   spam.join();
   std::printf("light frames 20, heavy frames meanwhile %llu, heavy cameras sent %llu\n",
-              static_cast<unsigned long long>(total - 20), static_cast<unsigned long long>(heavy_sent.load()));
+              static_cast<unsigned long long>(total - 20),
+              static_cast<unsigned long long>(heavy_sent.load()));
   EXPECT_LE(total - 20, 20u + 2);  // the heavy session got no more turns than the light one
   EXPECT_GT(heavy_sent.load(), total - 20);  // while sending many more cameras than it got frames
 }
@@ -482,7 +498,10 @@ TEST_F(ServerTest, SlowClientGetsTheLatestCamera) {
   ready(c);
   constexpr int kCameras = 100;
   for (int i = 0; i < kCameras; ++i)
-    c.send_text(json{{"type", "camera"}, {"seq", i}, {"eye", {3 * std::sin(0.05 * i), 1, 3 * std::cos(0.05 * i)}}}.dump());
+    c.send_text(json{{"type", "camera"},
+                     {"seq", i},
+                     {"eye", {3 * std::sin(0.05 * i), 1, 3 * std::cos(0.05 * i)}}}
+                    .dump());
   // Every camera is either rendered or replaced by a newer one; the last one is always rendered.
   uint64_t frames = 0, skipped = 0, last = 0;
   while (last != kCameras - 1) {
@@ -532,16 +551,22 @@ TEST_F(ServerTest, BoundedSoakWithHostileClients) {
           ready(c);
           for (int i = 0; i < 20 && !stop; ++i) {
             switch (rng() % 6) {
-              case 0: c.send_text(std::string(rng() % 50, char('!' + rng() % 90))); break;
+              case 0:
+                c.send_text(std::string(rng() % 50, char('!' + rng() % 90)));
+                break;
               case 1: {
                 std::string junk(rng() % 2000, '\0');
                 for (char& ch : junk) ch = char(rng());
                 c.send_binary(junk);
                 break;
               }
-              case 2: c.send_text(R"({"type":"scene","name":"a.obj","size":7})"); break;
+              case 2:
+                c.send_text(R"({"type":"scene","name":"a.obj","size":7})");
+                break;
               default:
-                c.send_text(json{{"type", "camera"}, {"seq", i}, {"eye", {std::sin(i), 0.5, std::cos(i) * 3}}}.dump());
+                c.send_text(json{
+                    {"type", "camera"}, {"seq", i}, {"eye", {std::sin(i), 0.5, std::cos(i) * 3}}}
+                                .dump());
             }
             while (true) c.read(0.01);  // drain whatever came back
           }
@@ -573,8 +598,10 @@ TEST_F(ServerTest, GracefulStopFinishesFramesAndRefusesNewConnections) {
   try {
     for (int i = 0; i < 10; ++i) {
       Message m = c.read(15);
-      if (header && !payload) payload = true;
-      else if (!m.binary && json::parse(m.data)["type"] == "frame") header = true;
+      if (header && !payload)
+        payload = true;
+      else if (!m.binary && json::parse(m.data)["type"] == "frame")
+        header = true;
     }
   } catch (const Closed& e) {
     code = e.code;
@@ -585,7 +612,6 @@ TEST_F(ServerTest, GracefulStopFinishesFramesAndRefusesNewConnections) {
   WsClient late;
   EXPECT_ANY_THROW(late.connect(url(), 2));
 }
-
 
 // Issue 15, bug 8: with --renderers 2 every other frame failed with device_error "no OpenCL
 // device found", and 3 or 8 segfaulted at start inside PoCL: the Renderers were built
@@ -649,8 +675,7 @@ TEST_F(ServerTest, DeepJsonNestingRefusedBeforeParsing) {
   start();
   WsClient c;
   hello(c);
-  c.send_text(R"({"type":"ping","seq":1,"x":)" + std::string(50, '[') + std::string(50, ']') +
-              "}");
+  c.send_text(R"({"type":"ping","seq":1,"x":)" + std::string(50, '[') + std::string(50, ']') + "}");
   expect_error(c, "bad_message");
   c.send_text(R"({"type":"ping","seq":2,"x":[[1]]})");
   EXPECT_EQ(next(c)["type"], "pong");
@@ -986,9 +1011,10 @@ TEST_F(ServerTest, GzipInflatedBytesChargedToTheSession) {
   start();
   std::string ply = "ply\nformat ascii 1.0\n";
   while (ply.size() < (3u << 20)) ply += "comment padding that inflates to three mebibytes\n";
-  ply += "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-         "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
-         "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  ply +=
+      "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
   fs::path raw = lib_ / "pad.ply";
   std::ofstream(raw, std::ios::binary) << ply;
   ASSERT_EQ(std::system(("gzip -kf " + raw.string()).c_str()), 0);
@@ -1013,8 +1039,8 @@ TEST(VismapdProcess, SigtermDuringAFrameExitsByTheDrainDeadline) {
   fs::path dir = fs::temp_directory_path() / ("vismapd_sigterm_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   std::ofstream(dir / "tet.obj") << kTet;
-  std::ofstream(dir / "conf.json") << R"({"drain_timeout_s":0.6,"library":")" + dir.string() +
-                                          R"("})";
+  std::ofstream(dir / "conf.json")
+      << R"({"drain_timeout_s":0.6,"library":")" + dir.string() + R"("})";
   ::setenv("VISMAPD_TEST_FRAME_DELAY_S", "4", 1);
   Vismapd d({"--port", "0", "--config", (dir / "conf.json").string()});
   ::unsetenv("VISMAPD_TEST_FRAME_DELAY_S");

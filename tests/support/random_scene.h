@@ -7,10 +7,9 @@
 #include <cmath>
 #include <cstdint>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <string>
-
-#include <nlohmann/json.hpp>
 
 #include "core/camera.h"
 #include "core/scene.h"
@@ -87,8 +86,10 @@ inline RandomScene random_scene(uint64_t seed) {
   Camera& c = r.camera;
   c.width = c.height = 256;
   const double th = uni(0, 2 * M_PI), ph = uni(0.1, 1.4), dist = uni(2.5, 6);
-  c.eye = {dist * std::cos(ph) * std::cos(th), dist * std::cos(ph) * std::sin(th), dist * std::sin(ph)};
-  if (r.kind == RandomKind::Coplanar || pick(3) == 0) c.eye = {uni(-0.3, 0.3), uni(-0.3, 0.3), dist};
+  c.eye = {dist * std::cos(ph) * std::cos(th), dist * std::cos(ph) * std::sin(th),
+           dist * std::sin(ph)};
+  if (r.kind == RandomKind::Coplanar || pick(3) == 0)
+    c.eye = {uni(-0.3, 0.3), uni(-0.3, 0.3), dist};
   c.target = {uni(-0.2, 0.2), uni(-0.2, 0.2), uni(-0.2, 0.2)};
   c.up = {0, 1, 0};
   if (pick(3) == 0) {
@@ -110,20 +111,31 @@ inline void write_scene(const RandomScene& r, const std::string& path) {
   for (const Mesh& m : r.scene.meshes) {
     obj << "o " << m.name << "\n";
     for (size_t v = 0; v < m.vertex_count(); ++v)
-      obj << "v " << m.positions[3 * v] << " " << m.positions[3 * v + 1] << " " << m.positions[3 * v + 2] << "\n";
+      obj << "v " << m.positions[3 * v] << " " << m.positions[3 * v + 1] << " "
+          << m.positions[3 * v + 2] << "\n";
     for (size_t t = 0; t < m.triangle_count(); ++t)
-      obj << "f " << base + m.indices[3 * t] << " " << base + m.indices[3 * t + 1] << " " << base + m.indices[3 * t + 2] << "\n";
+      obj << "f " << base + m.indices[3 * t] << " " << base + m.indices[3 * t + 1] << " "
+          << base + m.indices[3 * t + 2] << "\n";
     base += uint32_t(m.vertex_count());
   }
   const Camera& c = r.camera;
-  nlohmann::json cam = {{"type", c.projection == Camera::Projection::Orthographic ? "orthographic" : "perspective"},
-                        {"eye", c.eye}, {"target", c.target}, {"up", c.up}, {"near", c.near_plane},
-                        {"far", c.far_plane}, {"width", c.width}, {"height", c.height}};
-  if (c.projection == Camera::Projection::Orthographic) cam["ortho_height"] = c.ortho_height;
-  else cam["fov_y_deg"] = c.fov_y_deg;
+  nlohmann::json cam = {
+      {"type", c.projection == Camera::Projection::Orthographic ? "orthographic" : "perspective"},
+      {"eye", c.eye},
+      {"target", c.target},
+      {"up", c.up},
+      {"near", c.near_plane},
+      {"far", c.far_plane},
+      {"width", c.width},
+      {"height", c.height}};
+  if (c.projection == Camera::Projection::Orthographic)
+    cam["ortho_height"] = c.ortho_height;
+  else
+    cam["fov_y_deg"] = c.fov_y_deg;
   std::string stem = path.substr(path.find_last_of('/') + 1);
   nlohmann::json j = {{"comment", std::string("random scene, kind ") + kind_name(r.kind)},
-                      {"meshes", {{{"file", stem + ".obj"}}}}, {"camera", cam}};
+                      {"meshes", {{{"file", stem + ".obj"}}}},
+                      {"camera", cam}};
   std::ofstream(path + ".json") << j.dump(1) << "\n";
 }
 
