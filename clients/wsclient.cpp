@@ -1,6 +1,10 @@
 #include "clients/wsclient.h"
 
+// clang-format off
 // Boost 1.74 asio/awaitable.hpp uses std::exchange without <utility> (fails under C++20, g++ 12).
+#include <utility>  // before any Boost.Asio header
+// clang-format on
+
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>

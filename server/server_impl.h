@@ -3,7 +3,11 @@
 // render queue, the counters that hold connection and session slots, the session registry.
 #pragma once
 
+// clang-format off
 // Boost 1.74 asio/awaitable.hpp uses std::exchange without <utility> (fails under C++20, g++ 12).
+#include <utility>  // before any Boost.Asio header
+// clang-format on
+
 #include <atomic>
 #include <boost/asio.hpp>
 #include <chrono>
