@@ -196,6 +196,55 @@ inline bool pair_line_of(uint a, uint b, __global const VmEdge* edges, uint nsil
 #define VM_TOUR_MAX 64
 #endif
 
+/* The visible member of a cycle whose members mem[0..k) are sorted by screen-triangle index.
+ * The cycle lies near the triple points of its members: c = the mean of the intersections of
+ * any two crossing lines of its pairs that share a member. The visible one is the member in
+ * front at c (true depth planes), ties to the lower index: a function of the cycle only, so the
+ * same over the whole cell and for every member. Defined for a private member list (wins_cycle)
+ * and a global one (occlude_deep): OpenCL C 1.2 has no generic address space. */
+#define VM_DEFINE_CYCLE_WINNER(NAME, SPACE)                                                   \
+  inline uint NAME(SPACE const uint* mem, uint k, __global const VmScreenTri* tris,           \
+                   __global const VmEdge* edges, uint nsil, __global const uint* cross_offset, \
+                   __global const uint* cross_count, __global const uint* partner) {           \
+    double2 c = (double2)(0, 0);                                                              \
+    uint nc = 0;                                                                              \
+    for (uint a = 0; a < k; ++a)                                                              \
+      for (uint b = 0; b < k; ++b) {                                                          \
+        if (b == a) continue;                                                                 \
+        Line3 L1;                                                                             \
+        if (!pair_line_of(mem[a], mem[b], edges, nsil, cross_offset, cross_count, partner,    \
+                          &L1))                                                               \
+          continue;                                                                           \
+        for (uint d = b + 1; d < k; ++d) {                                                    \
+          if (d == a) continue;                                                               \
+          Line3 L2;                                                                           \
+          if (!pair_line_of(mem[a], mem[d], edges, nsil, cross_offset, cross_count, partner,  \
+                            &L2))                                                             \
+            continue;                                                                         \
+          if (L1.a * L2.b - L2.a * L1.b == 0) continue;                                       \
+          c += vertex_approx(L1, L2);                                                         \
+          ++nc;                                                                               \
+        }                                                                                     \
+      }                                                                                       \
+    uint best = mem[0];                                                                       \
+    if (nc > 0) {                                                                             \
+      c /= (double)nc;                                                                        \
+      VmScreenTri B = tris[best];                                                             \
+      double qb = tri_depth_at(&B, c.x, c.y);                                                 \
+      for (uint a = 1; a < k; ++a) {                                                          \
+        VmScreenTri A = tris[mem[a]];                                                         \
+        double qa = tri_depth_at(&A, c.x, c.y);                                               \
+        if (qa > qb) {                                                                        \
+          best = mem[a];                                                                      \
+          qb = qa;                                                                            \
+        }                                                                                     \
+      }                                                                                       \
+    }                                                                                         \
+    return best;                                                                              \
+  }
+VM_DEFINE_CYCLE_WINNER(cycle_winner, )
+VM_DEFINE_CYCLE_WINNER(cycle_winner_global, __global)
+
 /* Triangle t = ids[0] (which has crossing entries) is hidden at the point; ids[0..n) are the
  * triangles covering the point (competes()), in tile order after t. Near a triple point the
  * independently snapped crossing lines can order the covering triangles cyclically (a over b
@@ -259,43 +308,7 @@ inline bool wins_cycle(const uint* ids, uint n, __global const VmScreenTri* tris
       }
       mem[j] = ids[v];
     }
-  /* The cycle lies near the triple points of its members: c = the mean of the intersections
-   * of any two crossing lines of its pairs that share a member. The visible one is the member in
-   * front at c (true depth planes), ties to the lower index: a function of the cycle only, so
-   * the same over the whole cell and for every member. */
-  double2 c = (double2)(0, 0);
-  uint nc = 0;
-  for (uint a = 0; a < k; ++a)
-    for (uint b = 0; b < k; ++b) {
-      if (b == a) continue;
-      Line3 L1;
-      if (!pair_line_of(mem[a], mem[b], edges, nsil, cross_offset, cross_count, partner, &L1))
-        continue;
-      for (uint d = b + 1; d < k; ++d) {
-        if (d == a) continue;
-        Line3 L2;
-        if (!pair_line_of(mem[a], mem[d], edges, nsil, cross_offset, cross_count, partner, &L2))
-          continue;
-        if (L1.a * L2.b - L2.a * L1.b == 0) continue;
-        c += vertex_approx(L1, L2);
-        ++nc;
-      }
-    }
-  uint best = mem[0];
-  if (nc > 0) {
-    c /= (double)nc;
-    VmScreenTri B = tris[best];
-    double qb = tri_depth_at(&B, c.x, c.y);
-    for (uint a = 1; a < k; ++a) {
-      VmScreenTri A = tris[mem[a]];
-      double qa = tri_depth_at(&A, c.x, c.y);
-      if (qa > qb) {
-        best = mem[a];
-        qb = qa;
-      }
-    }
-  }
-  return best == t;
+  return cycle_winner(mem, k, tris, edges, nsil, cross_offset, cross_count, partner) == t;
 }
 
 /* occlude() leaves this in visible[] for a fragment it found no fine-grid point in. */
@@ -538,7 +551,7 @@ __kernel void occlude_deep(__global const VmFragMeta* meta, __global const VmLin
     return;
   }
   /* A cycle: its members by screen-triangle index (in order[], no longer needed for scores),
-   * then the member in front at the centre of their crossing lines' intersections. */
+   * and the one of them in front at the cycle's centre (cycle_winner). */
   uint nm = 0;
   for (uint v = 0; v < nc; ++v)
     if (score[v] >= nc - k) {
@@ -549,37 +562,7 @@ __kernel void occlude_deep(__global const VmFragMeta* meta, __global const VmLin
       }
       order[j] = ids[v];
     }
-  double2 c = (double2)(0, 0);
-  uint ncut = 0;
-  for (uint a = 0; a < nm; ++a)
-    for (uint b = 0; b < nm; ++b) {
-      if (b == a) continue;
-      Line3 L1;
-      if (!pair_line_of(order[a], order[b], edges, nsil, cross_offset, cross_count, partner, &L1))
-        continue;
-      for (uint d = b + 1; d < nm; ++d) {
-        if (d == a) continue;
-        Line3 L2;
-        if (!pair_line_of(order[a], order[d], edges, nsil, cross_offset, cross_count, partner, &L2))
-          continue;
-        if (L1.a * L2.b - L2.a * L1.b == 0) continue;
-        c += vertex_approx(L1, L2);
-        ++ncut;
-      }
-    }
-  uint best = order[0];
-  if (ncut > 0) {
-    c /= (double)ncut;
-    VmScreenTri B = tris[best];
-    double qb = tri_depth_at(&B, c.x, c.y);
-    for (uint a = 1; a < nm; ++a) {
-      VmScreenTri A = tris[order[a]];
-      double qa = tri_depth_at(&A, c.x, c.y);
-      if (qa > qb) {
-        best = order[a];
-        qb = qa;
-      }
-    }
-  }
+  const uint best =
+      cycle_winner_global(order, nm, tris, edges, nsil, cross_offset, cross_count, partner);
   visible[i] = best == tri ? 1 : 0;
 }
