@@ -333,10 +333,8 @@ void ClRuntime::fill_u32(cl::Buffer& b, uint32_t value, size_t count, Stage stag
 void ClRuntime::scan_level(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
   uint32_t blocks = static_cast<uint32_t>((n + VM_SCAN_BLOCK - 1) / VM_SCAN_BLOCK);
   cl::Buffer sums = alloc(blocks * sizeof(uint32_t), "scan block sums");
-  Kernel& k = kernel("scan_blocks");
-  check_arity(k, stage, "scan_blocks", 4);
-  set_args(k, stage, "scan_blocks", 0, counts, offsets, n, sums);
-  enqueue(stage, "scan_blocks", k.k, size_t(blocks) * VM_SCAN_WG, VM_SCAN_WG);
+  launch_grouped(stage, "scan_blocks", size_t(blocks) * VM_SCAN_WG, VM_SCAN_WG, counts, offsets, n,
+                 sums);
   if (blocks > 1) {
     cl::Buffer sum_offsets = alloc(blocks * sizeof(uint32_t), "scan block offsets");
     scan_level(stage, sums, sum_offsets, blocks);

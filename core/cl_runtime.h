@@ -49,11 +49,16 @@ class ClRuntime {
   // kernel's (CL_KERNEL_NUM_ARGS); any failure is a DeviceError naming kernel and stage.
   template <class... Args>
   void launch(Stage stage, const char* name, size_t n, const Args&... args) {
+    launch_grouped(stage, name, n, 0, args...);
+  }
+  // The same in work-groups of `local` items (0: the default size).
+  template <class... Args>
+  void launch_grouped(Stage stage, const char* name, size_t n, size_t local, const Args&... args) {
     if (n == 0) return;
     Kernel& k = kernel(name);
     check_arity(k, stage, name, sizeof...(Args));
     set_args(k, stage, name, 0, args...);
-    enqueue(stage, name, k.k, n, 0);
+    enqueue(stage, name, k.k, n, local);
   }
   void enqueue(Stage stage, const char* name, cl::Kernel& k, size_t n, size_t local);
 

@@ -10,20 +10,16 @@
 #include "core/pipeline.h"
 #include "core/reference/scene_check.h"
 #include "tests/support/random_scene.h"
+#include "tests/support/triangle_scene.h"
 
 namespace {
 
 using namespace vismap;
+using test_support::map_area;
 
 Renderer& renderer() {
   static Renderer r;
   return r;
-}
-
-double map_area(const PlanarMap& m) {
-  double a = 0;
-  for (size_t f = 0; f < m.fragment_count(); ++f) a += m.fragment_area(f);
-  return a;
 }
 
 TEST(Buckets, RealMeshInManyBucketsMatchesReference) {

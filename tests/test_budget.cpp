@@ -10,6 +10,7 @@
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "tests/support/soup.h"
+#include "tests/support/triangle_scene.h"
 
 namespace {
 
@@ -20,18 +21,12 @@ Renderer& renderer() {
   return r;
 }
 
-double total_area(const PlanarMap& m) {
-  double a = 0;
-  for (size_t f = 0; f < m.fragment_count(); ++f) a += m.fragment_area(f);
-  return a;
-}
-
 // Regression: soup under a budget a third of what it needs in one piece. The frame splits into
 // buckets until every part fits, the device memory stays under the budget, and the picture (the
 // covered area, and every source's area) is the one rendered without a budget.
 TEST(Budget, DensePenetratingSoupSplitsUntilItFits) {
   Scene soup = test_support::penetrating_soup(1500, 0.2, 7);
-  Camera cam = test_support::soup_camera(soup, 512, 512);
+  Camera cam = frame_scene(soup, 512, 512);
   RenderStats whole, split;
   PlanarMap a = renderer().render(soup, cam, {}, &whole);
   ASSERT_GT(whole.crossing_lines, 5000u) << "the soup must be dense";
@@ -44,7 +39,8 @@ TEST(Budget, DensePenetratingSoupSplitsUntilItFits) {
   // the soup peaks at three times the budget.
   EXPECT_LE(split.peak_device_bytes, o.memory_budget + o.memory_budget / 4)
       << "whole " << whole.peak_device_bytes << ", buckets " << split.buckets;
-  EXPECT_NEAR(total_area(b), total_area(a), 1e-9 * total_area(a));
+  EXPECT_NEAR(test_support::map_area(b), test_support::map_area(a),
+              1e-9 * test_support::map_area(a));
   std::vector<double> per_a(1500, 0.0), per_b(1500, 0.0);
   for (size_t f = 0; f < a.fragment_count(); ++f) per_a[a.triangle[f]] += a.fragment_area(f);
   for (size_t f = 0; f < b.fragment_count(); ++f) per_b[b.triangle[f]] += b.fragment_area(f);
@@ -56,7 +52,7 @@ TEST(Budget, DensePenetratingSoupSplitsUntilItFits) {
 // renderer still renders afterwards.
 TEST(Budget, OneCellThatCannotFitIsTooLarge) {
   Scene soup = test_support::penetrating_soup(1500, 0.2, 7);
-  Camera cam = test_support::soup_camera(soup, 1, 1);
+  Camera cam = frame_scene(soup, 1, 1);
   RenderStats whole;
   renderer().render(soup, cam, {}, &whole);
   RenderOptions o;
@@ -77,7 +73,7 @@ TEST(Budget, OneCellThatCannotFitIsTooLarge) {
 // A frame past its time limit stops with TimeLimit, naming the stage; the next frame renders.
 TEST(Budget, TimeLimitStopsTheFrame) {
   Scene soup = test_support::penetrating_soup(1500, 0.2, 7);
-  Camera cam = test_support::soup_camera(soup, 512, 512);
+  Camera cam = frame_scene(soup, 512, 512);
   RenderOptions o;
   o.time_limit_s = 1e-4;
   try {

@@ -35,9 +35,4 @@ inline Scene penetrating_soup(uint32_t n, double size, uint64_t seed) {
   return s;
 }
 
-// The soup's view: the unit cube framed from the benchmark's direction at W x H.
-inline Camera soup_camera(const Scene& s, uint32_t W, uint32_t H) {
-  return frame_scene(s, W, H);
-}
-
 }  // namespace vismap::test_support

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "core/camera.h"
+#include "core/planar_map.h"
 #include "core/scene.h"
 
 namespace vismap::test_support {
@@ -47,6 +48,13 @@ inline Camera ortho_view_256(const Scene& s) {
   cam.ortho_height = 256;
   fit_near_far(cam, s);
   return cam;
+}
+
+// Covered area of a planar map in pixels^2 (the sum of its fragments' areas).
+inline double map_area(const PlanarMap& m) {
+  double a = 0;
+  for (size_t f = 0; f < m.fragment_count(); ++f) a += m.fragment_area(f);
+  return a;
 }
 
 }  // namespace vismap::test_support
