@@ -1,7 +1,11 @@
 #include "cli/args.h"
 
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 
 namespace vismap::cli {
 
@@ -116,6 +120,30 @@ Camera make_camera(const Scene& scene, const ViewArgs& a) {
   fit_near_far(c, scene);
   c.validate();
   return c;
+}
+
+// Writes through a temporary file in the same folder and renames it: no half-written output.
+void write_atomically(const std::string& path, const std::string& bytes) {
+  std::filesystem::path p(path);
+  std::filesystem::path tmp = p;
+  tmp += ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    if (!out) throw std::runtime_error(path + ": cannot open for writing");
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.flush();
+    if (!out) {
+      out.close();
+      std::filesystem::remove(tmp);
+      throw std::runtime_error(path + ": write failed");
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, p, ec);
+  if (ec) {
+    std::filesystem::remove(tmp);
+    throw std::runtime_error(path + ": " + ec.message());
+  }
 }
 
 }  // namespace vismap::cli

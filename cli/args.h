@@ -39,4 +39,7 @@ void validate_view(const ViewArgs& v);  // throws UsageError
 // The camera: the scene's own (or a framing one), then the flags on top.
 Camera make_camera(const Scene& scene, const ViewArgs& a);
 
+// Writes through a temporary file in the same folder and renames it: no half-written output.
+void write_atomically(const std::string& path, const std::string& bytes);
+
 }  // namespace vismap::cli

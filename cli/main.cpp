@@ -15,7 +15,9 @@
 
 #include "cli/args.h"
 #include "cli/check.h"
+#include "cli/decode.h"
 #include "core/camera.h"
+#include "core/compact.h"
 #include "core/error.h"
 #include "core/output.h"
 #include "core/pipeline.h"
@@ -27,7 +29,8 @@ using namespace vismap;
 using namespace vismap::cli;
 
 const char* kRenderUsage =
-    "  vismap render SCENE -o OUT [--format svg|bin] [--fill shade|id] [--width W --height H]\n"
+    "  vismap render SCENE -o OUT [--format svg|bin|compact] [--fill shade|id]\n"
+    "                [--quantum Q] [--compression zstd|deflate] [--width W --height H]\n"
     "                [--eye X,Y,Z --target X,Y,Z --up X,Y,Z] [--fov-y DEG | --ortho HEIGHT]\n"
     "                [--near N --far F] [--device NAME] [--memory-budget BYTES]\n"
     "                [--time-limit SECONDS] [--stats]\n";
@@ -36,6 +39,9 @@ const char* kCheckUsage =
     "                [--memory-budget BYTES]\n"
     "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 "
     "if over tolerance\n";
+const char* kDecodeUsage =
+    "  vismap decode FRAME [-o OUT.svg] [--json]   a bin or compact frame: a summary line "
+    "on stdout\n";
 const char* kDevicesUsage = "  vismap devices\n";
 const char* kNotes =
     "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb or a .json scene file.\n"
@@ -49,10 +55,12 @@ std::string usage(const std::string& cmd) {
     u += kRenderUsage;
   else if (cmd == "check")
     u += kCheckUsage;
+  else if (cmd == "decode")
+    u += kDecodeUsage;
   else if (cmd == "devices")
     u += kDevicesUsage;
   else
-    u += std::string(kRenderUsage) + kCheckUsage + kDevicesUsage +
+    u += std::string(kRenderUsage) + kCheckUsage + kDecodeUsage + kDevicesUsage +
          "  vismap help [COMMAND] | --help | -h | --version\n";
   return u + kNotes;
 }
@@ -71,6 +79,8 @@ struct RenderArgs {
   bool stats = false;
   uint64_t memory_budget = 0;
   double time_limit_s = 0;
+  uint32_t quantum = 16;  // compact: grid steps per pixel
+  std::string compression = "zstd";
 };
 
 RenderArgs parse_render(int argc, char** argv) {
@@ -87,7 +97,15 @@ RenderArgs parse_render(int argc, char** argv) {
       a.format = value();
     else if (f == "--fill")
       a.fill = value();
-    else if (parse_view_flag(f, value, a.view))
+    else if (f == "--quantum") {
+      const uint32_t q = parse_pixels(f, value());
+      if (q < 1 || q > 256) throw UsageError("--quantum: expected 1 ... 256 grid steps per pixel");
+      a.quantum = q;
+    } else if (f == "--compression") {
+      a.compression = value();
+      if (a.compression != "zstd" && a.compression != "deflate")
+        throw UsageError("--compression: expected zstd or deflate");
+    } else if (parse_view_flag(f, value, a.view))
       continue;
     else if (f == "--stats")
       a.stats = true;
@@ -108,34 +126,11 @@ RenderArgs parse_render(int argc, char** argv) {
   }
   if (a.scene.empty()) throw UsageError("render: missing SCENE");
   if (a.out.empty()) throw UsageError("render: missing -o OUT");
-  if (a.format != "svg" && a.format != "bin") throw UsageError("--format: expected svg or bin");
+  if (a.format != "svg" && a.format != "bin" && a.format != "compact")
+    throw UsageError("--format: expected svg, bin or compact");
   if (a.fill != "shade" && a.fill != "id") throw UsageError("--fill: expected shade or id");
   validate_view(a.view);
   return a;
-}
-
-// Writes through a temporary file in the same folder and renames it: no half-written output.
-void write_atomically(const std::string& path, const std::string& bytes) {
-  std::filesystem::path p(path);
-  std::filesystem::path tmp = p;
-  tmp += ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out) throw std::runtime_error(path + ": cannot open for writing");
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.flush();
-    if (!out) {
-      out.close();
-      std::filesystem::remove(tmp);
-      throw std::runtime_error(path + ": write failed");
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, p, ec);
-  if (ec) {
-    std::filesystem::remove(tmp);
-    throw std::runtime_error(path + ": " + ec.message());
-  }
 }
 
 int cmd_render(int argc, char** argv) {
@@ -167,9 +162,19 @@ int cmd_render(int argc, char** argv) {
         "vismap: warning: device memory peaked at %.1f MB, over the budget of %.1f MB "
         "(a part of the screen holds more than the budget allows; see docs/PERFORMANCE.md)\n",
         st.peak_device_bytes / 1e6, a.memory_budget / 1e6);
-  std::string bytes = a.format == "bin"
-                          ? write_bin(map, scene)
-                          : write_svg(map, scene, cam, a.fill == "id" ? Fill::Id : Fill::Shade);
+  CompactStats cs;
+  std::string bytes;
+  if (a.format == "bin") {
+    bytes = write_bin(map, scene);
+  } else if (a.format == "compact") {
+    CompactOptions co;
+    co.quantum = a.quantum;
+    co.shade = a.fill == "shade";
+    co.compression = a.compression == "deflate" ? Compression::Deflate : Compression::Zstd;
+    bytes = write_compact(map, scene, cam, co, &cs);
+  } else {
+    bytes = write_svg(map, scene, cam, a.fill == "id" ? Fill::Id : Fill::Shade);
+  }
   write_atomically(a.out, bytes);
   auto t_end = Clock::now();
   if (tty && std::chrono::duration<double>(t_render - t0).count() >= 1.0)
@@ -219,6 +224,19 @@ int cmd_render(int argc, char** argv) {
     std::fprintf(stderr, "output: %llu triangles in %zu fragments, %zu bytes (%s)\n",
                  static_cast<unsigned long long>(out_tris), map.fragment_count(), bytes.size(),
                  a.format.c_str());
+    if (a.format == "compact")
+      std::fprintf(stderr,
+                   "compact: %llu vertices, %llu triangles (%llu T-junctions inserted, %llu "
+                   "dropped on the grid), before zstd: vertices %llu, indices %llu, ids %llu, "
+                   "shades %llu bytes\n",
+                   static_cast<unsigned long long>(cs.vertices),
+                   static_cast<unsigned long long>(cs.triangles),
+                   static_cast<unsigned long long>(cs.t_junctions),
+                   static_cast<unsigned long long>(cs.dropped),
+                   static_cast<unsigned long long>(cs.vertex_bytes),
+                   static_cast<unsigned long long>(cs.index_bytes),
+                   static_cast<unsigned long long>(cs.id_bytes),
+                   static_cast<unsigned long long>(cs.shade_bytes));
     std::fprintf(stderr, "time: load %.1f ms, render %.1f ms, write %.1f ms, total %.1f ms\n",
                  ms(t_load - t0), ms(t_render - t_load), ms(t_end - t_render), ms(t_end - t0));
   }
@@ -254,7 +272,7 @@ int main(int argc, char** argv) {
     std::printf("vismap %s\n", VISMAP_VERSION);  // CMake's project(VERSION)
     return 0;
   }
-  bool known = cmd == "render" || cmd == "check" || cmd == "devices";
+  bool known = cmd == "render" || cmd == "check" || cmd == "decode" || cmd == "devices";
   if (known && asks_help(argc, argv)) {
     std::fputs(usage(cmd).c_str(), stdout);
     return 0;
@@ -262,6 +280,7 @@ int main(int argc, char** argv) {
   try {
     if (cmd == "render") return cmd_render(argc, argv);
     if (cmd == "check") return cmd_check(argc, argv);
+    if (cmd == "decode") return cmd_decode(argc, argv);
     if (cmd == "devices") return cmd_devices();
     throw UsageError("unknown command '" + cmd + "'");
   } catch (const UsageError& e) {  // one line; the usage is one --help away

@@ -1,6 +1,7 @@
 // Shared by the writers (core/output_svg.cpp, core/output_bin.cpp); not part of the public API.
 #pragma once
 
+#include "core/camera.h"
 #include "core/planar_map.h"
 #include "core/scene.h"
 
@@ -19,5 +20,10 @@ inline uint64_t global_triangle_id(const PlanarMap& map, const Scene& scene,
   const uint32_t m = map.mesh[f];
   return base[m] + scene.meshes[m].face_ids[map.triangle[f]];
 }
+
+// Lambert shade of a source triangle, two-sided, light at the eye (or along the view for
+// orthographic cameras), plus ambient: the factor on the mesh colour, in [0.12, 1]. Throws
+// InputError when a vertex index is out of range.
+double lambert_shade(const Scene& scene, const Camera& cam, uint32_t mesh, uint32_t tri);
 
 }  // namespace vismap::detail

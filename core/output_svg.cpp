@@ -195,35 +195,11 @@ uint8_t to_srgb8(double linear) {
   return static_cast<uint8_t>(std::lround(s * 255.0));
 }
 
-// Lambert shade of a source triangle, two-sided, light at the eye (or along the view for
-// orthographic cameras), times the mesh colour plus ambient, as sRGB.
+// Lambert shade of a source triangle times the mesh colour plus ambient, as sRGB.
 uint32_t shade_color(const Scene& scene, const Camera& cam, uint32_t mesh, uint32_t tri) {
-  const Mesh& m = scene.meshes[mesh];
-  Vec3 p[3];
-  for (int k = 0; k < 3; ++k) {
-    const uint32_t vi = m.indices[3 * size_t(tri) + k];
-    if (vi >= m.vertex_count())
-      throw InputError(InputErrorKind::IndexOutOfRange, "svg", m.name, "triangle", tri,
-                       "vertex index " + std::to_string(vi) + " out of range");
-    for (int c = 0; c < 3; ++c) p[k][c] = m.positions[3 * size_t(vi) + c];
-  }
-  const Vec3 e1{p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
-  const Vec3 e2{p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
-  const Vec3 n{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
-               e1[0] * e2[1] - e1[1] * e2[0]};
-  Vec3 l;
-  if (cam.projection == Camera::Projection::Orthographic) {
-    l = {cam.eye[0] - cam.target[0], cam.eye[1] - cam.target[1], cam.eye[2] - cam.target[2]};
-  } else {
-    for (int c = 0; c < 3; ++c) l[c] = cam.eye[c] - (p[0][c] + p[1][c] + p[2][c]) / 3.0;
-  }
-  const double nn = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-  const double ll = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
-  double ndl = std::abs(n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) / (nn * ll);
-  if (!std::isfinite(ndl)) ndl = 1.0;  // degenerate triangle or light at its centroid
-  const double k = kAmbient + (1.0 - kAmbient) * std::min(ndl, 1.0);
+  const double k = detail::lambert_shade(scene, cam, mesh, tri);
   uint32_t rgb = 0;
-  for (int c = 0; c < 3; ++c) rgb = rgb << 8 | to_srgb8(m.color[c] * k);
+  for (int c = 0; c < 3; ++c) rgb = rgb << 8 | to_srgb8(scene.meshes[mesh].color[c] * k);
   return rgb;
 }
 
@@ -503,6 +479,33 @@ void write_fragment(PathData& d, const QuantizedMap& q, size_t f, bool use_flags
 }
 
 }  // namespace
+
+double detail::lambert_shade(const Scene& scene, const Camera& cam, uint32_t mesh, uint32_t tri) {
+  const Mesh& m = scene.meshes[mesh];
+  Vec3 p[3];
+  for (int k = 0; k < 3; ++k) {
+    const uint32_t vi = m.indices[3 * size_t(tri) + k];
+    if (vi >= m.vertex_count())
+      throw InputError(InputErrorKind::IndexOutOfRange, "svg", m.name, "triangle", tri,
+                       "vertex index " + std::to_string(vi) + " out of range");
+    for (int c = 0; c < 3; ++c) p[k][c] = m.positions[3 * size_t(vi) + c];
+  }
+  const Vec3 e1{p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
+  const Vec3 e2{p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+  const Vec3 n{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+               e1[0] * e2[1] - e1[1] * e2[0]};
+  Vec3 l;
+  if (cam.projection == Camera::Projection::Orthographic) {
+    l = {cam.eye[0] - cam.target[0], cam.eye[1] - cam.target[1], cam.eye[2] - cam.target[2]};
+  } else {
+    for (int c = 0; c < 3; ++c) l[c] = cam.eye[c] - (p[0][c] + p[1][c] + p[2][c]) / 3.0;
+  }
+  const double nn = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  const double ll = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+  double ndl = std::abs(n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) / (nn * ll);
+  if (!std::isfinite(ndl)) ndl = 1.0;  // degenerate triangle or light at its centroid
+  return kAmbient + (1.0 - kAmbient) * std::min(ndl, 1.0);
+}
 
 std::string svg_number(double v) {
   char buf[32];
