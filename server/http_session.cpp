@@ -85,7 +85,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     if (path == "/health") {
       json j = {{"status", srv_.stopping ? "stopping" : "ok"},
                 {"sessions", srv_.metrics.sessions_active.load()},
-                {"protocol", kProtocolVersion}};
+                {"protocol", kMaxProtocolVersion},
+                {"protocols", json::array({kMinProtocolVersion, kMaxProtocolVersion})}};
       return respond(srv_.stopping ? http::status::service_unavailable : http::status::ok,
                      "application/json", j.dump() + "\n");
     }

@@ -11,12 +11,27 @@ void Metrics::error(const std::string& code) {
   ++errors_[code];
 }
 
+void Metrics::Histogram::add(double ms) {
+  for (size_t i = 0; i < kBuckets.size(); ++i)
+    if (ms <= kBuckets[i]) ++buckets[i];
+  ++count;
+  sum_ms += ms;
+}
+
 void Metrics::render_ms(double ms) {
   std::lock_guard lk(mu_);
-  for (size_t i = 0; i < kBuckets.size(); ++i)
-    if (ms <= kBuckets[i]) ++buckets_[i];
-  ++render_count_;
-  render_sum_ms_ += ms;
+  render_.add(ms);
+}
+
+void Metrics::encode_ms(Format f, double ms) {
+  std::lock_guard lk(mu_);
+  encode_[static_cast<size_t>(f)].add(ms);
+}
+
+void Metrics::frame_sent(Format f, uint64_t payload_bytes) {
+  std::lock_guard lk(mu_);
+  ++format_frames_[static_cast<size_t>(f)];
+  format_bytes_[static_cast<size_t>(f)] += payload_bytes;
 }
 
 std::string Metrics::prometheus() const {
@@ -39,13 +54,33 @@ std::string Metrics::prometheus() const {
   metric("vismap_scenes_loaded_total", "counter", "Scenes loaded.", scenes_loaded.load());
   metric("vismap_http_requests_total", "counter", "Plain HTTP requests.", http_requests.load());
   std::lock_guard lk(mu_);
+  // One histogram's series; labels: "" or `format="svg",` (a label list's prefix).
+  auto histogram = [&](const char* name, const std::string& labels, const Histogram& h) {
+    for (size_t i = 0; i < kBuckets.size(); ++i)
+      o << name << "_bucket{" << labels << "le=\"" << kBuckets[i] << "\"} " << h.buckets[i] << '\n';
+    std::string plain = labels.empty() ? "" : "{" + labels.substr(0, labels.size() - 1) + "}";
+    o << name << "_bucket{" << labels << "le=\"+Inf\"} " << h.count << '\n'
+      << name << "_sum" << plain << ' ' << h.sum_ms << '\n'
+      << name << "_count" << plain << ' ' << h.count << '\n';
+  };
+  auto label = [](const FormatSpec& s) { return std::string("format=\"") + s.name + "\""; };
   o << "# HELP vismap_render_ms Render plus encode time per frame, milliseconds.\n"
        "# TYPE vismap_render_ms histogram\n";
-  for (size_t i = 0; i < kBuckets.size(); ++i)
-    o << "vismap_render_ms_bucket{le=\"" << kBuckets[i] << "\"} " << buckets_[i] << '\n';
-  o << "vismap_render_ms_bucket{le=\"+Inf\"} " << render_count_ << '\n'
-    << "vismap_render_ms_sum " << render_sum_ms_ << '\n'
-    << "vismap_render_ms_count " << render_count_ << '\n';
+  histogram("vismap_render_ms", "", render_);
+  o << "# HELP vismap_encode_ms Encode time per frame (on the encode pool), milliseconds, by "
+       "format.\n# TYPE vismap_encode_ms histogram\n";
+  for (const FormatSpec& s : kFormats)
+    histogram("vismap_encode_ms", label(s) + ",", encode_[static_cast<size_t>(s.format)]);
+  o << "# HELP vismap_frames_by_format_total Frames sent, by format.\n"
+       "# TYPE vismap_frames_by_format_total counter\n";
+  for (const FormatSpec& s : kFormats)
+    o << "vismap_frames_by_format_total{" << label(s) << "} "
+      << format_frames_[static_cast<size_t>(s.format)] << '\n';
+  o << "# HELP vismap_frame_bytes_total Frame payload bytes sent (before any permessage-deflate), "
+       "by format.\n# TYPE vismap_frame_bytes_total counter\n";
+  for (const FormatSpec& s : kFormats)
+    o << "vismap_frame_bytes_total{" << label(s) << "} "
+      << format_bytes_[static_cast<size_t>(s.format)] << '\n';
   o << "# HELP vismap_errors_total Error messages sent, by code.\n# TYPE vismap_errors_total "
        "counter\n";
   for (const auto& [code, n] : errors_)

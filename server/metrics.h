@@ -9,6 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "server/protocol.h"
+
 namespace vismap::server {
 
 class Metrics {
@@ -20,15 +22,23 @@ class Metrics {
 
   void error(const std::string& code);
   void render_ms(double ms);  // pipeline + encode time of one frame
+  void encode_ms(Format f, double ms);  // the encoder's time of one frame
+  void frame_sent(Format f, uint64_t payload_bytes);
   std::string prometheus() const;
 
  private:
   static constexpr std::array<double, 10> kBuckets{1, 2, 5, 10, 20, 50, 100, 200, 500, 1000};
+  struct Histogram {
+    std::array<uint64_t, kBuckets.size()> buckets{};
+    uint64_t count = 0;
+    double sum_ms = 0;
+    void add(double ms);
+  };
   mutable std::mutex mu_;
   std::map<std::string, uint64_t> errors_;
-  std::array<uint64_t, kBuckets.size()> buckets_{};
-  uint64_t render_count_ = 0;
-  double render_sum_ms_ = 0;
+  Histogram render_;
+  std::array<Histogram, kFormats.size()> encode_;
+  std::array<uint64_t, kFormats.size()> format_frames_{}, format_bytes_{};
 };
 
 // One JSON object per line on stderr: {"ts":..., "level":..., "event":..., ...fields}.

@@ -1,5 +1,6 @@
 #include "server/protocol.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -82,19 +83,28 @@ Hello parse_hello(const json& j, uint32_t max_viewport) {
     }
   }
   if (offered.empty()) bad("hello needs 'version' or 'versions'");
-  bool ok = false;
-  for (int v : offered) ok = ok || v == kProtocolVersion;
-  if (!ok)
+  h.version = 0;
+  for (int v : offered)
+    if (v >= kMinProtocolVersion && v <= kMaxProtocolVersion) h.version = std::max(h.version, v);
+  if (h.version == 0)
     throw ProtoError(code::version_mismatch,
-                     "server speaks protocol version " + std::to_string(kProtocolVersion), true);
+                     "server speaks protocol versions " + std::to_string(kMinProtocolVersion) +
+                         " to " + std::to_string(kMaxProtocolVersion),
+                     true);
   if (field(j, "format")) {
     std::string f = string(j, "format");
-    if (f == "svg")
-      h.format = Format::Svg;
-    else if (f == "bin")
-      h.format = Format::Bin;
-    else
-      bad("'format' must be \"svg\" or \"bin\"");
+    const FormatSpec* spec = nullptr;
+    std::string offered_names;
+    for (const FormatSpec& s : kFormats) {
+      if (f == s.name) spec = &s;
+      if (s.since_version <= h.version)
+        offered_names += (offered_names.empty() ? "\"" : ", \"") + std::string(s.name) + "\"";
+    }
+    if (spec && spec->since_version > h.version)
+      bad("format \"" + f + "\" needs protocol version " + std::to_string(spec->since_version) +
+          " (this session speaks version " + std::to_string(h.version) + ")");
+    if (!spec) bad("'format' must be one of " + offered_names);
+    h.format = spec->format;
   }
   if (const json* v = field(j, "attributes")) {
     if (!v->is_boolean()) bad("'attributes' must be a boolean");
@@ -110,6 +120,25 @@ Hello parse_hello(const json& j, uint32_t max_viewport) {
     viewport(*v, h.width, h.height, max_viewport);
   }
   if (field(j, "token")) h.token = string(j, "token");
+  if (h.version >= 2) {  // version 1 ignores these fields, as any field it does not list
+    if (field(j, "quantum")) {
+      const json* v = field(j, "quantum");
+      if (!v->is_number_integer() || v->get<int64_t>() < 1 || v->get<int64_t>() > 256)
+        bad("'quantum' must be an integer from 1 to 256 (grid steps per pixel)");
+      h.quantum = v->get<uint32_t>();
+    }
+    if (field(j, "compression")) {
+      std::string c = string(j, "compression");
+      if (c == "zstd")
+        h.compression = vismap::Compression::Zstd;
+      else if (c == "deflate")
+        h.compression = vismap::Compression::Deflate;
+      else
+        bad("'compression' must be \"zstd\" or \"deflate\" (raw deflate)");
+    }
+  }
+  if (h.attributes && format_spec(h.format).no_attributes)
+    bad(std::string("'attributes': ") + format_spec(h.format).no_attributes);
   return h;
 }
 

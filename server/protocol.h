@@ -2,6 +2,7 @@
 // here: the session (server.cpp) feeds text messages in and gets typed requests or a ProtoError.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -9,11 +10,14 @@
 #include <variant>
 
 #include "core/camera.h"
+#include "core/compact.h"
 #include "core/error.h"
 
 namespace vismap::server {
 
-inline constexpr int kProtocolVersion = 1;
+// The protocol versions this server speaks (proto/PROTOCOL.md); hello picks the highest offered.
+inline constexpr int kMinProtocolVersion = 1;
+inline constexpr int kMaxProtocolVersion = 2;
 
 // Protocol error codes (proto/PROTOCOL.md, "Error codes"). Scene and camera errors use the
 // vismap::InputErrorKind strings (to_string(kind)) unchanged.
@@ -42,15 +46,49 @@ struct ProtoError : std::runtime_error {
   bool fatal;
 };
 
-enum class Format { Svg, Bin };
+// The frame formats, one row each in kFormats. Adding one is a row there and its encoder in
+// frame_encoder.cpp (make_encoder); the hello parser, welcome.formats, the frame header's
+// `format`, the payload's message type and the per-format metrics all follow the table.
+enum class Format : uint8_t { Svg, Bin, Compact };
+
+struct FormatSpec {
+  Format format;
+  const char* name;           // hello.format, frame.format, the metrics' format label
+  int since_version;          // the protocol version that introduced it
+  bool binary;                // payload as a binary WebSocket message (else text)
+  bool carries_attributes;    // hello.attributes: true puts barycentrics and 1/w in the frame
+  const char* no_attributes;  // why attributes: true is refused; nullptr: accepted (or ignored)
+};
+
+inline constexpr std::array<FormatSpec, 3> kFormats{{
+    {Format::Svg, "svg", 1, false, false, nullptr},  // v1 ignores attributes with svg: kept
+    {Format::Bin, "bin", 1, true, true, nullptr},
+    {Format::Compact, "compact", 2, true, false,
+     "compact frames carry no barycentrics; use format \"bin\" for attributes"},
+}};
+
+static_assert(
+    [] {
+      for (size_t i = 0; i < kFormats.size(); ++i)
+        if (static_cast<size_t>(kFormats[i].format) != i) return false;
+      return true;
+    }(),
+    "kFormats is indexed by Format");
+
+constexpr const FormatSpec& format_spec(Format f) {
+  return kFormats[static_cast<size_t>(f)];
+}
 
 struct Hello {
-  int version = kProtocolVersion;  // chosen: the highest of the client's versions we speak
+  int version = kMaxProtocolVersion;  // chosen: the highest of the client's versions we speak
   Format format = Format::Svg;
   bool attributes = false;
   bool fill_id = false;
   uint32_t width = 1024, height = 1024;
   std::string token;
+  // Compact frames (version 2): grid steps per pixel and the payload's entropy coder.
+  uint32_t quantum = 16;
+  vismap::Compression compression = vismap::Compression::Zstd;
 };
 
 // Scene upload header. Exactly one source: `library` (a file in the server's library), `data`

@@ -14,6 +14,7 @@
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "server/error_reply.h"
+#include "server/frame_encoder.h"
 #include "server/protocol.h"
 
 namespace vismap::server {
@@ -125,6 +126,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     std::shared_ptr<const std::string> data;
     bool binary = false;
     bool frame_payload = false;
+    Format format = Format::Svg;  // of a frame payload
   };
 
   bool accepting_messages() const {
@@ -269,6 +271,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     srv_.metrics.sessions_total++;
     srv_.log.info("session_open", {{"session", session_}, {"peer", peer_}});
     hello_ = h;
+    encoder_ = make_encoder(h);
     state_ = State::Open;
     hello_timer_.cancel();
     arm_idle();
@@ -277,19 +280,23 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
         {"max_scene_bytes", L.max_scene_bytes},     {"max_triangles", L.max_triangles},
         {"max_session_bytes", L.max_session_bytes}, {"max_viewport", L.max_viewport},
         {"idle_timeout_s", L.idle_timeout_s}};
-    const char* format = h.format == Format::Bin ? "bin" : "svg";
-    send_text(json{
-        {"type", "welcome"},
-        {"version", kProtocolVersion},
-        {"session", session_},
-        {"server", "vismapd"},
-        {"format", format},
-        {"library", srv_.library.enabled()},
-        {"limits",
-         limits}}.dump());
-    srv_.log.info(
-        "hello",
-        {{"session", session_}, {"format", format}, {"width", h.width}, {"height", h.height}});
+    const char* format = format_spec(h.format).name;
+    json welcome = {{"type", "welcome"},   {"version", h.version},
+                    {"session", session_}, {"server", "vismapd"},
+                    {"format", format},    {"library", srv_.library.enabled()},
+                    {"limits", limits}};
+    if (h.version >= 2) {
+      json formats = json::array();
+      for (const FormatSpec& s : kFormats)
+        if (s.since_version <= h.version) formats.push_back(s.name);
+      welcome["formats"] = formats;
+    }
+    send_text(welcome.dump());
+    srv_.log.info("hello", {{"session", session_},
+                            {"version", h.version},
+                            {"format", format},
+                            {"width", h.width},
+                            {"height", h.height}});
   }
 
   void on_scene(SceneRequest req) {
@@ -480,7 +487,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       fit_near_far(cam, *job.scene);
       cam.validate();
       RenderOptions opts;
-      opts.attributes = h.attributes && h.format == Format::Bin;
+      opts.attributes = h.attributes && format_spec(h.format).carries_attributes;
       opts.memory_budget = srv_.cfg.limits.render_memory_bytes;
       opts.time_limit_s = srv_.cfg.limits.render_time_limit_s;
       if (srv_.cfg.before_render) srv_.cfg.before_render(opts);
@@ -495,20 +502,19 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     });
   }
 
-  // Runs on the encode pool.
+  // Runs on the encode pool; the session's encoder is used by one frame at a time.
   void encode(FrameJob job) {
-    const Hello& h = *hello_;
+    const Format format = hello_->format;
     auto frame = std::make_shared<std::string>();
     json header;
     try {
       auto t0 = Clock::now();
-      *frame = h.format == Format::Bin
-                   ? write_bin(job.map, *job.scene)
-                   : write_svg(job.map, *job.scene, job.camera, h.fill_id ? Fill::Id : Fill::Shade);
+      EncodedFrame enc = encoder_->encode(job.map, *job.scene, job.camera);
       double encode_ms = ms_since(t0);
+      *frame = std::move(enc.bytes);
       header = {{"type", "frame"},
                 {"seq", job.seq},
-                {"format", h.format == Format::Bin ? "bin" : "svg"},
+                {"format", format_spec(format).name},
                 {"bytes", frame->size()},
                 {"render_ms", job.stats.pipeline_ms},
                 {"encode_ms", encode_ms},
@@ -517,7 +523,9 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
                 {"fragments", job.map.fragment_count()},
                 {"buckets", job.stats.buckets},
                 {"skipped", job.skipped}};
+      header.update(enc.header);
       srv_.metrics.render_ms(job.stats.pipeline_ms + encode_ms);
+      srv_.metrics.encode_ms(format, encode_ms);
     } catch (...) {
       return frame_failed(error_reply(std::current_exception(), "encoding the frame"), job.seq);
     }
@@ -543,7 +551,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     }
     frame_ = FramePhase::Sending;
     send_text(header.dump());
-    send(Out{frame, hello_->format == Format::Bin, true});
+    send(Out{frame, format_spec(hello_->format).binary, true, hello_->format});
   }
 
   void after_frame() {
@@ -577,7 +585,8 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     if (out_.front().frame_payload) {
       srv_.metrics.frames++;
       srv_.metrics.bytes_sent += bytes;
-      peak_bytes_ = std::max<uint64_t>(peak_bytes_, bytes);
+      srv_.metrics.frame_sent(out_.front().format, bytes);
+      peak_bytes_ = std::max<uint64_t>(peak_bytes_, bytes + encoder_->state_bytes());
       frame_ = FramePhase::Idle;
       after_frame();  // may send(): it only queues, the front is still this message
     }
@@ -646,6 +655,9 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   uint64_t connection_ = 0;    // Server::Impl registry id, once upgraded
   uint64_t session_ = 0;       // RenderQueue session id; non-zero: holds a session slot
   std::optional<Hello> hello_;
+  // The format's encoder, made at hello; used on the encode pool by one frame at a time (its
+  // state, if any, is bounded: FrameEncoder).
+  std::unique_ptr<FrameEncoder> encoder_;
   std::optional<SceneRequest> upload_;
   std::deque<Out> out_;
   std::optional<uint64_t> discarded_;  // bytes of an over-limit message being dropped

@@ -28,9 +28,62 @@ TEST(Protocol, HelloNegotiatesVersion) {
   EXPECT_EQ(h.height, 32u);
 }
 
+TEST(Protocol, Version2IsPickedWhenOffered) {
+  auto hello = [](const char* text) { return std::get<Hello>(parse_request(text, 10, 4096)); };
+  EXPECT_EQ(hello(R"({"type":"hello","versions":[1,2]})").version, 2);
+  EXPECT_EQ(hello(R"({"type":"hello","versions":[2,1,7]})").version, 2);
+  EXPECT_EQ(hello(R"({"type":"hello","version":1,"versions":[2]})").version, 2);
+  EXPECT_EQ(hello(R"({"type":"hello","version":1})").version, 1);
+  Hello h = hello(R"({"type":"hello","version":2,"format":"compact"})");
+  EXPECT_EQ(h.format, Format::Compact);
+  EXPECT_EQ(h.quantum, 16u);
+  EXPECT_EQ(h.compression, vismap::Compression::Zstd);
+  EXPECT_FALSE(h.fill_id);
+  h = hello(
+      R"({"type":"hello","version":2,"format":"compact","quantum":3,"compression":"deflate","fill":"id"})");
+  EXPECT_EQ(h.quantum, 3u);
+  EXPECT_EQ(h.compression, vismap::Compression::Deflate);
+  EXPECT_TRUE(h.fill_id);
+  // Version 1 does not know quantum or compression: ignored, as any field it does not list.
+  h = hello(R"({"type":"hello","version":1,"format":"bin","quantum":-4,"compression":9})");
+  EXPECT_EQ(h.version, 1);
+  EXPECT_EQ(h.quantum, 16u);
+}
+
+TEST(Protocol, CompactRefusals) {
+  EXPECT_EQ(code_of(R"({"type":"hello","version":1,"format":"compact"})"), "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"compact","attributes":true})"),
+            "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"compact","attributes":false})"), "ok");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"quantum":0})"), "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"quantum":257})"), "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"quantum":256})"), "ok");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"quantum":1})"), "ok");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"quantum":1e3})"), "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"compression":"gzip"})"), "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"delta"})"), "bad_message");
+  try {
+    parse_request(R"({"type":"hello","version":1,"format":"compact"})", 10, 4096);
+  } catch (const ProtoError& e) {
+    EXPECT_NE(std::string(e.what()).find("protocol version 2"), std::string::npos) << e.what();
+    EXPECT_FALSE(e.fatal);
+  }
+}
+
+TEST(Protocol, FormatTableNamesEveryFormat) {
+  for (size_t i = 0; i < kFormats.size(); ++i) {
+    EXPECT_EQ(static_cast<size_t>(kFormats[i].format), i);
+    EXPECT_GE(kFormats[i].since_version, kMinProtocolVersion);
+    EXPECT_LE(kFormats[i].since_version, kMaxProtocolVersion);
+  }
+  EXPECT_STREQ(format_spec(Format::Compact).name, "compact");
+  EXPECT_TRUE(format_spec(Format::Compact).binary);
+  EXPECT_FALSE(format_spec(Format::Svg).binary);
+}
+
 TEST(Protocol, VersionMismatchIsFatal) {
   try {
-    parse_request(R"({"type":"hello","version":2})", 10, 4096);
+    parse_request(R"({"type":"hello","versions":[0,3]})", 10, 4096);
     FAIL();
   } catch (const ProtoError& e) {
     EXPECT_EQ(e.code, "version_mismatch");

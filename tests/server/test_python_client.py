@@ -67,6 +67,32 @@ async def raw_session(url, fmt):
             assert err["type"] == "error" and err["code"] == code and not err["fatal"], err
 
 
+async def raw_session_v2(url, compression):
+    """Protocol version 2, compact frames: welcome, frame headers and errors against the schemas."""
+    async with vc.websockets.connect(url, max_size=None) as ws:
+        async def recv():
+            return await asyncio.wait_for(ws.recv(), 60)
+        bad = check({"type": "hello", "versions": [1, 2], "format": "compact", "attributes": True})
+        await ws.send(json.dumps(bad))
+        err = check(json.loads(await recv()))
+        assert err["code"] == "bad_message" and "barycentrics" in err["message"], err
+        hello = check({"type": "hello", "versions": [1, 2], "format": "compact", "quantum": 8,
+                       "compression": compression, "viewport": {"width": 200, "height": 150}})
+        await ws.send(json.dumps(hello))
+        welcome = check(json.loads(await recv()))
+        assert welcome["version"] == 2 and welcome["format"] == "compact", welcome
+        assert welcome["formats"] == ["svg", "bin", "compact"], welcome
+        await ws.send(json.dumps(check({"type": "scene", "name": "tet.obj", "size": len(TET)})))
+        await ws.send(TET)
+        check(json.loads(await recv()))
+        await ws.send(json.dumps(check({"type": "camera", "seq": 4, "eye": [2.0, 1.0, 3.0]})))
+        header = check(json.loads(await recv()))
+        assert header["format"] == "compact" and header["out_triangles"] > 0, header
+        payload = await recv()
+        assert isinstance(payload, bytes) and len(payload) == header["bytes"]
+        assert payload[:4] == b"VMCF", payload[:8]
+
+
 async def client_session(url):
     async with vc.Session(url, fmt="bin", width=64, height=64) as s:
         check(s.welcome)
@@ -94,6 +120,8 @@ def main():
             url = f"ws://127.0.0.1:{event['port']}/"
             asyncio.run(raw_session(url, "svg"))
             asyncio.run(raw_session(url, "bin"))
+            asyncio.run(raw_session_v2(url, "zstd"))
+            asyncio.run(raw_session_v2(url, "deflate"))
             asyncio.run(client_session(url))
         finally:
             proc.send_signal(signal.SIGTERM)

@@ -1,0 +1,224 @@
+// Protocol version 2 on loopback (proto/PROTOCOL.md, "Version 2"): the version choice, compact
+// frames over the socket (byte for byte write_compact of the same render), their options and
+// refusals, and the per-format metrics.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "core/compact.h"
+#include "core/output.h"
+#include "core/pipeline.h"
+#include "core/scene.h"
+#include "tests/server/server_fixture.h"
+
+namespace {
+
+class ServerV2Test : public ServerTest {
+ protected:
+  // hello with version 2 (extra may set versions, format options, ...).
+  void hello2(WsClient& c, const std::string& format, json extra = json::object()) {
+    json e = {{"version", 2}};
+    e.update(extra);
+    hello(c, format, e);
+  }
+  // Sends hello and returns the server's answer (welcome or error), without asserting.
+  json hello_answer(WsClient& c, json h) {
+    c.connect(url());
+    h["type"] = "hello";
+    c.send_text(h.dump());
+    return next(c);
+  }
+  // The frame the server renders for frame(c, seq, angle) on `scene` at 128x96, built the way
+  // the session builds it: the framing camera, the request's eye and target, near/far fitted.
+  vismap::PlanarMap render_like_the_server(const vismap::Scene& scene, double angle,
+                                           vismap::Camera& cam) {
+    cam = vismap::frame_scene(scene, 128, 96);
+    cam.eye = {3 * std::sin(angle), 1.5, 3 * std::cos(angle)};
+    cam.target = {0.25, 0.25, 0.25};
+    cam.near_plane = cam.far_plane = 0;
+    vismap::fit_near_far(cam, scene);
+    cam.validate();
+    vismap::RenderOptions opts;
+    opts.memory_budget = cfg_.limits.render_memory_bytes;
+    if (!renderer_) renderer_ = std::make_unique<vismap::Renderer>(cfg_.device);
+    return renderer_->render(scene, cam, opts);
+  }
+  // Polls /metrics until it holds `line` (a frame is counted when the server's write completes,
+  // which may be just after the client has its bytes).
+  bool metrics_show(const std::string& line) {
+    for (int i = 0; i < 200; ++i) {
+      if (http_get("127.0.0.1", port_, "/metrics").body.find(line + "\n") != std::string::npos)
+        return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return false;
+  }
+
+  std::unique_ptr<vismap::Renderer> renderer_;
+};
+
+TEST_F(ServerV2Test, HelloPicksTheHighestVersionAndListsFormats) {
+  start();
+  WsClient both;
+  json w = hello_answer(both, {{"versions", {1, 2}}});
+  ASSERT_EQ(w["type"], "welcome") << w.dump();
+  EXPECT_EQ(w["version"], 2);
+  EXPECT_EQ(w["formats"], json::array({"svg", "bin", "compact"}));
+  EXPECT_EQ(w["format"], "svg");
+  WsClient future;  // a version this server does not speak is passed over, not refused
+  w = hello_answer(future, {{"versions", {3, 2}}, {"format", "compact"}});
+  EXPECT_EQ(w["version"], 2) << w.dump();
+  EXPECT_EQ(w["format"], "compact");
+  auto health = json::parse(http_get("127.0.0.1", port_, "/health").body);
+  EXPECT_EQ(health["protocol"], 2);
+  EXPECT_EQ(health["protocols"], json::array({1, 2}));
+}
+
+// A version 1 session sees version 1 exactly: no `formats`, no compact, svg and bin as before.
+TEST_F(ServerV2Test, Version1SessionIsUnchanged) {
+  start();
+  WsClient c;
+  json w = hello_answer(c, {{"version", 1}, {"format", "compact"}});
+  ASSERT_EQ(w["type"], "error") << w.dump();
+  EXPECT_EQ(w["code"], "bad_message");
+  EXPECT_FALSE(w["fatal"].get<bool>());
+  EXPECT_NE(w["message"].get<std::string>().find("version 2"), std::string::npos) << w.dump();
+  c.send_text(R"({"type":"hello","version":1,"format":"bin","quantum":0})");  // quantum: not v1
+  w = next(c);
+  ASSERT_EQ(w["type"], "welcome") << w.dump();
+  EXPECT_EQ(w["version"], 1);
+  EXPECT_FALSE(w.contains("formats"));
+  ready(c);
+  c.send_text(json{{"type", "camera"}, {"seq", 1}, {"eye", {3, 1.5, 3}}}.dump());
+  json h = next(c, 60);
+  ASSERT_EQ(h["type"], "frame") << h.dump();
+  EXPECT_EQ(h["format"], "bin");
+  EXPECT_FALSE(h.contains("vertices"));
+  EXPECT_GT(vismap::read_bin(c.read(60).data).triangle_count(), 0u);
+}
+
+// The payload over the socket is write_compact of the same render, byte for byte (the pipeline
+// is deterministic on one device), so it decodes to the same triangles, ids and shades.
+TEST_F(ServerV2Test, CompactFrameEqualsWriteCompactOfTheSameRender) {
+  start();
+  WsClient c;
+  hello2(c, "compact");
+  const std::string grid = grid_obj(12);  // 288 triangles, folds occlude each other
+  upload(c, "grid.obj", grid);
+  ASSERT_EQ(next(c, 60)["type"], "scene_ready");
+  vismap::Scene scene = vismap::load_scene_from_memory("grid.obj", grid);
+  for (int i = 0; i < 2; ++i) {
+    double angle = 0.7 * i;
+    auto [h, p] = frame(c, i, angle);
+    EXPECT_EQ(h["format"], "compact");
+    EXPECT_TRUE(p.binary);
+    vismap::CompactFrame f = vismap::read_compact(p.data);
+    EXPECT_EQ(f.width, 128u);
+    EXPECT_EQ(f.height, 96u);
+    EXPECT_EQ(f.quantum, 16u);
+    EXPECT_EQ(f.compression, vismap::Compression::Zstd);
+    EXPECT_TRUE(f.flags & vismap::kCompactShade);
+    EXPECT_EQ(h["out_triangles"], f.triangle_count());
+    EXPECT_EQ(h["vertices"], f.vertex_count());
+    EXPECT_GT(f.triangle_count(), 0u);
+    EXPECT_GE(h["encode_ms"].get<double>(), 0);
+
+    vismap::Camera cam;
+    vismap::PlanarMap map = render_like_the_server(scene, angle, cam);
+    vismap::CompactOptions o;
+    o.shade = true;
+    std::string mine = vismap::write_compact(map, scene, cam, o);
+    EXPECT_TRUE(p.data == mine) << "server " << p.data.size() << " bytes, here " << mine.size();
+    vismap::CompactFrame g = vismap::read_compact(mine);
+    EXPECT_EQ(f.source, g.source);
+    EXPECT_EQ(f.shade, g.shade);
+  }
+}
+
+TEST_F(ServerV2Test, CompactOptions) {
+  start();
+  struct Case {
+    json extra;
+    uint32_t quantum;
+    vismap::Compression compression;
+    bool shade;
+  };
+  const Case cases[] = {
+      {json::object(), 16, vismap::Compression::Zstd, true},
+      {{{"quantum", 1}, {"compression", "deflate"}}, 1, vismap::Compression::Deflate, true},
+      {{{"quantum", 256}, {"fill", "id"}}, 256, vismap::Compression::Zstd, false},
+      {{{"quantum", 4}, {"compression", "zstd"}, {"fill", "shade"}},
+       4,
+       vismap::Compression::Zstd,
+       true},
+  };
+  for (const Case& k : cases) {
+    SCOPED_TRACE(k.extra.dump());
+    WsClient c;
+    hello2(c, "compact", k.extra);
+    ready(c);
+    auto [h, p] = frame(c, 1);
+    vismap::CompactFrame f = vismap::read_compact(p.data);
+    EXPECT_EQ(f.quantum, k.quantum);
+    EXPECT_EQ(f.compression, k.compression);
+    EXPECT_EQ((f.flags & vismap::kCompactShade) != 0, k.shade);
+    EXPECT_EQ(f.shade.size(), k.shade ? f.triangle_count() : 0u);
+    EXPECT_GT(f.triangle_count(), 0u);
+  }
+}
+
+// Each refusal is bad_message, not fatal, and names what is wrong; the session may send another
+// hello, and the last one here is accepted.
+TEST_F(ServerV2Test, BadCompactCombinationsAreRefused) {
+  start();
+  WsClient c;
+  c.connect(url());
+  const std::pair<const char*, const char*> bad[] = {
+      {R"({"type":"hello","version":2,"format":"compact","attributes":true})", "barycentrics"},
+      {R"({"type":"hello","version":2,"format":"compact","quantum":0})", "quantum"},
+      {R"({"type":"hello","version":2,"format":"compact","quantum":257})", "quantum"},
+      {R"({"type":"hello","version":2,"format":"compact","quantum":"16"})", "quantum"},
+      {R"({"type":"hello","version":2,"format":"compact","quantum":2.5})", "quantum"},
+      {R"({"type":"hello","version":2,"format":"compact","compression":"lz4"})", "compression"},
+      {R"({"type":"hello","version":2,"format":"compact","compression":1})", "compression"},
+      {R"({"type":"hello","version":2,"format":"png"})", "compact"},
+      {R"({"type":"hello","versions":[1],"format":"compact"})", "version 2"},
+      {R"({"type":"hello","version":2,"format":"compact","fill":"normals"})", "fill"},
+  };
+  for (auto [text, why] : bad) {
+    c.send_text(text);
+    json e = next(c);
+    EXPECT_EQ(e["type"], "error") << text;
+    EXPECT_EQ(e["code"], "bad_message") << text;
+    EXPECT_FALSE(e["fatal"].get<bool>()) << text;
+    EXPECT_NE(e["message"].get<std::string>().find(why), std::string::npos) << e.dump();
+  }
+  c.send_text(R"({"type":"hello","version":2,"format":"bin","attributes":true})");
+  EXPECT_EQ(next(c)["type"], "welcome");
+}
+
+TEST_F(ServerV2Test, MetricsCountFramesAndBytesPerFormat) {
+  start();
+  uint64_t bytes[3] = {0, 0, 0};
+  const char* formats[] = {"svg", "bin", "compact"};
+  for (int f = 0; f < 3; ++f) {
+    WsClient c;
+    hello2(c, formats[f]);
+    ready(c);
+    for (int i = 0; i <= f; ++i) bytes[f] += frame(c, i, 0.3 * i).second.data.size();
+  }
+  for (int f = 0; f < 3; ++f) {
+    std::string label = std::string("{format=\"") + formats[f] + "\"} ";
+    EXPECT_TRUE(metrics_show("vismap_frames_by_format_total" + label + std::to_string(f + 1)))
+        << formats[f];
+    EXPECT_TRUE(metrics_show("vismap_frame_bytes_total" + label + std::to_string(bytes[f])))
+        << formats[f];
+    EXPECT_TRUE(metrics_show(std::string("vismap_encode_ms_count{format=\"") + formats[f] + "\"} " +
+                             std::to_string(f + 1)))
+        << formats[f];
+  }
+  EXPECT_TRUE(metrics_show("vismap_frames_total 6"));
+}
+
+}  // namespace
