@@ -65,6 +65,7 @@ struct WsClient::Impl {
   websocket::stream<beast::tcp_stream> ws{ioc};
   beast::flat_buffer buf;
   bool read_armed = false;
+  bool deflate = false;
   std::deque<Message> inbox;
   std::optional<beast::error_code> read_error;
 
@@ -110,7 +111,7 @@ struct WsClient::Impl {
 WsClient::WsClient() : impl_(std::make_unique<Impl>()) {}
 WsClient::~WsClient() = default;
 
-void WsClient::connect(const std::string& url, double timeout_s) {
+void WsClient::connect(const std::string& url, double timeout_s, bool permessage_deflate) {
   Url u = parse_url(url);
   auto deadline = Clock::now() + secs(timeout_s);
   tcp::resolver resolver(impl_->ioc);
@@ -131,14 +132,34 @@ void WsClient::connect(const std::string& url, double timeout_s) {
   impl_->ws.set_option(
       websocket::stream_base::timeout{secs(timeout_s), websocket::stream_base::none(), false});
   impl_->ws.read_message_max(1ull << 30);
+  if (permessage_deflate) {
+    websocket::permessage_deflate pmd;
+    pmd.client_enable = true;
+    impl_->ws.set_option(pmd);
+  }
   result.reset();
-  impl_->ws.async_handshake(u.host + ":" + u.port, u.target,
+  websocket::response_type res;
+  impl_->ws.async_handshake(res, u.host + ":" + u.port, u.target,
                             [&](beast::error_code ec) { result = ec; });
   if (!run_until(
           impl_->ioc, [&] { return result.has_value(); }, deadline + secs(1)))
     throw Timeout("handshake timed out");
   if (*result)
     throw std::runtime_error("WebSocket handshake with " + url + ": " + result->message());
+  impl_->deflate =
+      std::string(res[http::field::sec_websocket_extensions]).find("permessage-deflate") !=
+      std::string::npos;
+}
+
+bool WsClient::deflate_negotiated() const {
+  return impl_->deflate;
+}
+
+uint64_t tcp_bytes_received(int fd);  // tcp_bytes.cpp
+
+uint64_t WsClient::wire_bytes_received() const {
+  auto& s = impl_->ws.next_layer().socket();
+  return s.is_open() ? tcp_bytes_received(s.native_handle()) : 0;
 }
 
 void WsClient::send_text(const std::string& s, double t) {

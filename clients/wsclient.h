@@ -39,7 +39,13 @@ class WsClient {
   WsClient& operator=(const WsClient&) = delete;
 
   // Throws std::runtime_error (connect or handshake failed, e.g. HTTP 404), or Timeout.
-  void connect(const std::string& url, double timeout_s = 5);
+  // permessage_deflate: offer the extension (RFC 7692) in the upgrade; the server may decline.
+  void connect(const std::string& url, double timeout_s = 5, bool permessage_deflate = false);
+  // The server's upgrade response accepted permessage-deflate (messages travel deflated).
+  bool deflate_negotiated() const;
+  // Bytes the TCP connection has received so far, headers and framing included (Linux TCP_INFO;
+  // 0 where unknown): the wire cost of messages, after any permessage-deflate.
+  uint64_t wire_bytes_received() const;
   void send_text(const std::string& s, double timeout_s = 10);
   void send_binary(const std::string& s, double timeout_s = 10);
   // Next message. Throws Timeout (the read stays armed: a later read() gets that message),

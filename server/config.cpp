@@ -44,6 +44,16 @@ static void get(const json& j, const char* key, T& out, const std::string& origi
   }
 }
 
+// Beast's zlib refuses a window of 8 bits (a zlib bug it works around), hence 9 ... 15.
+static void check_deflate(const Config& cfg, const std::string& origin) {
+  if (cfg.deflate_level < 1 || cfg.deflate_level > 9)
+    throw std::runtime_error(origin + ": deflate_level must be 1 ... 9");
+  if (cfg.deflate_window_bits < 9 || cfg.deflate_window_bits > 15)
+    throw std::runtime_error(origin + ": deflate_window_bits must be 9 ... 15");
+  if (cfg.deflate_mem_level < 1 || cfg.deflate_mem_level > 9)
+    throw std::runtime_error(origin + ": deflate_mem_level must be 1 ... 9");
+}
+
 void apply_json(Config& cfg, const std::string& text, const std::string& origin) {
   json j = json::parse(text, nullptr, false);
   if (j.is_discarded() || !j.is_object()) throw std::runtime_error(origin + ": not a JSON object");
@@ -74,6 +84,14 @@ void apply_json(Config& cfg, const std::string& text, const std::string& origin)
       get(j, "drain_timeout_s", cfg.drain_timeout_s, origin);
     else if (k == "log_level")
       get(j, "log_level", cfg.log_level, origin);
+    else if (k == "permessage_deflate")
+      get(j, "permessage_deflate", cfg.permessage_deflate, origin);
+    else if (k == "deflate_level")
+      get(j, "deflate_level", cfg.deflate_level, origin);
+    else if (k == "deflate_window_bits")
+      get(j, "deflate_window_bits", cfg.deflate_window_bits, origin);
+    else if (k == "deflate_mem_level")
+      get(j, "deflate_mem_level", cfg.deflate_mem_level, origin);
     else if (k == "limits") {
       if (!v.is_object()) throw std::runtime_error(origin + ": 'limits' is not an object");
       Limits& l = cfg.limits;
@@ -115,6 +133,7 @@ void apply_json(Config& cfg, const std::string& text, const std::string& origin)
   if (cfg.renderers == 0 || cfg.io_threads == 0 || cfg.load_threads == 0 || cfg.encode_threads == 0)
     throw std::runtime_error(
         origin + ": renderers, io_threads, load_threads and encode_threads must be >= 1");
+  check_deflate(cfg, origin);
   if (cfg.limits.render_time_limit_s < 0)
     throw std::runtime_error(origin + ": limits.render_time_limit_s must be >= 0");
 }
@@ -122,7 +141,7 @@ void apply_json(Config& cfg, const std::string& text, const std::string& origin)
 static const char* kUsage =
     "usage: vismapd --port PORT [--address ADDR] [--config FILE] [--library DIR] [--www DIR]\n"
     "               [--token-file FILE] [--device DEV] [--renderers N] [--max-sessions N]\n"
-    "               [--log-level info|warn|off]\n"
+    "               [--log-level info|warn|off] [--permessage-deflate on|off]\n"
     "Serves WebSocket sessions, /health and /metrics on one port (proto/PROTOCOL.md).\n"
     "Flags override the JSON config file; see docs/SERVER.md for every key.\n";
 
@@ -170,7 +189,11 @@ bool parse_args(Config& cfg, int argc, char** argv, std::string& usage) {
       cfg.limits.max_sessions = static_cast<uint32_t>(num(100000));
     else if (a == "--log-level")
       cfg.log_level = v;
-    else
+    else if (a == "--permessage-deflate") {
+      if (v != "on" && v != "off")
+        throw std::runtime_error("flag --permessage-deflate: expected on or off, got '" + v + "'");
+      cfg.permessage_deflate = v == "on";
+    } else
       throw std::runtime_error("unknown flag " + a + " (see --help)");
   }
   return true;

@@ -48,6 +48,13 @@ struct Config {
   uint32_t load_threads = 2;       // scene parsing off the network threads
   uint32_t encode_threads = 2;     // SVG / bin encoding, off the render workers
   double drain_timeout_s = 10;     // graceful stop: longest wait for frames in flight
+  // WebSocket permessage-deflate (RFC 7692), offered to clients that ask; Beast's deflate with
+  // these settings compresses every message of a session that negotiated it (docs/SERVER.md has
+  // the measured cost and gain per format behind the default).
+  bool permessage_deflate = true;
+  int deflate_level = 1;           // 1 (fastest) ... 9
+  int deflate_window_bits = 15;    // 9 ... 15: the server's LZ77 window, 2^bits bytes
+  int deflate_mem_level = 8;       // 1 ... 9: the deflater's hash memory, 2^(bits+9) bytes
   std::string log_level = "info";  // info | warn | off
   Limits limits;
 

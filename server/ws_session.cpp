@@ -88,6 +88,16 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     t.keep_alive_pings = true;
     ws_.set_option(t);
     ws_.read_message_max(0);  // no Beast limit: on_read enforces ours and answers too_large
+    if (srv_.cfg.permessage_deflate) {
+      // Offered; used only when the client asks in its upgrade. Reads stay bounded: on_read's
+      // limits count inflated bytes (async_read_some inflates at most 64 KiB a call).
+      websocket::permessage_deflate pmd;
+      pmd.server_enable = true;
+      pmd.server_max_window_bits = srv_.cfg.deflate_window_bits;
+      pmd.compLevel = srv_.cfg.deflate_level;
+      pmd.memLevel = srv_.cfg.deflate_mem_level;
+      ws_.set_option(pmd);
+    }
     ws_.set_option(websocket::stream_base::decorator(
         [](websocket::response_type& res) { res.set(http::field::server, "vismapd"); }));
     ws_.async_accept(req, beast::bind_front_handler(&WsSession::on_accept, shared_from_this()));

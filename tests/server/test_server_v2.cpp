@@ -1,6 +1,6 @@
 // Protocol version 2 on loopback (proto/PROTOCOL.md, "Version 2"): the version choice, compact
 // frames over the socket (byte for byte write_compact of the same render), their options and
-// refusals, and the per-format metrics.
+// refusals, the per-format metrics, and permessage-deflate with frames still correct through it.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -219,6 +219,67 @@ TEST_F(ServerV2Test, MetricsCountFramesAndBytesPerFormat) {
         << formats[f];
   }
   EXPECT_TRUE(metrics_show("vismap_frames_total 6"));
+}
+
+// Negotiated when offered by both sides; every format's frames still decode through it, and an
+// SVG frame costs fewer bytes on the wire than its payload. Inflated bytes count against the
+// message limit (a compressed bomb is too_large, the session goes on).
+TEST_F(ServerV2Test, PermessageDeflateNegotiatedAndFramesStillCorrect) {
+  cfg_.permessage_deflate = true;
+  cfg_.limits.max_message_bytes = 1 << 20;
+  start();
+  WsClient plain;  // a client that does not offer it gets plain frames
+  plain.connect(url(), 5, false);
+  EXPECT_FALSE(plain.deflate_negotiated());
+  plain.close();
+  const char* formats[] = {"svg", "bin", "compact"};
+  for (const char* fmt : formats) {
+    SCOPED_TRACE(fmt);
+    WsClient c;
+    c.connect(url(), 5, /*permessage_deflate=*/true);
+    EXPECT_TRUE(c.deflate_negotiated());
+    c.send_text(json{{"type", "hello"},
+                     {"version", 2},
+                     {"format", fmt},
+                     {"viewport", {{"width", 128}, {"height", 96}}}}
+                    .dump());
+    ASSERT_EQ(next(c)["type"], "welcome");
+    const std::string grid = grid_obj(12);
+    upload(c, "grid.obj", grid);
+    ASSERT_EQ(next(c, 60)["type"], "scene_ready");
+    uint64_t wire0 = c.wire_bytes_received();
+    auto [h, p] = frame(c, 1);
+    uint64_t wire = c.wire_bytes_received() - wire0;
+    EXPECT_EQ(h["bytes"], p.data.size());
+    if (std::string(fmt) == "svg") {
+      EXPECT_NE(p.data.find("</svg>"), std::string::npos);
+      EXPECT_LT(wire, p.data.size() / 2) << "wire " << wire << " payload " << p.data.size();
+    } else if (std::string(fmt) == "bin") {
+      EXPECT_GT(vismap::read_bin(p.data).triangle_count(), 0u);
+    } else {
+      EXPECT_EQ(vismap::read_compact(p.data).triangle_count(), h["out_triangles"]);
+    }
+    std::printf("permessage-deflate %s: payload %zu bytes, %llu on the wire\n", fmt, p.data.size(),
+                static_cast<unsigned long long>(wire));
+  }
+  WsClient bomb;
+  bomb.connect(url(), 5, true);
+  bomb.send_text(R"({"type":"hello","version":2})");
+  ASSERT_EQ(next(bomb)["type"], "welcome");
+  bomb.send_binary(std::string(4 << 20, '\0'));  // 4 MiB, a few KiB deflated
+  expect_error(bomb, "too_large");
+  bomb.send_text(R"({"type":"ping","seq":7})");
+  EXPECT_EQ(next(bomb)["seq"], 7);
+}
+
+TEST_F(ServerV2Test, PermessageDeflateOffNotNegotiated) {
+  cfg_.permessage_deflate = false;
+  start();
+  WsClient c;
+  c.connect(url(), 5, true);
+  EXPECT_FALSE(c.deflate_negotiated());
+  c.send_text(R"({"type":"hello","version":2})");
+  EXPECT_EQ(next(c)["type"], "welcome");
 }
 
 }  // namespace
