@@ -57,10 +57,10 @@ int main(int argc, char** argv) {
     }
   }
   if (scene.empty()) {
-    std::fprintf(
-        stderr,
-        "usage: server_bench --scene FILE [--sessions 1,8,50] [--frames N] [--format svg|bin] "
-        "[--size PIXELS] [--url ws://...] [--device DEV]\n");
+    std::fprintf(stderr,
+                 "usage: server_bench --scene FILE [--sessions 1,8,50] [--frames N]\n"
+                 "                    [--format svg|bin|compact] [--size PIXELS] [--url ws://...]\n"
+                 "                    [--device DEV]\n");
     return 2;
   }
   std::ifstream f(scene, std::ios::binary);
@@ -100,7 +100,7 @@ int main(int argc, char** argv) {
           vismap::client::WsClient c;
           c.connect(url, 30);
           c.send_text(json{{"type", "hello"},
-                           {"version", 1},
+                           {"version", format == "compact" ? 2 : 1},
                            {"format", format},
                            {"viewport", {{"width", size}, {"height", size}}}}
                           .dump());

@@ -1,5 +1,6 @@
-// vismap-client: connects to vismapd, uploads a scene, orbits the camera for N frames, saves the
-// frames and reports fps, latency and bytes. Its last stdout line is one JSON object.
+// vismap-client: connects to vismapd, uploads a scene, orbits the camera for N frames, decodes
+// bin and compact frames, saves the frames and reports fps, latency, bytes and triangles. Its
+// last stdout line is one JSON object. Speaks protocol version 1, and 2 for compact frames.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -12,14 +13,20 @@
 #include <vector>
 
 #include "clients/wsclient.h"
+#include "core/compact.h"
+#include "core/output.h"
 
 using nlohmann::json;
 using namespace vismap::client;
 
 static const char* kUsage =
     "usage: vismap-client --url ws://HOST:PORT/ (--scene FILE | --library NAME) --frames N\n"
-    "                     [--format svg|bin] [--out DIR] [--width W] [--height H] [--attributes]\n"
+    "                     [--format svg|bin|compact] [--out DIR] [--width W] [--height H]\n"
+    "                     [--attributes] [--fill shade|id] [--quantum Q]\n"
+    "                     [--compression zstd|deflate] [--permessage-deflate]\n"
     "                     [--token-file FILE] [--timeout S] [--retries N]\n"
+    "  compact (and --quantum, --compression) negotiate protocol version 2; bin and\n"
+    "  compact frames are decoded (read_bin, read_compact) and their triangles counted.\n"
     "       vismap-client --health http://HOST:PORT/health   (exit 0 when the server answers 200 "
     "ok;\n"
     "                                                         a container HEALTHCHECK without "
@@ -43,11 +50,11 @@ static int health(const std::string& url_text, double timeout) {
 
 // Connects with exponential backoff (0.1 s doubling to 2 s): a server that restarts, or a load
 // balancer whose backend just went away, gets `retries` more tries.
-static void connect_with_retry(WsClient& c, const std::string& url, int retries) {
+static void connect_with_retry(WsClient& c, const std::string& url, int retries, bool deflate) {
   double delay = 0.1;
   for (int attempt = 0;; ++attempt) {
     try {
-      c.connect(url, 10);
+      c.connect(url, 10, deflate);
       return;
     } catch (const std::exception& e) {
       if (attempt >= retries) throw;
@@ -87,10 +94,10 @@ static double percentile(std::vector<double> v, double p) {
 }
 
 int main(int argc, char** argv) {
-  std::string url, scene, library, format = "svg", out, token_file, health_url;
+  std::string url, scene, library, format = "svg", out, token_file, health_url, fill, compression;
   int frames = 36, retries = 0;
-  uint32_t width = 1024, height = 1024;
-  bool attributes = false;
+  uint32_t width = 1024, height = 1024, quantum = 0;
+  bool attributes = false, deflate = false;
   double timeout = 60;
   try {
     for (int i = 1; i < argc; ++i) {
@@ -125,6 +132,14 @@ int main(int argc, char** argv) {
         health_url = val();
       else if (a == "--attributes")
         attributes = true;
+      else if (a == "--fill")
+        fill = val();
+      else if (a == "--quantum")
+        quantum = static_cast<uint32_t>(std::stoul(val()));
+      else if (a == "--compression")
+        compression = val();
+      else if (a == "--permessage-deflate")
+        deflate = true;
       else if (a == "--help" || a == "-h") {
         std::fputs(kUsage, stdout);
         return 0;
@@ -133,7 +148,9 @@ int main(int argc, char** argv) {
     }
     if (!health_url.empty()) return health(health_url, std::min(timeout, 10.0));
     if (url.empty() || (scene.empty() == library.empty()) || frames < 1 ||
-        (format != "svg" && format != "bin"))
+        (format != "svg" && format != "bin" && format != "compact") ||
+        (!fill.empty() && fill != "shade" && fill != "id") ||
+        (!compression.empty() && compression != "zstd" && compression != "deflate"))
       throw std::runtime_error("bad arguments");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "vismap-client: %s\n%s", e.what(), kUsage);
@@ -142,12 +159,17 @@ int main(int argc, char** argv) {
 
   try {
     WsClient c;
-    connect_with_retry(c, url, retries);
+    connect_with_retry(c, url, retries, deflate);
+    // Version 2 only where it is needed, so svg and bin keep working with a version 1 server.
+    bool v2 = format == "compact" || quantum || !compression.empty();
     json hello = {{"type", "hello"},
-                  {"version", 1},
+                  {"version", v2 ? 2 : 1},
                   {"format", format},
                   {"attributes", attributes},
                   {"viewport", {{"width", width}, {"height", height}}}};
+    if (!fill.empty()) hello["fill"] = fill;
+    if (quantum) hello["quantum"] = quantum;
+    if (!compression.empty()) hello["compression"] = compression;
     if (!token_file.empty()) {
       std::string t = slurp(token_file);
       while (!t.empty() && (t.back() == '\n' || t.back() == '\r')) t.pop_back();
@@ -180,8 +202,9 @@ int main(int argc, char** argv) {
     double dx = eye[0] - target[0], dz = eye[2] - target[2];
     if (!out.empty()) std::filesystem::create_directories(out);
     std::vector<double> latency;
-    double render_ms_sum = 0;
-    uint64_t bytes_sum = 0;
+    double render_ms_sum = 0, decode_ms_sum = 0;
+    uint64_t bytes_sum = 0, triangles_sum = 0;
+    const uint64_t wire0 = c.wire_bytes_received();
     auto t0 = std::chrono::steady_clock::now();
     for (int i = 0; i < frames; ++i) {
       double a = 2 * M_PI * i / frames;
@@ -197,13 +220,22 @@ int main(int argc, char** argv) {
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ts).count());
       bytes_sum += payload.data.size();
       render_ms_sum += header.value("render_ms", 0.0);
+      auto td = std::chrono::steady_clock::now();
+      if (format == "bin")
+        triangles_sum += vismap::read_bin(payload.data).triangle_count();
+      else if (format == "compact")
+        triangles_sum += vismap::read_compact(payload.data).triangle_count();
+      decode_ms_sum +=
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - td).count();
       if (!out.empty()) {
         char name[64];
-        std::snprintf(name, sizeof name, "frame_%04d.%s", i, format.c_str());
+        std::snprintf(name, sizeof name, "frame_%04d.%s", i,
+                      format == "compact" ? "vmc" : format.c_str());
         std::ofstream(std::filesystem::path(out) / name, std::ios::binary) << payload.data;
       }
     }
     double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const uint64_t wire = c.wire_bytes_received() - wire0;  // frames, headers and cameras' acks
     c.close();
     json r = {{"frames", frames},
               {"fps", frames / secs},
@@ -212,6 +244,23 @@ int main(int argc, char** argv) {
               {"bytes_per_frame", bytes_sum / frames},
               {"render_ms_mean", render_ms_sum / frames},
               {"format", format}};
+    // Added with protocol version 2: the run's figures under its format's name, the decoded
+    // triangles (bin, compact; svg frames are not parsed: null) and the bytes on the wire.
+    json per = {{"frames", frames},
+                {"bytes_per_frame", bytes_sum / frames},
+                {"wire_bytes_per_frame", wire / frames},
+                {"triangles_per_frame", nullptr},
+                {"decode_ms_mean", nullptr}};
+    if (format != "svg") {
+      per["decode_ms_mean"] = decode_ms_sum / frames;
+      per["triangles_per_frame"] = triangles_sum / frames;
+      r["decoded_triangles"] = triangles_sum;
+    }
+    r["triangles_per_frame"] = per["triangles_per_frame"];
+    r["wire_bytes_per_frame"] = wire / frames;
+    r["protocol"] = welcome.value("version", 1);
+    r["permessage_deflate"] = c.deflate_negotiated();
+    r["by_format"] = {{format, per}};
     std::printf(
         "%d frames in %.2f s: %.1f fps, latency p50 %.1f ms p99 %.1f ms, %llu bytes/frame\n",
         frames, secs, frames / secs, r["latency_p50_ms"].get<double>(),
