@@ -1,41 +1,65 @@
-// vismap web viewer: connects to vismapd on the page's own host (proto/PROTOCOL.md), shows the
-// live SVG stream and orbits the camera with the mouse (drag: orbit, wheel: zoom).
+// vismap web viewer: connects to vismapd on the page's own host (proto/PROTOCOL.md) and shows the
+// live stream in one of two modes:
+//   svg      protocol version 1, each frame's SVG put into the page as it comes;
+//   compact  protocol version 2, compact frames (proto/COMPACT.md) with raw deflate, decoded by
+//            compact.js (decodeCompact, the browser inflates with DecompressionStream) and
+//            drawn on a 2D canvas.
+// Drag orbits the camera, the wheel zooms. ?scene=NAME opens a library scene, ?format=svg|compact
+// picks the mode (the selector switches it live: a new session, the same scene and camera).
 (() => {
   const view = document.getElementById('view');
   const stats = document.getElementById('stats');
+  const formatSelect = document.getElementById('format');
   const params = new URLSearchParams(location.search);
-  const ws = new WebSocket((location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/');
-  let pendingHeader = null, orbit = null, seq = 0, sentAt = new Map(), lastFps = [];
-  const send = (m) => ws.readyState === 1 && ws.send(JSON.stringify(m));
+  let format = params.get('format') === 'compact' ? 'compact' : 'svg';
+  formatSelect.value = format;
+  let ws = null, pendingHeader = null, orbit = null, keepOrbit = false;
+  let seq = 0, sentAt = new Map(), lastFps = [];
+  let lastScene = null;  // {message, bytes}: sent again when the mode changes
+  let decodeCompact = null;  // compact.js's decoder, imported on first use
+  let frameNo = 0, shownNo = 0;  // a decode that ends after a newer frame's is not drawn
+  const send = (m) => ws && ws.readyState === 1 && ws.send(JSON.stringify(m));
 
-  ws.onopen = () => {
-    const hello = { type: 'hello', version: 1, format: 'svg',
-                    viewport: { width: view.clientWidth | 0 || 800, height: view.clientHeight | 0 || 600 } };
-    if (params.get('token')) hello.token = params.get('token');
-    send(hello);
-    setInterval(() => send({ type: 'ping' }), 20000);  // keeps the idle timeout away
-  };
-  ws.onclose = (e) => { stats.textContent = `closed ${e.code} ${e.reason}`; };
-  ws.onmessage = (e) => {
+  function connect() {
+    if (ws) { ws.onclose = null; ws.close(); }
+    pendingHeader = null;
+    ws = new WebSocket((location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/');
+    ws.binaryType = 'arraybuffer';
+    ws.onopen = () => {
+      const hello = { type: 'hello', version: format === 'compact' ? 2 : 1, format,
+                      viewport: { width: view.clientWidth | 0 || 800, height: view.clientHeight | 0 || 600 } };
+      if (format === 'compact') hello.compression = 'deflate';  // browsers inflate it natively
+      if (params.get('token')) hello.token = params.get('token');
+      send(hello);
+    };
+    ws.onclose = (e) => { stats.textContent = `closed ${e.code} ${e.reason}`; };
+    ws.onmessage = onMessage;
+  }
+  setInterval(() => send({ type: 'ping' }), 20000);  // keeps the idle timeout away
+
+  function onMessage(e) {
     if (pendingHeader) {  // the payload that follows a frame header
-      view.innerHTML = e.data;
       const h = pendingHeader; pendingHeader = null;
-      const t = sentAt.get(h.seq); sentAt.delete(h.seq);
-      const now = performance.now();
-      lastFps.push(now); while (lastFps.length && now - lastFps[0] > 1000) lastFps.shift();
-      stats.textContent = `${lastFps.length} fps  render ${h.render_ms.toFixed(1)} ms  ` +
-        (t ? `latency ${(now - t).toFixed(0)} ms  ` : '') + `${(h.bytes / 1024).toFixed(0)} KiB  ${h.fragments} fragments`;
-      return;
+      if (h.format === 'compact') return showCompact(h, e.data);
+      view.innerHTML = e.data;
+      return shown(h);
     }
     const m = JSON.parse(e.data);
     if (m.type === 'welcome') {
       stats.textContent = `session ${m.session}`;
-      const lib = params.get('scene');
-      if (lib) send({ type: 'scene', library: lib });
+      if (lastScene) {
+        send(lastScene.message);
+        if (lastScene.bytes) ws.send(lastScene.bytes);
+      } else if (params.get('scene')) {
+        loadScene({ type: 'scene', library: params.get('scene') });
+      }
     } else if (m.type === 'scene_ready') {
-      const c = m.camera, d = c.eye.map((v, i) => v - c.target[i]);
-      const r = Math.hypot(...d);
-      orbit = { target: c.target, r, yaw: Math.atan2(d[0], d[2]), pitch: Math.asin(d[1] / r) };
+      if (!(keepOrbit && orbit)) {
+        const c = m.camera, d = c.eye.map((v, i) => v - c.target[i]);
+        const r = Math.hypot(...d);
+        orbit = { target: c.target, r, yaw: Math.atan2(d[0], d[2]), pitch: Math.asin(d[1] / r) };
+      }
+      keepOrbit = false;
       stats.textContent = `${m.name}: ${m.triangles} triangles`;
       sendCamera();
     } else if (m.type === 'frame') {
@@ -43,7 +67,85 @@
     } else if (m.type === 'error') {
       stats.textContent = `error ${m.code}: ${m.message}`;
     }
+  }
+
+  function shown(h) {
+    const t = sentAt.get(h.seq); sentAt.delete(h.seq);
+    const now = performance.now();
+    lastFps.push(now); while (lastFps.length && now - lastFps[0] > 1000) lastFps.shift();
+    const count = h.format === 'compact' ? `${h.out_triangles} triangles` : `${h.fragments} fragments`;
+    stats.textContent = `${lastFps.length} fps  render ${h.render_ms.toFixed(1)} ms  ` +
+      (t ? `latency ${(now - t).toFixed(0)} ms  ` : '') + `${(h.bytes / 1024).toFixed(0)} KiB  ${count}`;
+  }
+
+  async function showCompact(h, bytes) {
+    const no = ++frameNo;
+    try {
+      if (!decodeCompact) decodeCompact = (await import('./compact.js')).decodeCompact;
+      const f = await decodeCompact(bytes);
+      if (no < shownNo) return;
+      shownNo = no;
+      drawCompact(f);
+      shown(h);
+    } catch (err) {
+      stats.textContent = `compact frame: ${err.message || err}`;
+    }
+  }
+
+  // sRGB byte of a linear value in [0, 1] (the SVG writer's to_srgb8).
+  const srgb = (c) => {
+    c = Math.min(1, Math.max(0, c));
+    return Math.round(255 * (c <= 0.0031308 ? 12.92 * c : 1.055 * Math.pow(c, 1 / 2.4) - 0.055));
   };
+
+  // One path per colour (mesh, shade): a path's fill has no seams inside, and the edges that two
+  // triangles share are stroked 1 px in the fill colour, as the SVG writer does, so background
+  // does not show through where abutting fills of different colours each cover part of a pixel.
+  // Silhouette edges are not stroked (outlines are not fattened).
+  function drawCompact(f) {
+    let canvas = view.querySelector('canvas');
+    if (!canvas) { view.innerHTML = ''; canvas = document.createElement('canvas'); view.appendChild(canvas); }
+    if (canvas.width !== f.width || canvas.height !== f.height) { canvas.width = f.width; canvas.height = f.height; }
+    const ctx = canvas.getContext('2d');
+    ctx.clearRect(0, 0, f.width, f.height);
+    const q = f.quantum, xy = f.xy, ix = f.indices, n = ix.length / 3, nv = xy.length / 2;
+    const edges = new Map();  // undirected edge -> use count
+    const key = (a, b) => (a < b ? a * nv + b : b * nv + a);
+    for (let i = 0; i < ix.length; i += 3)
+      for (let k = 0; k < 3; ++k) {
+        const e = key(ix[i + k], ix[i + (k + 1) % 3]);
+        edges.set(e, (edges.get(e) || 0) + 1);
+      }
+    const groups = new Map();  // colour key -> {fill: Path2D, stroke: Path2D, style}
+    for (let t = 0; t < n; ++t) {
+      const m = f.mesh[t], s = f.shade ? f.shade[t] : 255, g = m * 256 + s;
+      let p = groups.get(g);
+      if (!p) {
+        const c = [0, 1, 2].map((k) => srgb(f.meshColor[3 * m + k] * s / 255));
+        p = { fill: new Path2D(), stroke: new Path2D(), style: `rgb(${c[0]},${c[1]},${c[2]})` };
+        groups.set(g, p);
+      }
+      const v = [ix[3 * t], ix[3 * t + 1], ix[3 * t + 2]];
+      p.fill.moveTo(xy[2 * v[0]] / q, xy[2 * v[0] + 1] / q);
+      p.fill.lineTo(xy[2 * v[1]] / q, xy[2 * v[1] + 1] / q);
+      p.fill.lineTo(xy[2 * v[2]] / q, xy[2 * v[2] + 1] / q);
+      p.fill.closePath();
+      for (let k = 0; k < 3; ++k) {
+        const a = v[k], b = v[(k + 1) % 3];
+        if (edges.get(key(a, b)) < 2) continue;  // a silhouette edge
+        p.stroke.moveTo(xy[2 * a] / q, xy[2 * a + 1] / q);
+        p.stroke.lineTo(xy[2 * b] / q, xy[2 * b + 1] / q);
+      }
+    }
+    ctx.lineWidth = 1;
+    ctx.lineJoin = 'bevel';
+    for (const p of groups.values()) {
+      ctx.fillStyle = ctx.strokeStyle = p.style;
+      ctx.fill(p.fill);
+      ctx.stroke(p.stroke);
+    }
+    canvas.dataset.frames = String(shownNo);  // for tests: frames drawn so far
+  }
 
   function sendCamera() {
     if (!orbit) return;
@@ -53,6 +155,12 @@
     sentAt.set(++seq, performance.now());
     if (sentAt.size > 100) sentAt.delete(sentAt.keys().next().value);
     send({ type: 'camera', seq, eye, target: t });  // the server renders only the latest
+  }
+
+  function loadScene(message, bytes) {
+    lastScene = { message, bytes };
+    send(message);
+    if (bytes) ws.send(bytes);  // the scene's bytes as one binary message
   }
 
   let drag = null;
@@ -72,16 +180,21 @@
     sendCamera();
   }, { passive: false });
 
+  formatSelect.onchange = () => {
+    format = formatSelect.value;
+    keepOrbit = true;  // the new session shows the same scene from the same camera
+    connect();
+  };
   document.getElementById('load').onclick = () => {
     const n = document.getElementById('name').value.trim();
-    if (n) send({ type: 'scene', library: n });
+    if (n) loadScene({ type: 'scene', library: n });
   };
   document.getElementById('file').onchange = async (e) => {
     const f = e.target.files[0];
     if (!f) return;
     const bytes = await f.arrayBuffer();
-    send({ type: 'scene', name: f.name, size: bytes.byteLength });
-    ws.send(bytes);  // the scene's bytes as one binary message
+    loadScene({ type: 'scene', name: f.name, size: bytes.byteLength }, bytes);
   };
   document.getElementById('scene').style.display = 'none';
+  connect();
 })();
