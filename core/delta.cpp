@@ -32,7 +32,9 @@ constexpr int kSections = 9;
 constexpr uint64_t kOwnCorner = 0;  // 0, 1, 2: corner k of the polygon's own source triangle
 constexpr uint64_t kVertexRef = 3;  // a source vertex: zigzag(global number - own corner 0's)
 constexpr uint64_t kNewPoint = 4;   // a new point: its coordinates follow in the points section
-constexpr uint64_t kPointRef = 5;   // 5 + j: the j-th most recent new point of this frame
+constexpr uint64_t kTwin = 5;       // the corner that came before this one's predecessor in an
+                                    // earlier polygon (the edge they share, walked back)
+constexpr uint64_t kPointRef = 6;   // 6 + j: the j-th most recent new point of this frame
 
 void put_u32(std::string& s, uint32_t v) {
   for (int i = 0; i < 4; ++i) s += char((v >> (8 * i)) & 0xFF);
@@ -325,7 +327,13 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
   int64_t last_x = 0, last_y = 0;
   uint32_t prev_id = 0;
   uint64_t corners = 0;
-  std::vector<uint32_t> ring;
+  std::vector<uint32_t> ring, ring_id;
+  // Corner identities: a source vertex is its global number, a point NV + its index. For each
+  // corner X of an earlier polygon, the corner before it: twin_of[X] predicts the corner after X.
+  const uint64_t nv_all = known_vertex_.size();
+  size_t all_corners = 0;
+  for (const Poly& q : partial) all_corners += P.off[q.p + 1] - P.off[q.p];
+  FlatMap twin_of(all_corners);
   for (const Poly& q : partial) {
     need_triangle(q.id);
     uint32_t own[3];
@@ -355,9 +363,25 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
     corners += n;
     bool point_before = false;  // the last corner was a point: predict from it
     int64_t px = 0, py = 0;
+    ring_id.clear();
     for (uint32_t v : ring) {
       const uint32_t gv = vertex_number(v);
+      const uint64_t id = gv != ~0u ? gv : point_of[v] != ~0u ? nv_all + point_of[v] : ~0ull;
+      if (!ring_id.empty() && id != ~0ull) {
+        const uint32_t* twin = twin_of.find(ring_id.back());
+        if (twin && *twin == id) {
+          put_varint(s_codes, kTwin);
+          ring_id.push_back(id);
+          point_before = gv == ~0u;
+          if (point_before) {
+            px = std::llround(P.xy[2 * v] * options_.quantum);
+            py = std::llround(P.xy[2 * v + 1] * options_.quantum);
+          }
+          continue;
+        }
+      }
       if (gv != ~0u) {
+        ring_id.push_back(gv);
         int k = 0;
         while (k < 3 && own[k] != gv) ++k;
         if (k < 3) {
@@ -382,8 +406,10 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
         last_x = x, last_y = y;
         point_of[v] = points++;
       }
+      ring_id.push_back(nv_all + point_of[v]);
       point_before = true, px = x, py = y;
     }
+    for (size_t k = 0; k < n; ++k) twin_of.emplace(ring_id[(k + 1) % n], uint32_t(ring_id[k]));
   }
 
   // The whole set's change.
@@ -696,6 +722,8 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     int64_t lx = 0, ly = 0;
     uint64_t id = 0;
     std::vector<uint32_t> ring;
+    std::vector<uint64_t> ring_id;
+    FlatMap twin_of(size[6]);  // a corner takes at least a byte of codes
     const int64_t xmax = int64_t(f.width) * quantum, ymax = int64_t(f.height) * quantum;
     for (uint64_t i = 0; i < n; ++i) {
       id += s.varint();
@@ -703,17 +731,31 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
       const uint64_t corners = s.varint() + 3;
       if (corners > 1u << 20) malformed("polygons", int64_t(i), "too many corners");
       ring.clear();
+      ring_id.clear();
       bool point_before = false;
       for (uint64_t k = 0; k < corners; ++k) {
         const uint64_t code = codes.varint();
         if (code < kVertexRef) {
           ring.push_back(out_vertex(vertex_at(tri[3 * id + code], "polygons", int64_t(i))));
+          ring_id.push_back(tri[3 * id + code]);
           point_before = false;
         } else if (code == kVertexRef) {
           const int64_t gv = int64_t(tri[3 * id]) + unzigzag(refs.varint());
           if (gv < 0 || uint64_t(gv) >= n_verts) malformed("polygons", int64_t(i), "vertex ref");
           ring.push_back(out_vertex(vertex_at(uint32_t(gv), "polygons", int64_t(i))));
+          ring_id.push_back(uint64_t(gv));
           point_before = false;
+        } else if (code == kTwin) {
+          const uint32_t* twin = ring_id.empty() ? nullptr : twin_of.find(ring_id.back());
+          if (!twin) malformed("polygons", int64_t(i), "a twin corner without an earlier edge");
+          if (*twin < n_verts) {
+            ring.push_back(out_vertex(vertex_at(*twin, "polygons", int64_t(i))));
+            point_before = false;
+          } else {
+            ring.push_back(point_slot[*twin - n_verts]);
+            point_before = true;
+          }
+          ring_id.push_back(*twin);
         } else if (code == kNewPoint) {
           const uint32_t prev = ring.empty() ? 0 : ring.back();
           const int64_t bx = point_before ? f.xy[2 * prev] : lx;
@@ -726,14 +768,18 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
           f.xy.push_back(int32_t(lx));
           f.xy.push_back(int32_t(ly));
           ring.push_back(point_slot.back());
+          ring_id.push_back(n_verts + point_slot.size() - 1);
           point_before = true;
         } else {
           const uint64_t j = code - kPointRef;
           if (j >= point_slot.size()) malformed("polygons", int64_t(i), "point ref out of range");
           ring.push_back(point_slot[point_slot.size() - 1 - j]);
+          ring_id.push_back(n_verts + point_slot.size() - 1 - j);
           point_before = true;
         }
       }
+      for (size_t k = 0; k < ring_id.size(); ++k)
+        twin_of.emplace(ring_id[(k + 1) % ring_id.size()], uint32_t(ring_id[k]));
       for (size_t k = 1; k + 1 < ring.size(); ++k)
         emit(ring[0], ring[k], ring[k + 1], uint32_t(id), false);
     }
