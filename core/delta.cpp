@@ -566,8 +566,9 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
   std::vector<float> vertex;
   std::vector<uint32_t> tri;
   std::vector<uint32_t> whole;
-  std::vector<std::array<float, 3>> colors;
+  std::vector<std::array<float, 3>> colors = colors_;
   if (key) {
+    colors.clear();
     base_ids.clear(), vbase.clear();
     uint64_t tris = 0, verts = 0;
     for (uint32_t m = 0; m < nm; ++m) {
@@ -578,6 +579,12 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
       vbase.push_back(verts);
       tris += get_u32(reinterpret_cast<const char*>(e) + 4);
       verts += get_u32(reinterpret_cast<const char*>(e) + 8);
+      std::array<float, 3> rgb;
+      for (int c = 0; c < 3; ++c) {
+        rgb[c] = std::bit_cast<float>(get_u32(reinterpret_cast<const char*>(e) + 12 + 4 * c));
+        if (!(rgb[c] >= 0 && rgb[c] <= 1)) malformed("mesh", m, "color not in [0, 1]");
+      }
+      colors.push_back(rgb);
       if (tris > kMaxSourceCount || verts > kMaxSourceCount)
         malformed("mesh", m, "more than 2^28 triangles or vertices");
     }
@@ -697,6 +704,29 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     }
     return slot_of[gv];
   };
+  // The Lambert factor of --fill shade (DELTA.md), from the triangle's world vertices.
+  const bool ortho = f.camera.projection == Camera::Projection::Orthographic;
+  auto shade_of = [&](uint32_t id) {
+    double p[3][3];
+    for (int k = 0; k < 3; ++k)
+      for (int c = 0; c < 3; ++c) p[k][c] = vertex[3 * size_t(tri[3 * size_t(id) + k]) + c];
+    double e1[3], e2[3], n[3], l[3];
+    for (int c = 0; c < 3; ++c) {
+      e1[c] = p[1][c] - p[0][c], e2[c] = p[2][c] - p[0][c];
+      l[c] = ortho ? f.camera.eye[c] - f.camera.target[c]
+                   : f.camera.eye[c] - (p[0][c] + p[1][c] + p[2][c]) / 3.0;
+    }
+    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+    double ndl = std::abs(n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) /
+                 (std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) *
+                  std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]));
+    if (!std::isfinite(ndl)) ndl = 1.0;
+    return uint8_t(std::lround((0.12 + 0.88 * std::min(ndl, 1.0)) * 255.0));
+  };
+  uint32_t shade_id = ~0u;
+  uint8_t shade = 0;
   auto emit = [&](uint32_t a, uint32_t b, uint32_t c, uint32_t id, bool either) {
     int64_t o = orient2(&f.xy[2 * a], &f.xy[2 * b], &f.xy[2 * c]);
     if (o < 0 && either) std::swap(b, c), o = -o;
@@ -704,6 +734,8 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     f.indices.insert(f.indices.end(), {a, b, c});
     f.source.push_back(id);
     f.mesh.push_back(mesh_of(id));
+    if (id != shade_id) shade_id = id, shade = shade_of(id);
+    f.shade.push_back(shade);
   };
   for (uint32_t id : whole) {
     if (tri[3 * size_t(id)] == ~0u) malformed("added", id, "a triangle not sent");
@@ -795,6 +827,8 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
   vertex_ = std::move(vertex);
   tri_ = std::move(tri);
   whole_ = std::move(whole);
+  colors_ = std::move(colors);
+  f.mesh_color = colors_;
   last_ = index;
   have_state_ = true;
   return f;

@@ -66,6 +66,8 @@ struct DeltaFrame {
   std::vector<uint32_t> indices;  // 3 per triangle, positive orientation
   std::vector<uint32_t> source;   // per triangle: global source triangle id
   std::vector<uint32_t> mesh;     // per triangle
+  std::vector<uint8_t> shade;     // per triangle: the Lambert factor of --fill shade, 0 ... 255
+  std::vector<std::array<float, 3>> mesh_color;  // per mesh: linear RGB
   size_t triangle_count() const { return source.size(); }
 };
 
@@ -91,6 +93,7 @@ class DeltaDecoder {
   std::vector<float> vertex_;                 // 3 per global vertex (NaN: not sent)
   std::vector<uint32_t> tri_;                 // 3 per global triangle (~0: not sent)
   std::vector<uint32_t> whole_;               // sorted
+  std::vector<std::array<float, 3>> colors_;  // per mesh
 };
 
 // Projects a world point with the camera to the grid, as both sides must: x = (ndc_x + 1) / 2 *

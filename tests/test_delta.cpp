@@ -4,7 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 #include <random>
+#include <sstream>
 
 #include "core/delta.h"
 #include "core/error.h"
@@ -159,6 +162,50 @@ TEST(Delta, MalformedFramesAreRefusedAndLeaveTheStateAlone) {
   }
   const DeltaFrame d = dec.decode(next);  // the state survived every refusal
   EXPECT_EQ(compare(s, r1.map, d).holes, 0u);
+}
+
+// proto/vectors/delta_cornell_K.vmd (K = 0, 1, 2: a keyframe and two deltas of the Cornell box)
+// decode in sequence to what delta_cornell_K.json says (`vismap decode` of frames 0 ... K with
+// --json): every client's delta decoder is tested against these files. VISMAP_WRITE_VECTORS=1
+// writes the frames anew (then run the CLI for the JSON: proto/vectors/README.md).
+TEST(Delta, TestVectors) {
+  const std::string dir = src("proto/vectors/");
+  if (std::getenv("VISMAP_WRITE_VECTORS")) {
+    const Scene s = load_scene(src("data/cornell_box/CornellBox-Original.obj"));
+    DeltaEncoder enc(s, {});
+    for (int i = 0; i < 3; ++i) {
+      const Rendered r = render(s, orbit(s, 96, 64, i));
+      std::ofstream(dir + "delta_cornell_" + std::to_string(i) + ".vmd", std::ios::binary)
+          << enc.encode(r.map, r.screen, r.camera);
+    }
+  }
+  auto slurp = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    EXPECT_TRUE(in) << "missing " << path;
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  auto join = [](const auto& v) {
+    std::string s;
+    for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + std::to_string(v[i]);
+    return "[" + s + "]";
+  };
+  DeltaDecoder dec;
+  for (int i = 0; i < 3; ++i) {
+    const DeltaFrame d = dec.decode(slurp(dir + "delta_cornell_" + std::to_string(i) + ".vmd"));
+    EXPECT_EQ(d.keyframe, i == 0);
+    EXPECT_GT(d.triangle_count(), 50u);
+    const std::string want = slurp(dir + "delta_cornell_" + std::to_string(i) + ".json");
+    for (auto [key, got] :
+         {std::pair{"xy", join(d.xy)}, std::pair{"indices", join(d.indices)},
+          std::pair{"source", join(d.source)}, std::pair{"shade", join(d.shade)}}) {
+      const size_t at = want.find(std::string("\"") + key + "\"");
+      ASSERT_NE(at, std::string::npos) << key;
+      EXPECT_NE(want.substr(at, want.find('\n', at) - at).find(got), std::string::npos)
+          << "frame " << i << " " << key;
+    }
+  }
 }
 
 }  // namespace
