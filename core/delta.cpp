@@ -201,7 +201,8 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
     whole_.clear();
   }
   Camera camera = camera_in;  // near and far as the render fitted them (they do not move x, y)
-  fit_near_far(camera, scene_);
+  if (!(camera.near_plane > 0 && camera.far_plane > camera.near_plane))
+    fit_near_far(camera, scene_);
   const Mat4 vp = camera.view_projection();
   const double gs = screen.grid_scale;
 
@@ -210,16 +211,27 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
   FlatMap at_corner(3 * screen.size());
   std::vector<uint32_t> corner_gv(3 * screen.size(), ~0u);
   auto grid_key = [](int64_t x, int64_t y) { return uint64_t(uint32_t(x)) << 32 | uint32_t(y); };
+  // Each source vertex projected once (on the pipeline's grid), when a screen triangle needs it.
+  std::vector<int64_t> vproj(2 * known_vertex_.size());
+  std::vector<uint8_t> vstate(known_vertex_.size(), 0);  // 1: in front, 2: behind
   for (size_t t = 0; t < screen.size(); ++t) {
     const Mesh& m = scene_.meshes[screen.mesh[t]];
     int64_t proj[3][2];
     bool front[3];
     for (int k = 0; k < 3; ++k) {
-      const float* p = &m.positions[3 * size_t(m.indices[3 * size_t(screen.triangle[t]) + k])];
-      const std::array<double, 4> c = clip_of(vp, p);
-      front[k] = c[3] > 0;
-      proj[k][0] = front[k] ? std::llround((c[0] / c[3] + 1.0) * 0.5 * camera.width * gs) : 0;
-      proj[k][1] = front[k] ? std::llround((1.0 - c[1] / c[3]) * 0.5 * camera.height * gs) : 0;
+      const uint32_t vi = m.indices[3 * size_t(screen.triangle[t]) + k];
+      const size_t gv = vertex_base_[screen.mesh[t]] + vi;
+      if (!vstate[gv]) {
+        const std::array<double, 4> c = clip_of(vp, &m.positions[3 * size_t(vi)]);
+        vstate[gv] = c[3] > 0 ? 1 : 2;
+        if (c[3] > 0) {
+          vproj[2 * gv] = std::llround((c[0] / c[3] + 1.0) * 0.5 * camera.width * gs);
+          vproj[2 * gv + 1] = std::llround((1.0 - c[1] / c[3]) * 0.5 * camera.height * gs);
+        }
+      }
+      front[k] = vstate[gv] == 1;
+      proj[k][0] = vproj[2 * gv];
+      proj[k][1] = vproj[2 * gv + 1];
     }
     for (int j = 0; j < 3; ++j) {
       const int32_t sx = screen.xy[6 * t + 2 * j], sy = screen.xy[6 * t + 2 * j + 1];
