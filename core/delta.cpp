@@ -199,6 +199,7 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
     std::fill(known_tri_.begin(), known_tri_.end(), 0);
     std::fill(known_vertex_.begin(), known_vertex_.end(), 0);
     whole_.clear();
+    partial_.clear();
   }
   Camera camera = camera_in;  // near and far as the render fitted them (they do not move x, y)
   if (!(camera.near_plane > 0 && camera.far_plane > camera.near_plane))
@@ -332,12 +333,59 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
   };
   for (uint32_t id : whole) need_triangle(id);
 
-  // Polygons: own id gaps, corner count, corner codes; new points' coordinates.
-  put_varint(s_poly, partial.size());
+  // The whole set's change.
+  std::vector<uint32_t> removed, added;
+  std::set_difference(whole_.begin(), whole_.end(), whole.begin(), whole.end(),
+                      std::back_inserter(removed));
+  std::set_difference(whole.begin(), whole.end(), whole_.begin(), whole_.end(),
+                      std::back_inserter(added));
+  for (auto [ids, out] : {std::pair{&removed, &s_removed}, std::pair{&added, &s_added}}) {
+    put_varint(*out, ids->size());
+    uint32_t prev = 0;
+    for (uint32_t id : *ids) put_varint(*out, id - prev), prev = id;
+  }
+
+  // Polygons, grouped by source: the sources are those of the removed list flagged (a bit
+  // each), of the previous frame's partial list flagged, then the others as ascending gaps;
+  // per source its polygon count - 1, per polygon its corner count - 3.
+  std::vector<uint32_t> partial_ids;
+  for (const Poly& q : partial) partial_ids.push_back(q.id);
+  partial_ids.erase(std::unique(partial_ids.begin(), partial_ids.end()), partial_ids.end());
+  auto is_partial = [&](uint32_t id) {
+    return std::binary_search(partial_ids.begin(), partial_ids.end(), id);
+  };
+  std::vector<uint32_t> order;  // sources in the order written
+  for (const std::vector<uint32_t>* list : {&removed, &partial_})
+    for (size_t i = 0; i < list->size(); i += 8) {
+      uint8_t bits = 0;
+      for (size_t b = 0; b < 8 && i + b < list->size(); ++b)
+        if (is_partial((*list)[i + b])) bits |= uint8_t(1u << b), order.push_back((*list)[i + b]);
+      s_poly += char(bits);
+    }
+  {
+    std::vector<uint32_t> flagged = order, rest;
+    std::sort(flagged.begin(), flagged.end());
+    std::set_difference(partial_ids.begin(), partial_ids.end(), flagged.begin(), flagged.end(),
+                        std::back_inserter(rest));
+    put_varint(s_poly, rest.size());
+    uint32_t prev = 0;
+    for (uint32_t id : rest) put_varint(s_poly, id - prev), prev = id;
+    order.insert(order.end(), rest.begin(), rest.end());
+  }
+  std::vector<Poly> ordered;
+  ordered.reserve(partial.size());
+  for (uint32_t id : order) {
+    auto lo = std::lower_bound(partial.begin(), partial.end(), id,
+                               [](const Poly& q, uint32_t v) { return q.id < v; });
+    auto hi = lo;
+    while (hi != partial.end() && hi->id == id) ++hi;
+    put_varint(s_poly, uint64_t(hi - lo) - 1);
+    ordered.insert(ordered.end(), lo, hi);
+  }
+  partial = std::move(ordered);
   std::vector<uint32_t> point_of(P.xy.size() / 2, ~0u);  // polygon vertex -> new point index
   uint32_t points = 0;
   int64_t last_x = 0, last_y = 0;
-  uint32_t prev_id = 0;
   uint64_t corners = 0;
   std::vector<uint32_t> ring, ring_id;
   // Corner identities: a source vertex is its global number, a point NV + its index. For each
@@ -369,8 +417,6 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
       if (chain < best) best = chain, start = i;
     }
     std::rotate(ring.begin(), ring.begin() + start, ring.end());
-    put_varint(s_poly, q.id - prev_id);
-    prev_id = q.id;
     put_varint(s_poly, n - 3);
     corners += n;
     bool point_before = false;  // the last corner was a point: predict from it
@@ -422,18 +468,6 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
       point_before = true, px = x, py = y;
     }
     for (size_t k = 0; k < n; ++k) twin_of.emplace(ring_id[(k + 1) % n], uint32_t(ring_id[k]));
-  }
-
-  // The whole set's change.
-  std::vector<uint32_t> removed, added;
-  std::set_difference(whole_.begin(), whole_.end(), whole.begin(), whole.end(),
-                      std::back_inserter(removed));
-  std::set_difference(whole.begin(), whole.end(), whole_.begin(), whole_.end(),
-                      std::back_inserter(added));
-  for (auto [ids, out] : {std::pair{&removed, &s_removed}, std::pair{&added, &s_added}}) {
-    put_varint(*out, ids->size());
-    uint32_t prev = 0;
-    for (uint32_t id : *ids) put_varint(*out, id - prev), prev = id;
   }
 
   // New sources: vertices (global number gaps, then xyz), triangles (id gaps, vertex numbers).
@@ -504,6 +538,7 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
     stats->polygon_bytes = s_poly.size() + s_codes.size() + s_refs.size() + s_points.size();
   }
   whole_ = std::move(whole);
+  partial_ = std::move(partial_ids);
   keyframe_ = false;
   ++frame_;
   return out;
@@ -577,7 +612,7 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
   std::vector<uint64_t> base_ids = base_, vbase = vertex_base_;
   std::vector<float> vertex;
   std::vector<uint32_t> tri;
-  std::vector<uint32_t> whole;
+  std::vector<uint32_t> whole, partial;  // partial: the previous frame's polygon sources
   std::vector<std::array<float, 3>> colors = colors_;
   if (key) {
     colors.clear();
@@ -606,6 +641,7 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     vertex = vertex_;
     tri = tri_;
     whole = whole_;
+    partial = partial_;
   }
   const size_t n_tris = tri.size() / 3, n_verts = vertex.size() / 3;
   uint32_t size[kSections];
@@ -760,8 +796,46 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     Stream& codes = sec[6];
     Stream& refs = sec[7];
     Stream& pts = sec[8];
-    const uint64_t n = s.varint();
-    if (n > (1ull << 28)) malformed("polygons", -1, "too many");
+    // The sources, in the order the encoder wrote them (DELTA.md, "Polygons").
+    std::vector<uint32_t> order;
+    for (const std::vector<uint32_t>* list : {&removed, &partial})
+      for (size_t i = 0; i < list->size(); i += 8) {
+        const uint8_t bits = *s.take(1);
+        for (size_t b = 0; b < 8; ++b)
+          if (bits >> b & 1) {
+            if (i + b >= list->size()) malformed("polygons", -1, "a flag past the list's end");
+            order.push_back((*list)[i + b]);
+          }
+      }
+    {
+      const size_t flagged = order.size();
+      std::vector<uint32_t> rest;
+      Stream& ids = s;
+      const uint64_t nr = ids.varint();
+      if (nr > n_tris) malformed("polygons", -1, "more sources than the scene has");
+      uint64_t id = 0;
+      for (uint64_t i = 0; i < nr; ++i) {
+        const uint64_t d = ids.varint();
+        if (i > 0 && d == 0) malformed("polygons", int64_t(i), "not ascending");
+        id += d;
+        if (id >= n_tris) malformed("polygons", int64_t(i), "source out of range");
+        order.push_back(uint32_t(id));
+      }
+      std::vector<uint32_t> all = order;
+      std::sort(all.begin(), all.end());
+      if (std::adjacent_find(all.begin(), all.end()) != all.end())
+        malformed("polygons", -1, "a source named twice");
+      (void)flagged;
+      partial = std::move(all);
+    }
+    std::vector<uint32_t> poly_source;
+    for (uint32_t src_id : order) {
+      const uint64_t count = s.varint() + 1;
+      if (count > (1u << 20) || poly_source.size() + count > (1ull << 28))
+        malformed("polygons", -1, "too many");
+      poly_source.insert(poly_source.end(), count, src_id);
+    }
+    const uint64_t n = poly_source.size();
     std::vector<uint32_t> point_slot;
     int64_t lx = 0, ly = 0;
     uint64_t id = 0;
@@ -770,8 +844,8 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     FlatMap twin_of(size[6]);  // a corner takes at least a byte of codes
     const int64_t xmax = int64_t(f.width) * quantum, ymax = int64_t(f.height) * quantum;
     for (uint64_t i = 0; i < n; ++i) {
-      id += s.varint();
-      if (id >= n_tris || tri[3 * id] == ~0u) malformed("polygons", int64_t(i), "unknown source");
+      id = poly_source[i];
+      if (tri[3 * id] == ~0u) malformed("polygons", int64_t(i), "unknown source");
       const uint64_t corners = s.varint() + 3;
       if (corners > 1u << 20) malformed("polygons", int64_t(i), "too many corners");
       ring.clear();
@@ -839,6 +913,7 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
   vertex_ = std::move(vertex);
   tri_ = std::move(tri);
   whole_ = std::move(whole);
+  partial_ = std::move(partial);
   colors_ = std::move(colors);
   f.mesh_color = colors_;
   last_ = index;

@@ -53,6 +53,7 @@ class DeltaEncoder {
   std::vector<uint64_t> vertex_base_;  // per mesh: first global vertex number
   std::vector<uint8_t> known_tri_, known_vertex_;
   std::vector<uint32_t> whole_;  // sorted global ids drawn whole in the previous frame
+  std::vector<uint32_t> partial_;  // sorted global ids that owned polygons in the previous frame
   uint32_t frame_ = 0;
   bool keyframe_ = true;
 };
@@ -93,6 +94,7 @@ class DeltaDecoder {
   std::vector<float> vertex_;                 // 3 per global vertex (NaN: not sent)
   std::vector<uint32_t> tri_;                 // 3 per global triangle (~0: not sent)
   std::vector<uint32_t> whole_;               // sorted
+  std::vector<uint32_t> partial_;             // sorted: the previous frame's polygon sources
   std::vector<std::array<float, 3>> colors_;  // per mesh
 };
 
