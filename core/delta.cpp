@@ -27,14 +27,16 @@ constexpr uint32_t kNoBase = 0xFFFFFFFFu;
 constexpr uint64_t kMaxRatio = 256;
 constexpr uint64_t kMaxSourceCount = 1ull << 28;  // triangles, and vertices, a client holds
 constexpr double kOnEdge = 1e-6;                  // as core/conform.cpp
-constexpr int kSections = 9;
+constexpr int kSections = 10;
 // Polygon corner codes (proto/DELTA.md, "Polygons").
 constexpr uint64_t kOwnCorner = 0;  // 0, 1, 2: corner k of the polygon's own source triangle
 constexpr uint64_t kVertexRef = 3;  // a source vertex: zigzag(global number - own corner 0's)
 constexpr uint64_t kNewPoint = 4;   // a new point: its coordinates follow in the points section
 constexpr uint64_t kTwin = 5;       // the corner that came before this one's predecessor in an
                                     // earlier polygon (the edge they share, walked back)
-constexpr uint64_t kPointRef = 6;   // 6 + j: the j-th most recent new point of this frame
+constexpr uint64_t kEdgePoint = 6;  // 6, 7, 8: a new point on own edge k (vertex k to k + 1),
+                                    // at step t of the edge (t follows in the edge steps section)
+constexpr uint64_t kPointRef = 9;   // 9 + j: the j-th most recent new point of this frame
 
 void put_u32(std::string& s, uint32_t v) {
   for (int i = 0; i < 4; ++i) s += char((v >> (8 * i)) & 0xFF);
@@ -150,16 +152,28 @@ std::array<double, 4> clip_of(const Mat4& m, const float* p) {
 
 }  // namespace
 
-bool project_to_grid(const Mat4& vp, const Camera& camera, uint32_t quantum, const float* p,
-                     int32_t* out) {
-  const std::array<double, 4> c = clip_of(vp, p);
-  if (!(c[3] > 0)) return false;
-  const double x = (c[0] / c[3] + 1.0) * 0.5 * camera.width * quantum;
-  const double y = (1.0 - c[1] / c[3]) * 0.5 * camera.height * quantum;
-  if (!(std::abs(x) < 1e9 && std::abs(y) < 1e9)) return false;
-  out[0] = int32_t(std::llround(x));
-  out[1] = int32_t(std::llround(y));
+std::array<double, 12> clip_rows(const Mat4& m) {
+  return {m[0], m[4], m[8], m[12], m[1], m[5], m[9], m[13], m[3], m[7], m[11], m[15]};
+}
+
+bool project_to_grid(const std::array<double, 12>& r, uint32_t width, uint32_t height,
+                     uint32_t quantum, const float* p, int32_t* out) {
+  const double x = p[0], y = p[1], z = p[2];
+  const double cx = r[0] * x + r[1] * y + r[2] * z + r[3];
+  const double cy = r[4] * x + r[5] * y + r[6] * z + r[7];
+  const double cw = r[8] * x + r[9] * y + r[10] * z + r[11];
+  if (!(cw > 0)) return false;
+  const double gx = (cx / cw + 1.0) * 0.5 * double(width) * double(quantum);
+  const double gy = (1.0 - cy / cw) * 0.5 * double(height) * double(quantum);
+  if (!(std::abs(gx) < 1e9 && std::abs(gy) < 1e9)) return false;
+  out[0] = int32_t(std::llround(gx));
+  out[1] = int32_t(std::llround(gy));
   return true;
+}
+
+int64_t div_round(int64_t q, int64_t l) {  // floor(q / l + 1/2), l > 0, exactly
+  const int64_t n = 2 * q + l, d = 2 * l;
+  return n >= 0 ? n / d : -((-n + d - 1) / d);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -205,6 +219,7 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
   if (!(camera.near_plane > 0 && camera.far_plane > camera.near_plane))
     fit_near_far(camera, scene_);
   const Mat4 vp = camera.view_projection();
+  const std::array<double, 12> rows = clip_rows(vp);
   const double gs = screen.grid_scale;
 
   // Screen corners that are projected source vertices: grid point -> global vertex number.
@@ -215,6 +230,23 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
   // Each source vertex projected once (on the pipeline's grid), when a screen triangle needs it.
   std::vector<int64_t> vproj(2 * known_vertex_.size());
   std::vector<uint8_t> vstate(known_vertex_.size(), 0);  // 1: in front, 2: behind
+  // The client's projection of a source vertex (its grid, the frame's rows), computed here the
+  // same way: edge points are steps along the client's own edges.
+  std::vector<int32_t> cproj(2 * known_vertex_.size());
+  std::vector<uint8_t> cstate(known_vertex_.size(), 0);
+  auto client_point = [&](uint32_t gv, int32_t* out) {
+    if (!cstate[gv]) {
+      const uint32_t m = uint32_t(std::upper_bound(vertex_base_.begin(), vertex_base_.end(), gv) -
+                                  vertex_base_.begin() - 1);
+      const float* p = &scene_.meshes[m].positions[3 * size_t(gv - vertex_base_[m])];
+      cstate[gv] = project_to_grid(rows, camera.width, camera.height, options_.quantum, p,
+                                   &cproj[2 * size_t(gv)])
+                       ? 1
+                       : 2;
+    }
+    out[0] = cproj[2 * size_t(gv)], out[1] = cproj[2 * size_t(gv) + 1];
+    return cstate[gv] == 1;
+  };
   for (size_t t = 0; t < screen.size(); ++t) {
     const Mesh& m = scene_.meshes[screen.mesh[t]];
     int64_t proj[3][2];
@@ -306,7 +338,8 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
 
   // Sources the client lacks: the triangles drawn whole or owning a polygon, and the vertices
   // the polygons name.
-  std::string s_vert, s_float, s_tri, s_removed, s_added, s_poly, s_codes, s_refs, s_points;
+  std::string s_vert, s_float, s_tri, s_removed, s_added, s_poly, s_codes, s_refs, s_points,
+      s_steps;
   std::vector<uint32_t> new_tris, new_verts;
   auto mesh_of = [&](uint32_t id) {
     return uint32_t(std::upper_bound(base_.begin(), base_.end(), uint64_t(id)) - base_.begin() - 1);
@@ -384,7 +417,8 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
   }
   partial = std::move(ordered);
   std::vector<uint32_t> point_of(P.xy.size() / 2, ~0u);  // polygon vertex -> new point index
-  uint32_t points = 0;
+  uint32_t points = 0, edge_points = 0;
+  std::vector<int64_t> point_xy;  // per new point: where the client puts it
   int64_t last_x = 0, last_y = 0;
   uint64_t corners = 0;
   std::vector<uint32_t> ring, ring_id;
@@ -431,10 +465,7 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
           put_varint(s_codes, kTwin);
           ring_id.push_back(id);
           point_before = gv == ~0u;
-          if (point_before) {
-            px = std::llround(P.xy[2 * v] * options_.quantum);
-            py = std::llround(P.xy[2 * v + 1] * options_.quantum);
-          }
+          if (point_before) px = point_xy[2 * point_of[v]], py = point_xy[2 * point_of[v] + 1];
           continue;
         }
       }
@@ -452,20 +483,52 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
         point_before = false;
         continue;
       }
-      const int64_t x = std::llround(P.xy[2 * v] * options_.quantum);
-      const int64_t y = std::llround(P.xy[2 * v + 1] * options_.quantum);
       if (point_of[v] != ~0u) {
         put_varint(s_codes, kPointRef + (points - 1 - point_of[v]));
       } else {
-        put_varint(s_codes, kNewPoint);
-        const int64_t bx = point_before ? px : last_x, by = point_before ? py : last_y;
-        put_varint(s_points, zigzag(x - bx));
-        put_varint(s_points, zigzag(y - by));
-        last_x = x, last_y = y;
+        int64_t x = std::llround(P.xy[2 * v] * options_.quantum);
+        int64_t y = std::llround(P.xy[2 * v + 1] * options_.quantum);
+        // On an own edge of the exact map: one step number along the client's edge, when that
+        // lands within two grid steps of the point.
+        bool on_edge = false;
+        for (int k = 0; k < 3 && !on_edge; ++k) {
+          const uint32_t a = own[k], b = own[(k + 1) % 3];
+          if (vstate[a] != 1 || vstate[b] != 1) continue;
+          const double ax = vproj[2 * a] / gs, ay = vproj[2 * a + 1] / gs;
+          const double ex = vproj[2 * b] / gs - ax, ey = vproj[2 * b + 1] / gs - ay;
+          const double len = std::hypot(ex, ey), qx = P.xy[2 * v] - ax, qy = P.xy[2 * v + 1] - ay;
+          if (!(len > 0) || std::abs(ex * qy - ey * qx) > kOnEdge * len) continue;
+          int32_t A[2], B[2];
+          if (!client_point(a, A) || !client_point(b, B)) continue;
+          const int64_t dx = int64_t(B[0]) - A[0], dy = int64_t(B[1]) - A[1];
+          const int64_t steps = std::max(std::abs(dx), std::abs(dy));
+          if (steps < 2) continue;
+          const double t = ((P.xy[2 * v] * options_.quantum - A[0]) * double(dx) +
+                            (P.xy[2 * v + 1] * options_.quantum - A[1]) * double(dy)) /
+                           (double(dx) * dx + double(dy) * dy);
+          const int64_t step = std::clamp<int64_t>(std::llround(t * steps), 1, steps - 1);
+          const int64_t ex2 = A[0] + div_round(step * dx, steps);
+          const int64_t ey2 = A[1] + div_round(step * dy, steps);
+          if (std::abs(ex2 - x) > 2 || std::abs(ey2 - y) > 2) continue;
+          put_varint(s_codes, kEdgePoint + k);
+          put_varint(s_steps, uint64_t(step));
+          x = ex2, y = ey2;
+          on_edge = true;
+          ++edge_points;
+        }
+        if (!on_edge) {
+          put_varint(s_codes, kNewPoint);
+          const int64_t bx = point_before ? px : last_x, by = point_before ? py : last_y;
+          put_varint(s_points, zigzag(x - bx));
+          put_varint(s_points, zigzag(y - by));
+          last_x = x, last_y = y;
+        }
+        point_xy.push_back(x);
+        point_xy.push_back(y);
         point_of[v] = points++;
       }
       ring_id.push_back(nv_all + point_of[v]);
-      point_before = true, px = x, py = y;
+      point_before = true, px = point_xy[2 * point_of[v]], py = point_xy[2 * point_of[v] + 1];
     }
     for (size_t k = 0; k < n; ++k) twin_of.emplace(ring_id[(k + 1) % n], uint32_t(ring_id[k]));
   }
@@ -497,10 +560,9 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
   std::string payload;
   payload += char(camera.projection == Camera::Projection::Orthographic);
   payload.append(3, '\0');
-  for (const Vec3* v : {&camera.eye, &camera.target, &camera.up})
+  for (const Vec3* v : {&camera.eye, &camera.target})
     for (double d : *v) put_f64(payload, d);
-  for (double d : {camera.fov_y_deg, camera.ortho_height, camera.near_plane, camera.far_plane})
-    put_f64(payload, d);
+  for (double d : rows) put_f64(payload, d);
   if (key)
     for (size_t m = 0; m < scene_.meshes.size(); ++m) {
       put_u32(payload, uint32_t(base_[m]));
@@ -510,7 +572,7 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
         put_u32(payload, std::bit_cast<uint32_t>(scene_.meshes[m].color[c]));
     }
   const std::string* sections[kSections] = {&s_vert, &s_float, &s_tri,  &s_removed, &s_added,
-                                            &s_poly, &s_codes, &s_refs, &s_points};
+                                            &s_poly, &s_codes, &s_refs, &s_points,  &s_steps};
   for (const std::string* s : sections) put_u32(payload, uint32_t(s->size()));
   for (const std::string* s : sections) payload += *s;
 
@@ -531,11 +593,13 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
     stats->partial = partial.size();
     stats->partial_corners = corners;
     stats->points = points;
+    stats->edge_points = edge_points;
     stats->new_triangles = new_tris.size();
     stats->new_vertices = new_verts.size();
     stats->source_bytes = s_vert.size() + s_float.size() + s_tri.size();
     stats->set_bytes = s_removed.size() + s_added.size();
-    stats->polygon_bytes = s_poly.size() + s_codes.size() + s_refs.size() + s_points.size();
+    stats->polygon_bytes =
+        s_poly.size() + s_codes.size() + s_refs.size() + s_points.size() + s_steps.size();
   }
   whole_ = std::move(whole);
   partial_ = std::move(partial_ids);
@@ -583,7 +647,7 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
   f.width = w[1], f.height = w[2], f.quantum = quantum, f.index = index, f.keyframe = key;
   Stream head{reinterpret_cast<const unsigned char*>(payload.data()),
               reinterpret_cast<const unsigned char*>(payload.data()) + payload.size(), "camera"};
-  const unsigned char* cam = head.take(4 + 13 * 8);
+  const unsigned char* cam = head.take(4 + 18 * 8);
   auto f64 = [&](int i) {
     const char* p = reinterpret_cast<const char*>(cam) + 4 + 8 * i;
     return std::bit_cast<double>(uint64_t(get_u32(p)) | uint64_t(get_u32(p + 4)) << 32);
@@ -593,19 +657,14 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
   for (int k = 0; k < 3; ++k) {
     f.camera.eye[k] = f64(k);
     f.camera.target[k] = f64(3 + k);
-    f.camera.up[k] = f64(6 + k);
   }
-  f.camera.fov_y_deg = f64(9);
-  f.camera.ortho_height = f64(10);
-  f.camera.near_plane = f64(11);
-  f.camera.far_plane = f64(12);
+  for (int k = 0; k < 12; ++k) f.rows[k] = f64(6 + k);
   f.camera.width = f.width;
   f.camera.height = f.height;
-  try {
-    f.camera.validate();
-  } catch (const InputError& e) {
-    malformed("camera", -1, e.detail());
-  }
+  for (int k = 0; k < 6; ++k)
+    if (!std::isfinite(f64(k))) malformed("camera", -1, "eye or target not finite");
+  for (double r : f.rows)
+    if (!std::isfinite(r)) malformed("camera", -1, "projection not finite");
 
   // A keyframe starts from nothing: its mesh table sizes the store. Work on copies so that a
   // malformed frame leaves the state as it was.
@@ -647,8 +706,9 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
   uint32_t size[kSections];
   for (uint32_t& s : size) s = get_u32(reinterpret_cast<const char*>(head.take(4)));
   Stream sec[kSections];
-  const char* names[kSections] = {"vertices", "vertex positions", "triangles",   "removed", "added",
-                                  "polygons", "corner codes",     "vertex refs", "points"};
+  const char* names[kSections] = {"vertices", "vertex positions", "triangles",    "removed",
+                                  "added",    "polygons",         "corner codes", "vertex refs",
+                                  "points",   "edge steps"};
   for (int i = 0; i < kSections; ++i) {
     const unsigned char* p = head.take(size[i]);
     sec[i] = Stream{p, p + size[i], names[i]};
@@ -724,7 +784,6 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
   if (whole.size() != whole_count) malformed("added", -1, "the whole set has the wrong size");
 
   // Triangles: the whole ones projected here, then the polygons fanned.
-  const Mat4 vp = f.camera.view_projection();
   auto mesh_of = [&](uint32_t id) {
     return uint32_t(std::upper_bound(base_ids.begin(), base_ids.end(), uint64_t(id)) -
                     base_ids.begin() - 1);
@@ -735,10 +794,10 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     if (gv >= n_verts || std::isnan(vertex[3 * size_t(gv)]))
       malformed(what, index, "names a vertex not sent");
     if (!projected[gv])
-      projected[gv] =
-          project_to_grid(vp, f.camera, quantum, &vertex[3 * size_t(gv)], &proj[2 * size_t(gv)])
-              ? 1
-              : 2;
+      projected[gv] = project_to_grid(f.rows, f.width, f.height, quantum, &vertex[3 * size_t(gv)],
+                                      &proj[2 * size_t(gv)])
+                          ? 1
+                          : 2;
     if (projected[gv] == 2) malformed(what, index, "a vertex behind the camera");
     return gv;
   };
@@ -796,6 +855,7 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     Stream& codes = sec[6];
     Stream& refs = sec[7];
     Stream& pts = sec[8];
+    Stream& steps = sec[9];
     // The sources, in the order the encoder wrote them (DELTA.md, "Polygons").
     std::vector<uint32_t> order;
     for (const std::vector<uint32_t>* list : {&removed, &partial})
@@ -874,17 +934,32 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
             point_before = true;
           }
           ring_id.push_back(*twin);
-        } else if (code == kNewPoint) {
-          const uint32_t prev = ring.empty() ? 0 : ring.back();
-          const int64_t bx = point_before ? f.xy[2 * prev] : lx;
-          const int64_t by = point_before ? f.xy[2 * prev + 1] : ly;
-          lx = bx + unzigzag(pts.varint());
-          ly = by + unzigzag(pts.varint());
-          if (lx < 0 || ly < 0 || lx > xmax || ly > ymax)
+        } else if (code == kNewPoint || (code >= kEdgePoint && code < kPointRef)) {
+          int64_t x, y;
+          if (code == kNewPoint) {
+            const uint32_t prev = ring.empty() ? 0 : ring.back();
+            const int64_t bx = point_before ? f.xy[2 * prev] : lx;
+            const int64_t by = point_before ? f.xy[2 * prev + 1] : ly;
+            x = lx = bx + unzigzag(pts.varint());
+            y = ly = by + unzigzag(pts.varint());
+          } else {  // a step along own edge k, as the client projects its ends
+            const int k = int(code - kEdgePoint);
+            const uint32_t a = vertex_at(tri[3 * id + k], "polygons", int64_t(i));
+            const uint32_t b = vertex_at(tri[3 * id + (k + 1) % 3], "polygons", int64_t(i));
+            const int64_t dx = int64_t(proj[2 * b]) - proj[2 * a];
+            const int64_t dy = int64_t(proj[2 * b + 1]) - proj[2 * a + 1];
+            const int64_t n_steps = std::max(std::abs(dx), std::abs(dy));
+            const uint64_t step = steps.varint();
+            if (n_steps < 2 || step < 1 || step >= uint64_t(n_steps))
+              malformed("edge steps", int64_t(point_slot.size()), "out of the edge");
+            x = proj[2 * a] + div_round(int64_t(step) * dx, n_steps);
+            y = proj[2 * a + 1] + div_round(int64_t(step) * dy, n_steps);
+          }
+          if (x < 0 || y < 0 || x > xmax || y > ymax)
             malformed("points", int64_t(point_slot.size()), "outside the viewport");
           point_slot.push_back(uint32_t(f.xy.size() / 2));
-          f.xy.push_back(int32_t(lx));
-          f.xy.push_back(int32_t(ly));
+          f.xy.push_back(int32_t(x));
+          f.xy.push_back(int32_t(y));
           ring.push_back(point_slot.back());
           ring_id.push_back(n_verts + point_slot.size() - 1);
           point_before = true;
@@ -905,6 +980,7 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     codes.done();
     refs.done();
     pts.done();
+    steps.done();
   }
 
   // Commit the state.

@@ -30,7 +30,8 @@ struct DeltaStats {
   bool keyframe = false;
   uint64_t whole = 0, added = 0, removed = 0;  // whole triangles: drawn, entering, leaving
   uint64_t partial = 0, partial_corners = 0, points = 0;  // polygons, their corners, new points
-  uint64_t new_triangles = 0, new_vertices = 0;           // sources sent with this frame
+  uint64_t edge_points = 0;  // of the points: those sent as a step along an own edge
+  uint64_t new_triangles = 0, new_vertices = 0;                 // sources sent with this frame
   uint64_t source_bytes = 0, set_bytes = 0, polygon_bytes = 0;  // before entropy coding
 };
 
@@ -52,7 +53,7 @@ class DeltaEncoder {
   std::vector<uint64_t> base_;         // per mesh: first global id
   std::vector<uint64_t> vertex_base_;  // per mesh: first global vertex number
   std::vector<uint8_t> known_tri_, known_vertex_;
-  std::vector<uint32_t> whole_;  // sorted global ids drawn whole in the previous frame
+  std::vector<uint32_t> whole_;    // sorted global ids drawn whole in the previous frame
   std::vector<uint32_t> partial_;  // sorted global ids that owned polygons in the previous frame
   uint32_t frame_ = 0;
   bool keyframe_ = true;
@@ -62,7 +63,8 @@ class DeltaEncoder {
 struct DeltaFrame {
   uint32_t width = 0, height = 0, quantum = 0, index = 0;
   bool keyframe = false;
-  Camera camera;
+  Camera camera;                  // projection, eye and target (the light of the shade)
+  std::array<double, 12> rows{};  // clip_rows of the view-projection the frame was rendered with
   std::vector<int32_t> xy;        // 2 per vertex, grid steps
   std::vector<uint32_t> indices;  // 3 per triangle, positive orientation
   std::vector<uint32_t> source;   // per triangle: global source triangle id
@@ -98,10 +100,15 @@ class DeltaDecoder {
   std::vector<std::array<float, 3>> colors_;  // per mesh
 };
 
-// Projects a world point with the camera to the grid, as both sides must: x = (ndc_x + 1) / 2 *
-// width * quantum, y = (1 - ndc_y) / 2 * height * quantum, rounded to the nearest (ties away from
-// zero). False when the point is not in front of the camera (clip w <= 0).
-bool project_to_grid(const Mat4& view_projection, const Camera& camera, uint32_t quantum,
-                     const float* p, int32_t* out);
+// The rows x, y and w of a view-projection matrix (column-major Mat4), 4 each: what a delta frame
+// sends, so that both sides project with the same numbers (no trigonometry on the client).
+std::array<double, 12> clip_rows(const Mat4& view_projection);
+
+// Projects a world point to the grid, as both sides must, operation by operation (DELTA.md):
+// c = r[0..3]·(x, y, z, 1) left to right for each row, x = (cx/cw + 1) * 0.5 * width * quantum,
+// y = (1 - cy/cw) * 0.5 * height * quantum, rounded to the nearest (ties away from zero). False
+// when the point is not in front of the camera (cw <= 0) or far outside.
+bool project_to_grid(const std::array<double, 12>& rows, uint32_t width, uint32_t height,
+                     uint32_t quantum, const float* p, int32_t* out);
 
 }  // namespace vismap
