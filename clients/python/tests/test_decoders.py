@@ -190,6 +190,13 @@ def test_truncated():
                 assert str(e).startswith("compact frame: "), e
                 continue
             raise AssertionError(f"{name} cut to {n} bytes was accepted")
+        huge = data[:28] + struct.pack("<I", 1 << 28) + data[32:]  # refused before allocating for it
+        t0 = time.perf_counter()
+        try:
+            vc.read_compact(huge)
+            raise AssertionError("2^28 triangles accepted")
+        except ValueError:
+            assert time.perf_counter() - t0 < 1, "2^28 triangles took long to refuse"
         try:
             vc.read_compact(data + b"\0")
             raise AssertionError(f"{name} with a trailing byte was accepted")

@@ -200,6 +200,10 @@ def _read(data, plain):
     if len(ssec) != (nt if shaded else 0):
         _fail("shades", "one byte per triangle expected" if shaded else "present without the shade flag")
 
+    # Every number takes a byte at least, the index codec 1 + T + 16: refused before allocating.
+    for name, sec, need in (("positions", vsec, 2 * nv), ("ids", idsec, nt), ("indices", isec, 17 + nt)):
+        if len(sec) < need:
+            _fail(name, f"{len(sec)} bytes, too short for {nt} triangles and {nv} vertices")
     indices = _meshopt.decode_index_buffer(3 * nt, isec)
     if nt:
         over = np.flatnonzero(indices >= nv)
