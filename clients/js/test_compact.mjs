@@ -197,6 +197,11 @@ const tests = {
     for (let n = 0; n < data.length; ++n) {
       assert((await decode(data.subarray(0, n), `cut to ${n}`)) === null, `cut to ${n} accepted`);
     }
+    // Counts at the format's limit over a small payload: refused before anything that size is made.
+    const huge = data.slice();
+    new DataView(huge.buffer).setUint32(28, 2 ** 28, true);
+    const t0 = performance.now();
+    assert((await decode(huge, 'huge')) === null && performance.now() - t0 < 1000, '2^28 triangles');
     for (const junk of [[0], [1, 2, 3]]) {
       const b = new Uint8Array([...data, ...junk]);
       assert((await decode(b, 'junk')) === null, 'bytes after the deflate stream accepted');

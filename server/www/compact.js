@@ -14,8 +14,8 @@
 // Time (clients/js/test_compact.mjs --time): a 1920x1080 bunny frame (31,620 triangles, 122 KB)
 // decodes in 14-17 ms (best of 30) in Node 20 and in headless Chromium 156 on the build machine,
 // a shared 2-vCPU VM under load average 5-7, where a plain integer loop runs ~5x slower than on a
-// desktop core: ~3 ms there. Of it: the walk ~80%, the inflate ~15% (twice in Node, below), the
-// index codec ~8%. The 1 MB per-vertex edge table keeps the walk in cache; see EdgeMap.
+// desktop core: ~3 ms there. Of it: the walk ~70%, one inflate ~15% (Node inflates twice, below),
+// the index codec ~7%. A per-vertex edge table keeps the walk in cache (EdgeMap).
 
 const MAGIC = 0x46434d56; // "VMCF" little-endian
 const VERSION = 1;
@@ -459,6 +459,9 @@ function decodePayload(payload, { width, height, quantum, flags, nv, nt, nm }) {
     fail('shades', shaded ? 'one byte per triangle expected' : 'present without the shade flag');
   }
 
+  // Every number takes a byte at least, the index codec 1 + T + 16: refused before allocating.
+  if (sections.positions.length < 2 * nv) fail('positions', `too short for ${2 * nv} numbers`);
+  if (sections.ids.length < nt) fail('ids', `too short for ${nt} numbers`);
   const indices = decodeIndexBuffer(3 * nt, sections.indices);
   for (let i = 0; i < indices.length; ++i) {
     if (indices[i] >= nv) fail(`triangle ${(i / 3) | 0}`, 'vertex index out of range');
