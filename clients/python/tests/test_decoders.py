@@ -330,7 +330,7 @@ def test_session_hello():
     assert s.hello == {"type": "hello", "versions": [1, 2], "format": "compact", "attributes": False,
                        "viewport": {"width": 64, "height": 32}, "quantum": 8, "compression": "deflate"}, s.hello
     assert "quantum" not in vc.Session("ws://x/", fmt="bin").hello
-    for bad in (dict(fmt="png"), dict(fmt="bin", quantum=4)):
+    for bad in (dict(fmt="png"), dict(fmt="bin", quantum=4), dict(fmt="compact", attributes=True)):
         try:
             vc.Session("ws://x/", **bad)
             raise AssertionError(f"Session accepted {bad}")

@@ -52,6 +52,9 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--vismapd", required=True)
     a = ap.parse_args()
+    if not os.path.exists(a.vismapd):
+        print(f"skipped: {a.vismapd} is not built")
+        sys.exit(77)
     with tempfile.TemporaryDirectory() as lib:
         proc = subprocess.Popen([a.vismapd, "--port", "0", "--library", lib], stderr=subprocess.PIPE, text=True)
         try:

@@ -51,6 +51,8 @@ class Session:
             raise ValueError(f"fmt must be one of {FORMATS}, got {fmt!r}")
         if fmt != "compact" and (quantum is not None or compression is not None):
             raise ValueError("quantum and compression are options of fmt='compact'")
+        if fmt == "compact" and attributes:
+            raise ValueError("compact frames carry no barycentrics; use fmt='bin' for attributes")
         self.url, self.fmt, self.timeout = url, fmt, timeout
         self.hello = {"type": "hello", "versions": list(PROTOCOL_VERSIONS), "format": fmt, "attributes": attributes,
                       "viewport": {"width": width, "height": height}}
