@@ -305,6 +305,29 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
     const uint32_t* gv = at_corner.find(grid_key(int64_t(x), int64_t(y)));
     return gv ? *gv : ~0u;
   };
+  auto mesh_of = [&](uint32_t id) {
+    return uint32_t(std::upper_bound(base_.begin(), base_.end(), uint64_t(id)) - base_.begin() - 1);
+  };
+  // Global vertex numbers of a source triangle by global id (face id -> index via face_ids).
+  auto tri_vertices = [&](uint32_t id, uint32_t* gv) {
+    const uint32_t m = mesh_of(id);
+    const Mesh& mesh = scene_.meshes[m];
+    const uint32_t face = uint32_t(id - base_[m]);
+    const auto it = std::lower_bound(mesh.face_ids.begin(), mesh.face_ids.end(), face);
+    const size_t t = size_t(it - mesh.face_ids.begin());
+    for (int k = 0; k < 3; ++k) gv[k] = uint32_t(vertex_base_[m] + mesh.indices[3 * t + k]);
+  };
+  // The corner k of a source triangle (its global vertex numbers) a polygon vertex is at, or
+  // -1: by position, so that a mesh whose corners are separate vertices at one place (OBJ
+  // faces with their own normals) still finds its own corners.
+  auto own_corner = [&](uint32_t v, const uint32_t* own) {
+    const double x = P.xy[2 * v] * gs, y = P.xy[2 * v + 1] * gs;
+    for (int k = 0; k < 3; ++k)
+      if (vstate[own[k]] == 1 && double(vproj[2 * own[k]]) == x &&
+          double(vproj[2 * own[k] + 1]) == y)
+        return k;
+    return -1;
+  };
 
   struct Poly {
     uint32_t id;
@@ -320,10 +343,13 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
     bool is_whole = st && !several[*st] && counts[*count_at.find(key)] == 1 &&
                     P.off[p + 1] - P.off[p] == 3 && P.original[p] == 3;
     if (is_whole) {
+      uint32_t own[3];
+      tri_vertices(id, own);
+      int seen = 0;
       for (uint32_t i = P.off[p]; i < P.off[p + 1] && is_whole; ++i) {
-        const uint32_t gv = vertex_number(P.v[i]);
-        is_whole = gv != ~0u && (gv == corner_gv[3 * *st] || gv == corner_gv[3 * *st + 1] ||
-                                 gv == corner_gv[3 * *st + 2]);
+        const int k = own_corner(P.v[i], own);
+        is_whole = k >= 0 && !(seen >> k & 1);
+        seen |= k >= 0 ? 1 << k : 0;
       }
     }
     if (is_whole)
@@ -341,18 +367,6 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
   std::string s_vert, s_float, s_tri, s_removed, s_added, s_poly, s_codes, s_refs, s_points,
       s_steps;
   std::vector<uint32_t> new_tris, new_verts;
-  auto mesh_of = [&](uint32_t id) {
-    return uint32_t(std::upper_bound(base_.begin(), base_.end(), uint64_t(id)) - base_.begin() - 1);
-  };
-  // Global vertex numbers of a source triangle by global id (face id -> index via face_ids).
-  auto tri_vertices = [&](uint32_t id, uint32_t* gv) {
-    const uint32_t m = mesh_of(id);
-    const Mesh& mesh = scene_.meshes[m];
-    const uint32_t face = uint32_t(id - base_[m]);
-    const auto it = std::lower_bound(mesh.face_ids.begin(), mesh.face_ids.end(), face);
-    const size_t t = size_t(it - mesh.face_ids.begin());
-    for (int k = 0; k < 3; ++k) gv[k] = uint32_t(vertex_base_[m] + mesh.indices[3 * t + k]);
-  };
   auto need_vertex = [&](uint32_t gv) {
     if (!known_vertex_[gv]) known_vertex_[gv] = 1, new_verts.push_back(gv);
   };
@@ -457,7 +471,8 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
     int64_t px = 0, py = 0;
     ring_id.clear();
     for (uint32_t v : ring) {
-      const uint32_t gv = vertex_number(v);
+      const int own_k = own_corner(v, own);
+      const uint32_t gv = own_k >= 0 ? own[own_k] : vertex_number(v);
       const uint64_t id = gv != ~0u ? gv : point_of[v] != ~0u ? nv_all + point_of[v] : ~0ull;
       if (!ring_id.empty() && id != ~0ull) {
         const uint32_t* twin = twin_of.find(ring_id.back());
@@ -471,10 +486,8 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
       }
       if (gv != ~0u) {
         ring_id.push_back(gv);
-        int k = 0;
-        while (k < 3 && own[k] != gv) ++k;
-        if (k < 3) {
-          put_varint(s_codes, kOwnCorner + k);
+        if (own_k >= 0) {
+          put_varint(s_codes, kOwnCorner + own_k);
         } else {
           put_varint(s_codes, kVertexRef);
           put_varint(s_refs, zigzag(int64_t(gv) - int64_t(own[0])));
