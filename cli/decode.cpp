@@ -14,6 +14,7 @@
 
 #include "cli/args.h"
 #include "core/compact.h"
+#include "core/delta.h"
 #include "core/error.h"
 #include "core/output.h"
 
@@ -57,7 +58,8 @@ void json_array(std::string& out, const char* key, const V& v, bool last = false
 }  // namespace
 
 int cmd_decode(int argc, char** argv) {
-  std::string path, out;
+  std::string out;
+  std::vector<std::string> paths;
   bool json = false;
   for (int i = 2; i < argc; ++i) {
     const std::string f = argv[i];
@@ -68,24 +70,66 @@ int cmd_decode(int argc, char** argv) {
       json = true;
     } else if (!f.empty() && f[0] == '-') {
       throw UsageError("unknown option " + f);
-    } else if (path.empty()) {
-      path = f;
     } else {
-      throw UsageError("unexpected argument " + f);
+      paths.push_back(f);
     }
   }
-  if (path.empty()) throw UsageError("decode: missing FRAME");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(InputErrorKind::FileNotFound, path, "", "", -1, "cannot open");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const std::string bytes = ss.str();
+  if (paths.empty()) throw UsageError("decode: missing FRAME");
+  auto read = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(InputErrorKind::FileNotFound, path, "", "", -1, "cannot open");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  std::string bytes = read(paths[0]);
+  std::string path = paths[0];
+  const bool delta = bytes.size() >= 4 && std::memcmp(bytes.data(), "VMDF", 4) == 0;
+  if (!delta && paths.size() > 1)
+    throw UsageError("decode: several frames only for a delta sequence");
 
   const auto t0 = std::chrono::steady_clock::now();
   Triangles t;
   std::string detail;
   try {
-    if (bytes.size() >= 4 && std::memcmp(bytes.data(), "VMCF", 4) == 0) {
+    if (delta) {
+      // A sequence: each frame applies to the one before; the last is drawn.
+      DeltaDecoder decoder;
+      DeltaFrame d;
+      for (size_t i = 0; i < paths.size(); ++i) {
+        path = paths[i];
+        if (i > 0) bytes = read(path);
+        d = decoder.decode(bytes);
+        if (i + 1 < paths.size())
+          std::printf(
+              "{\"format\": \"delta\", \"frame\": %u, \"keyframe\": %s, \"triangles\": "
+              "%zu, \"bytes\": %zu}\n",
+              d.index, d.keyframe ? "true" : "false", d.triangle_count(), bytes.size());
+      }
+      t.format = "delta";
+      t.version = 1, t.width = d.width, t.height = d.height, t.quantum = d.quantum;
+      t.vertices = d.xy.size() / 2;
+      t.shaded = true;
+      for (size_t k = 0; k < d.triangle_count(); ++k) {
+        for (int j = 0; j < 3; ++j) {
+          const uint32_t v = d.indices[3 * k + j];
+          t.xy.push_back(double(d.xy[2 * v]) / d.quantum);
+          t.xy.push_back(double(d.xy[2 * v + 1]) / d.quantum);
+        }
+        t.source.push_back(d.source[k]);
+        uint32_t rgb = 0;
+        for (int j = 0; j < 3; ++j)
+          rgb = rgb << 8 | srgb8(d.mesh_color[d.mesh[k]][j] * (d.shade[k] / 255.0));
+        t.rgb.push_back(rgb);
+      }
+      if (json) {
+        json_array(detail, "xy", d.xy);
+        json_array(detail, "indices", d.indices);
+        json_array(detail, "source", d.source);
+        json_array(detail, "mesh", d.mesh);
+        json_array(detail, "shade", d.shade, true);
+      }
+    } else if (bytes.size() >= 4 && std::memcmp(bytes.data(), "VMCF", 4) == 0) {
       const CompactFrame c = read_compact(bytes);
       t.format = "compact";
       t.version = c.version, t.width = c.width, t.height = c.height, t.quantum = c.quantum;

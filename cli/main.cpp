@@ -40,8 +40,9 @@ const char* kCheckUsage =
     "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 "
     "if over tolerance\n";
 const char* kDecodeUsage =
-    "  vismap decode FRAME [-o OUT.svg] [--json]   a bin or compact frame: a summary line "
-    "on stdout\n";
+    "  vismap decode FRAME... [-o OUT.svg] [--json]   a bin or compact frame, or a delta "
+    "sequence:\n"
+    "                a summary line on stdout\n";
 const char* kDevicesUsage = "  vismap devices\n";
 const char* kNotes =
     "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb or a .json scene file.\n"

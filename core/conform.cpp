@@ -24,15 +24,8 @@ constexpr double kCell = 4.0;  // pixels per cell of the candidate grid
   throw InputError(InputErrorKind::ParseError, "compact writer", "", "fragment", int64_t(f), what);
 }
 
-// The fragments' vertices, with exactly equal positions merged.
-struct Polygons {
-  std::vector<double> xy;           // 2 per vertex
-  std::vector<uint32_t> off{0}, v;  // polygon p is v[off[p] .. off[p+1])
-  std::vector<uint32_t> fragment;   // per polygon
-};
-
-Polygons merge_equal(const PlanarMap& map, uint32_t quantum) {
-  Polygons P;
+ConformedPolygons merge_equal(const PlanarMap& map, uint32_t quantum) {
+  ConformedPolygons P;
   // Keyed by a 64-bit hash of the position, checked on a hit; a (vanishingly rare) collision
   // only leaves two equal vertices apart here, and rounding to the grid merges them anyway.
   FlatMap at(map.vertex_count());
@@ -66,7 +59,7 @@ Polygons merge_equal(const PlanarMap& map, uint32_t quantum) {
 
 // Inserts every vertex that lies inside an edge into that edge. Only edges without a twin
 // (the reverse edge in a neighbour) can hold one, and only the ends of such edges can be one.
-uint64_t insert_into_edges(Polygons& P, double width, double height) {
+uint64_t insert_into_edges(ConformedPolygons& P, double width, double height) {
   const size_t np = P.fragment.size();
   auto key = [](uint32_t a, uint32_t b) { return uint64_t(a) << 32 | b; };
   FlatMap edges(P.v.size());
@@ -163,14 +156,26 @@ double orient_d(const double* a, const double* b, const double* c) {
 
 }  // namespace
 
-GridMesh conform_to_grid(const PlanarMap& map, uint32_t quantum, bool insert_t_junctions) {
+ConformedPolygons conform_polygons(const PlanarMap& map, uint32_t quantum,
+                                   bool insert_t_junctions) {
   if (quantum < 1 || quantum > 256)
     throw InputError(InputErrorKind::BadCamera, "compact writer", "", "quantum", -1,
                      "grid steps per pixel must be 1 ... 256, got " + std::to_string(quantum));
-  Polygons P = merge_equal(map, quantum);
+  ConformedPolygons P = merge_equal(map, quantum);
+  P.original.resize(P.fragment.size());
+  for (size_t p = 0; p < P.fragment.size(); ++p) P.original[p] = P.off[p + 1] - P.off[p];
+  if (insert_t_junctions) P.t_junctions = insert_into_edges(P, map.width, map.height);
+  return P;
+}
+
+GridMesh conform_to_grid(const PlanarMap& map, uint32_t quantum, bool insert_t_junctions) {
+  return triangulate_on_grid(conform_polygons(map, quantum, insert_t_junctions), quantum);
+}
+
+GridMesh triangulate_on_grid(const ConformedPolygons& P, uint32_t quantum) {
   GridMesh g;
   g.quantum = quantum;
-  if (insert_t_junctions) g.t_junctions = insert_into_edges(P, map.width, map.height);
+  g.t_junctions = P.t_junctions;
 
   // Round each vertex once; vertices on the same grid point become one.
   const size_t nv = P.xy.size() / 2;

@@ -31,9 +31,25 @@ struct GridMesh {
   size_t vertex_count() const { return xy.size() / 2; }
 };
 
+// The fragments as polygons over shared vertices, before rounding: exactly equal vertices merged,
+// T-junctions inserted into the edges they lie on. Orientation as the map's (positive).
+struct ConformedPolygons {
+  std::vector<double> xy;           // 2 per vertex, pixels
+  std::vector<uint32_t> off{0}, v;  // polygon p is v[off[p] .. off[p+1])
+  std::vector<uint32_t> fragment;   // per polygon: its planar map fragment
+  std::vector<uint32_t> original;   // per polygon: its corners before T-junctions were inserted
+  uint64_t t_junctions = 0;
+  size_t size() const { return fragment.size(); }
+};
+
 // quantum: 1 ... 256 grid steps per pixel; the map's coordinates must be finite and within the
-// grid's 2^23 steps (checked here).
-// insert_t_junctions = false only for the test that shows the cracks it prevents.
+// grid's 2^23 steps (checked here). insert_t_junctions = false only for the test that shows the
+// cracks it prevents.
+ConformedPolygons conform_polygons(const PlanarMap& map, uint32_t quantum,
+                                   bool insert_t_junctions = true);
+// Rounds the polygons' vertices to the grid and triangulates them through every vertex.
+GridMesh triangulate_on_grid(const ConformedPolygons& polygons, uint32_t quantum);
+// Both steps.
 GridMesh conform_to_grid(const PlanarMap& map, uint32_t quantum, bool insert_t_junctions = true);
 
 // Twice the signed area of (a, b, c) on the grid, exact.

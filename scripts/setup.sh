@@ -12,6 +12,7 @@ PACKAGES=(
   librsvg2-bin libxml2-utils python3
   time
   python3-websockets python3-jsonschema python3-numpy python3-zstandard
+  python3-setuptools python3-wheel python3-pip libmeshoptimizer2d
   chromium nodejs nginx
 )
 

@@ -20,7 +20,7 @@ async def main():
     ap.add_argument("--scene", help="scene file to upload")
     ap.add_argument("--library", help="scene name in the server's library")
     ap.add_argument("--frames", type=int, default=36)
-    ap.add_argument("--format", choices=["svg", "bin"], default="bin")
+    ap.add_argument("--format", choices=["svg", "bin", "compact"], default="bin")
     ap.add_argument("--out", help="folder for the SVG frames")
     a = ap.parse_args()
     async with vc.Session(a.url, fmt=a.format, attributes=a.format == "bin") as s:
@@ -39,7 +39,7 @@ async def main():
             ang = 2 * math.pi * i / a.frames
             eye = [t[0] + dx * math.cos(ang) + dz * math.sin(ang), e[1], t[2] - dx * math.sin(ang) + dz * math.cos(ang)]
             header, frame = await s.frame(eye=eye)
-            n = frame.triangle_count if a.format == "bin" else header["fragments"]
+            n = header["fragments"] if a.format == "svg" else frame.triangle_count
             print(f"frame {header['seq']}: {header['render_ms']:.1f} ms render, {header['bytes']} bytes, {n} triangles/fragments")
             if a.out and a.format == "svg":
                 with open(os.path.join(a.out, f"frame_{i:04d}.svg"), "w") as f:

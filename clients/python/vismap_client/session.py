@@ -1,25 +1,24 @@
-"""Python client for vismapd (proto/PROTOCOL.md) on Debian's python3-websockets, and a reader
-for the binary frame format (proto/FORMAT.md).
-
-    import asyncio, vismap_client as vc
-    async def main():
-        async with vc.Session("ws://127.0.0.1:8080/", fmt="bin") as s:
-            ready = await s.upload("bunny.ply", open("bunny.ply", "rb").read())
-            header, frame = await s.frame(eye=[1, 0.5, 2])
-            print(header["render_ms"], frame.triangle_count)
-    asyncio.run(main())
-"""
-import array
+"""A vismapd session (proto/PROTOCOL.md) on Debian's python3-websockets."""
 import asyncio
 import json
 import random
-import struct
-import sys
-from dataclasses import dataclass, field
 
-import websockets
+from .bin import read_bin
+from .compact import read_compact
 
-PROTOCOL_VERSION = 1
+try:
+    import websockets
+except ImportError:  # the decoders work without it; Session needs it
+    websockets = None
+
+PROTOCOL_VERSIONS = (1, 2)  # 2: compact frames (proto/COMPACT.md)
+PROTOCOL_VERSION = PROTOCOL_VERSIONS[-1]
+FORMATS = ("svg", "bin", "compact")
+
+
+def read_frame(data):
+    """A binary frame by its magic: BinFrame (VMAP) or CompactFrame (VMCF); ValueError otherwise."""
+    return read_compact(data) if bytes(data[:4]) == b"VMCF" else read_bin(data)
 
 
 class ServerError(Exception):
@@ -32,50 +31,6 @@ class ServerError(Exception):
         self.seq = msg.get("seq")
 
 
-@dataclass
-class BinFrame:
-    """One binary frame: struct-of-arrays, as in proto/FORMAT.md."""
-    version: int
-    width: int
-    height: int
-    flags: int
-    xy: array.array                 # float32, 6 per triangle (pixels, y down)
-    mesh: array.array               # uint32 per triangle
-    triangle_id: array.array        # uint32 per triangle (global source triangle id)
-    bary: array.array = field(default_factory=lambda: array.array("f"))   # 9 per triangle if flags & 1
-    inv_w: array.array = field(default_factory=lambda: array.array("f"))  # 3 per triangle if flags & 1
-
-    @property
-    def triangle_count(self):
-        return len(self.mesh)
-
-
-def read_bin(data: bytes) -> BinFrame:
-    """Parses a binary frame; raises ValueError on malformed bytes."""
-    if len(data) < 24 or data[:4] != b"VMAP":
-        raise ValueError("not a vismap binary frame (magic)")
-    version, width, height, flags, t = struct.unpack_from("<5I", data, 4)
-    if version != 1:
-        raise ValueError(f"unsupported binary frame version {version}")
-    per = 80 if flags & 1 else 32
-    if len(data) != 24 + per * t:
-        raise ValueError(f"frame of {len(data)} bytes, expected {24 + per * t} for {t} triangles")
-
-    def section(code, offset, count):
-        a = array.array(code)
-        a.frombytes(data[offset:offset + 4 * count])
-        if sys.byteorder != "little":
-            a.byteswap()
-        return a
-
-    f = BinFrame(version, width, height, flags, section("f", 24, 6 * t), section("I", 24 + 24 * t, t),
-                 section("I", 24 + 28 * t, t))
-    if flags & 1:
-        f.bary = section("f", 24 + 32 * t, 9 * t)
-        f.inv_w = section("f", 24 + 68 * t, 3 * t)
-    return f
-
-
 class Session:
     """One vismapd session. Use as `async with Session(url, ...) as s:`.
 
@@ -86,10 +41,27 @@ class Session:
     camera. `reconnects` counts the reconnections."""
 
     def __init__(self, url, fmt="svg", width=1024, height=1024, attributes=False, token=None, timeout=60,
-                 retries=0, backoff=0.1, max_backoff=2.0):
+                 retries=0, backoff=0.1, max_backoff=2.0, quantum=None, compression=None, fill=None):
+        """fmt: "svg" (frames as str), "bin" (BinFrame) or "compact" (CompactFrame, protocol
+        version 2, proto/COMPACT.md) with optional quantum (grid steps per pixel, 1 ... 256) and
+        compression ("zstd" or "deflate"); fill: "shade" or "id" (the server's default if None)."""
+        if websockets is None:
+            raise ImportError("vismap_client.Session needs the websockets module (Debian: python3-websockets)")
+        if fmt not in FORMATS:
+            raise ValueError(f"fmt must be one of {FORMATS}, got {fmt!r}")
+        if fmt != "compact" and (quantum is not None or compression is not None):
+            raise ValueError("quantum and compression are options of fmt='compact'")
+        if fmt == "compact" and attributes:
+            raise ValueError("compact frames carry no barycentrics; use fmt='bin' for attributes")
         self.url, self.fmt, self.timeout = url, fmt, timeout
-        self.hello = {"type": "hello", "version": PROTOCOL_VERSION, "format": fmt, "attributes": attributes,
+        self.hello = {"type": "hello", "versions": list(PROTOCOL_VERSIONS), "format": fmt, "attributes": attributes,
                       "viewport": {"width": width, "height": height}}
+        if quantum is not None:
+            self.hello["quantum"] = quantum
+        if compression is not None:
+            self.hello["compression"] = compression
+        if fill is not None:
+            self.hello["fill"] = fill
         if token is not None:
             self.hello["token"] = token
         self.retries, self.backoff, self.max_backoff = retries, backoff, max_backoff
@@ -111,6 +83,10 @@ class Session:
         self.ws = await websockets.connect(self.url, max_size=None, open_timeout=self.timeout)
         await self.send(self.hello)
         self.welcome = await self.recv_json()
+        if self.fmt == "compact" and self.welcome.get("version", 1) < 2:
+            await self.ws.close()
+            raise ValueError(f"the server speaks protocol version {self.welcome.get('version')}; "
+                             "compact frames need version 2")
 
     async def _open_with_retry(self):
         delay = self.backoff
@@ -177,14 +153,17 @@ class Session:
         return self._seq
 
     async def next_frame(self):
-        """(header, payload): payload is str (svg) or BinFrame (bin)."""
+        """(header, payload): payload is str (svg), BinFrame (bin) or CompactFrame (compact)."""
         header = await self.recv_json()
         if header.get("type") != "frame":
             raise ValueError(f"expected a frame, got {header}")
         payload = await self.recv()
-        if isinstance(payload, bytes):
-            return header, read_bin(payload)
-        return header, payload
+        fmt = header.get("format")
+        if fmt == "svg" and isinstance(payload, str):
+            return header, payload
+        if fmt in ("bin", "compact", None) and isinstance(payload, bytes):
+            return header, read_frame(payload)
+        raise ValueError(f"a {fmt} frame header followed by a {type(payload).__name__} message")
 
     async def frame(self, **fields):
         """Sends a camera and returns its frame; with retries, reconnects when the server is lost."""

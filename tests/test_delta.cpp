@@ -1,0 +1,212 @@
+// The delta frame encoding (proto/DELTA.md): an orbit decodes to watertight frames that match
+// the exact map, a lost frame is detected and a keyframe recovers, bad frames are refused and
+// leave the decoder's state as it was.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "core/delta.h"
+#include "core/error.h"
+#include "core/pipeline.h"
+#include "core/scene.h"
+#include "tests/support/grid_raster.h"
+
+namespace vismap {
+namespace {
+
+Renderer& renderer() {
+  static Renderer r;
+  return r;
+}
+
+std::string src(const std::string& rel) {
+  return std::string(VISMAP_SOURCE_DIR) + "/" + rel;
+}
+
+// Frame i of an orbit: the framing camera turned by 6 degrees a frame about +Y.
+Camera orbit(const Scene& s, uint32_t w, uint32_t h, int i) {
+  Camera c = frame_scene(s, w, h);
+  const double a = i * 6 * M_PI / 180;
+  const Vec3 d{c.eye[0] - c.target[0], c.eye[1] - c.target[1], c.eye[2] - c.target[2]};
+  c.eye = {c.target[0] + std::cos(a) * d[0] + std::sin(a) * d[2], c.target[1] + d[1],
+           c.target[2] - std::sin(a) * d[0] + std::cos(a) * d[2]};
+  c.near_plane = c.far_plane = 0;
+  fit_near_far(c, s);
+  return c;
+}
+
+struct Rendered {
+  PlanarMap map;
+  ScreenTriangles screen;
+  Camera camera;
+};
+
+Rendered render(const Scene& s, const Camera& c) {
+  RenderOptions o;
+  o.keep_screen_triangles = true;
+  Rendered r;
+  r.camera = c;
+  r.map = renderer().render(s, c, o, nullptr, &r.screen);
+  return r;
+}
+
+struct Check {
+  size_t interior = 0, holes = 0, doubles = 0, wrong_id = 0;
+};
+
+Check compare(const Scene& s, const PlanarMap& map, const DeltaFrame& d) {
+  const test_support::Coverage ref = test_support::raster_map(map);
+  const test_support::Coverage got =
+      test_support::raster_grid(d.width, d.height, d.quantum, d.xy, d.indices, d.source);
+  const std::vector<uint8_t> in = test_support::interior(ref);
+  const std::vector<uint64_t> base = s.triangle_id_base();
+  Check c;
+  for (size_t p = 0; p < in.size(); ++p) {
+    if (got.count[p] > 1) ++c.doubles;
+    if (!in[p]) continue;
+    ++c.interior;
+    if (got.count[p] == 0) {
+      ++c.holes;
+      continue;
+    }
+    const uint32_t f = ref.id[p];
+    if (got.id[p] != base[map.mesh[f]] + s.meshes[map.mesh[f]].face_ids[map.triangle[f]])
+      ++c.wrong_id;
+  }
+  return c;
+}
+
+void orbit_is_watertight(const std::string& path, int frames, double max_mean_bytes) {
+  const Scene s = load_scene(path);
+  DeltaEncoder enc(s, {});
+  DeltaDecoder dec;
+  double bytes = 0;
+  for (int i = 0; i < frames; ++i) {
+    const Rendered r = render(s, orbit(s, 1920, 1080, i));
+    DeltaStats st;
+    const std::string frame = enc.encode(r.map, r.screen, r.camera, &st);
+    const DeltaFrame d = dec.decode(frame);
+    EXPECT_EQ(d.keyframe, i == 0);
+    const Check c = compare(s, r.map, d);
+    EXPECT_EQ(c.holes, 0u) << path << " frame " << i;
+    EXPECT_LT(double(c.doubles) / c.interior, 1e-3) << path << " frame " << i;
+    EXPECT_LT(double(c.wrong_id) / c.interior, 0.03) << path << " frame " << i;
+    if (i > 0) bytes += frame.size();
+    std::printf(
+        "%s frame %d: %zu bytes, whole %llu (+%llu -%llu), polygons %llu (%llu corners, "
+        "%llu points), new triangles %llu, vertices %llu; sources %llu, set %llu, polygons "
+        "%llu bytes before zstd\n",
+        path.c_str(), i, frame.size(), (unsigned long long)st.whole, (unsigned long long)st.added,
+        (unsigned long long)st.removed, (unsigned long long)st.partial,
+        (unsigned long long)st.partial_corners, (unsigned long long)st.points,
+        (unsigned long long)st.new_triangles, (unsigned long long)st.new_vertices,
+        (unsigned long long)st.source_bytes, (unsigned long long)st.set_bytes,
+        (unsigned long long)st.polygon_bytes);
+  }
+  EXPECT_LT(bytes / (frames - 1), max_mean_bytes);
+}
+
+TEST(Delta, BunnyOrbitIsWatertight) {
+  orbit_is_watertight(src("data/bunny.ply"), 4, 40000);
+}
+
+TEST(Delta, CornellArmadilloOrbitIsWatertight) {
+  orbit_is_watertight(src("data/scenes/cornell_armadillo.json"), 3, 40000);
+}
+
+TEST(Delta, LostFrameIsDetectedAndAKeyframeRecovers) {
+  const Scene s = load_scene(src("data/cornell_box/CornellBox-Original.obj"));
+  DeltaEncoder enc(s, {});
+  DeltaDecoder dec;
+  std::vector<std::string> f;
+  for (int i = 0; i < 4; ++i) {
+    const Rendered r = render(s, orbit(s, 320, 240, i));
+    f.push_back(enc.encode(r.map, r.screen, r.camera));
+  }
+  EXPECT_THROW(DeltaDecoder().decode(f[1]), DeltaOutOfSync);  // no keyframe yet
+  dec.decode(f[0]);
+  EXPECT_THROW(dec.decode(f[2]), DeltaOutOfSync);  // frame 1 lost
+  dec.decode(f[0]);                                // a keyframe always decodes (it resets)
+  dec.decode(f[1]);                                // and f[1] follows it
+  EXPECT_THROW(dec.decode(f[3]), DeltaOutOfSync);  // f[2] skipped
+  enc.request_keyframe();
+  const Rendered r = render(s, orbit(s, 320, 240, 4));
+  const DeltaFrame k = dec.decode(enc.encode(r.map, r.screen, r.camera));
+  EXPECT_TRUE(k.keyframe);
+  EXPECT_EQ(compare(s, r.map, k).holes, 0u);
+}
+
+TEST(Delta, MalformedFramesAreRefusedAndLeaveTheStateAlone) {
+  const Scene s = load_scene(src("data/cornell_box/CornellBox-Original.obj"));
+  DeltaEncoder enc(s, {});
+  const Rendered r0 = render(s, orbit(s, 160, 120, 0)), r1 = render(s, orbit(s, 160, 120, 1));
+  const std::string k = enc.encode(r0.map, r0.screen, r0.camera);
+  const std::string next = enc.encode(r1.map, r1.screen, r1.camera);
+  DeltaDecoder dec;
+  dec.decode(k);
+  std::mt19937 rng(5);
+  for (size_t n = 0; n < next.size(); n += 1 + n / 8)
+    EXPECT_THROW(dec.decode(next.substr(0, n)), InputError) << n;
+  for (int trial = 0; trial < 300; ++trial) {
+    std::string b = next;
+    b[48 + rng() % (b.size() - 48)] ^= char(1 + rng() % 255);
+    try {
+      DeltaDecoder copy = dec;
+      copy.decode(b);
+    } catch (const InputError&) {
+    }
+  }
+  const DeltaFrame d = dec.decode(next);  // the state survived every refusal
+  EXPECT_EQ(compare(s, r1.map, d).holes, 0u);
+}
+
+// proto/vectors/delta_cornell_K.vmd (K = 0, 1, 2: a keyframe and two deltas of the Cornell box)
+// decode in sequence to what delta_cornell_K.json says (`vismap decode` of frames 0 ... K with
+// --json): every client's delta decoder is tested against these files. VISMAP_WRITE_VECTORS=1
+// writes the frames anew (then run the CLI for the JSON: proto/vectors/README.md).
+TEST(Delta, TestVectors) {
+  const std::string dir = src("proto/vectors/");
+  if (std::getenv("VISMAP_WRITE_VECTORS")) {
+    const Scene s = load_scene(src("data/cornell_box/CornellBox-Original.obj"));
+    DeltaEncoder enc(s, {});
+    for (int i = 0; i < 3; ++i) {
+      const Rendered r = render(s, orbit(s, 96, 64, i));
+      std::ofstream(dir + "delta_cornell_" + std::to_string(i) + ".vmd", std::ios::binary)
+          << enc.encode(r.map, r.screen, r.camera);
+    }
+  }
+  auto slurp = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    EXPECT_TRUE(in) << "missing " << path;
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  auto join = [](const auto& v) {
+    std::string s;
+    for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + std::to_string(v[i]);
+    return "[" + s + "]";
+  };
+  DeltaDecoder dec;
+  for (int i = 0; i < 3; ++i) {
+    const DeltaFrame d = dec.decode(slurp(dir + "delta_cornell_" + std::to_string(i) + ".vmd"));
+    EXPECT_EQ(d.keyframe, i == 0);
+    EXPECT_GT(d.triangle_count(), 50u);
+    const std::string want = slurp(dir + "delta_cornell_" + std::to_string(i) + ".json");
+    for (auto [key, got] :
+         {std::pair{"xy", join(d.xy)}, std::pair{"indices", join(d.indices)},
+          std::pair{"source", join(d.source)}, std::pair{"shade", join(d.shade)}}) {
+      const size_t at = want.find(std::string("\"") + key + "\"");
+      ASSERT_NE(at, std::string::npos) << key;
+      EXPECT_NE(want.substr(at, want.find('\n', at) - at).find(got), std::string::npos)
+          << "frame " << i << " " << key;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace vismap
