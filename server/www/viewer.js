@@ -16,7 +16,7 @@
   let ws = null, pendingHeader = null, orbit = null, keepOrbit = false;
   let seq = 0, sentAt = new Map(), lastFps = [];
   let lastScene = null;  // {message, bytes}: sent again when the mode changes
-  let decodeCompact = null;  // compact.js's decoder, imported on first use
+  let compact = null;  // the module compact.js (decodeCompact, triangleColor), imported on first use
   let frameNo = 0, shownNo = 0;  // a decode that ends after a newer frame's is not drawn
   const send = (m) => ws && ws.readyState === 1 && ws.send(JSON.stringify(m));
 
@@ -81,8 +81,8 @@
   async function showCompact(h, bytes) {
     const no = ++frameNo;
     try {
-      if (!decodeCompact) decodeCompact = (await import('./compact.js')).decodeCompact;
-      const f = await decodeCompact(bytes);
+      if (!compact) compact = await import('./compact.js');
+      const f = await compact.decodeCompact(bytes);
       if (no < shownNo) return;
       shownNo = no;
       drawCompact(f);
@@ -92,16 +92,11 @@
     }
   }
 
-  // sRGB byte of a linear value in [0, 1] (the SVG writer's to_srgb8).
-  const srgb = (c) => {
-    c = Math.min(1, Math.max(0, c));
-    return Math.round(255 * (c <= 0.0031308 ? 12.92 * c : 1.055 * Math.pow(c, 1 / 2.4) - 0.055));
-  };
-
-  // One path per colour (mesh, shade): a path's fill has no seams inside, and the edges that two
-  // triangles share are stroked 1 px in the fill colour, as the SVG writer does, so background
-  // does not show through where abutting fills of different colours each cover part of a pixel.
-  // Silhouette edges are not stroked (outlines are not fattened).
+  // One path per colour (compact.js's triangleColors: the SVG writer's sRGB of mesh colour x
+  // shade, or the id colour without shades): a path's fill has no seams inside, and the edges
+  // that two triangles share are stroked 1 px in the fill colour, as the SVG writer does, so
+  // background does not show through where abutting fills of different colours each cover part
+  // of a pixel. Silhouette edges are not stroked (outlines are not fattened).
   function drawCompact(f) {
     let canvas = view.querySelector('canvas');
     if (!canvas) { view.innerHTML = ''; canvas = document.createElement('canvas'); view.appendChild(canvas); }
@@ -116,13 +111,14 @@
         const e = key(ix[i + k], ix[i + (k + 1) % 3]);
         edges.set(e, (edges.get(e) || 0) + 1);
       }
-    const groups = new Map();  // colour key -> {fill: Path2D, stroke: Path2D, style}
+    const colors = compact.triangleColors(f);  // 3 sRGB bytes per triangle
+    const groups = new Map();  // packed colour -> {fill: Path2D, stroke: Path2D, style}
     for (let t = 0; t < n; ++t) {
-      const m = f.mesh[t], s = f.shade ? f.shade[t] : 255, g = m * 256 + s;
+      const g = (colors[3 * t] << 16) | (colors[3 * t + 1] << 8) | colors[3 * t + 2];
       let p = groups.get(g);
       if (!p) {
-        const c = [0, 1, 2].map((k) => srgb(f.meshColor[3 * m + k] * s / 255));
-        p = { fill: new Path2D(), stroke: new Path2D(), style: `rgb(${c[0]},${c[1]},${c[2]})` };
+        const style = `rgb(${colors[3 * t]},${colors[3 * t + 1]},${colors[3 * t + 2]})`;
+        p = { fill: new Path2D(), stroke: new Path2D(), style };
         groups.set(g, p);
       }
       const v = [ix[3 * t], ix[3 * t + 1], ix[3 * t + 2]];

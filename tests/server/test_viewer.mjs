@@ -5,11 +5,11 @@
 //     compact.js, a 2D canvas) with the same camera; the two screenshots must agree: at most
 //     MAX_DIFFERING of the pixels that either shows as object may differ by more than
 //     PIXEL_TOLERANCE in a channel (anti-aliased outlines and the 1/16 px grid differ a little,
-//     a missing, turned or wrongly coloured bunny over much of it). Measured at 800x566: 0.10% of
-//     67,629 object pixels (mean difference 1.7 of 255), with viewer.js drawing the frame that
-//     the C++ read_compact decoded; the frame of a camera turned by 180 degrees: 30%.
-// Part 2's compact half needs server/www/compact.js (written by another helper); without it that
-// half is skipped with a message and the rest still runs.
+//     a missing, turned or wrongly coloured bunny over much of it). Measured at 800x566: 0.12% of
+//     67,629 object pixels (mean difference 1.6 of 255); the frame of a camera turned by 180
+//     degrees instead: 30%.
+// Part 2's compact half needs server/www/compact.js; without it that half is skipped with a
+// message and the rest still runs.
 //   node tests/server/test_viewer.mjs PATH/TO/vismapd
 // Exits 77 (skipped) without /usr/bin/chromium or playwright-core (npm install --no-save playwright-core@1).
 import { spawn } from 'node:child_process';
