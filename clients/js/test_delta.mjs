@@ -3,8 +3,8 @@
 // to their JSON (zstd through the zstd CLI as options.zstd, refused with a clear error without
 // it, and repacked with raw deflate); a skipped frame throws DeltaOutOfSync and a keyframe
 // recovers; calls not awaited one by one still decode in order; every truncation and many
-// mutations of vector 1 after vector 0 throw DeltaFrameError and nothing else and leave the state
-// so that vector 1 then decodes exactly, the C++ decoder agreeing on acceptance and arrays;
+// mutations of vector 1 after vector 0 (and of vector 0 after vectors 0 and 1) throw
+// DeltaFrameError and nothing else and leave the state so that the next vector decodes exactly, the C++ decoder agreeing on acceptance and arrays;
 // hand-made frames (clients/python/tests/delta_craft.py) and bunny orbits (vismap_delta_orbit)
 // decode frame by frame as C++ decodes them.
 //   node clients/js/test_delta.mjs [--vismap build/vismap] [--orbit build/tests/vismap_delta_orbit]
@@ -307,6 +307,10 @@ const tests = {
     const cases = [...mutations(v1, rng(16), 1500)];
     const [accepted, checked] = await checkMutations([v0], v1, vectorJson(1), cases, 10);
     console.log(`  ${cases.length} mutations of vector 1: ${accepted} still valid frames, ${checked} compared with vismap decode`);
+    const v2 = repack(vector(2));
+    const keyCases = [...mutations(v0, rng(17), 400)]; // the keyframe (its mesh table) after vectors 0 and 1
+    const [a2, c2] = await checkMutations([v0, v1], v2, vectorJson(2), keyCases, 10);
+    console.log(`  ${keyCases.length} mutations of vector 0 after vector 1: ${a2} still valid, ${c2} compared`);
   },
 
   async craft() {

@@ -388,8 +388,13 @@ export class DeltaDecoder {
         }
         if (tris > MAX_SOURCES || verts > MAX_SOURCES) fail(`mesh ${m}`, 'more than 2^28 triangles or vertices');
       }
-      vertex = new Float32Array(3 * verts).fill(NaN);
-      tri = new Uint32Array(3 * tris).fill(UNSENT);
+      try { // (as C++: the store is sized by the mesh table, up to 2^28 of each)
+        vertex = new Float32Array(3 * verts).fill(NaN);
+        tri = new Uint32Array(3 * tris).fill(UNSENT);
+      } catch (e) {
+        if (!(e instanceof RangeError)) throw e;
+        fail('mesh', `no memory for ${verts} vertices and ${tris} triangles`);
+      }
       whole = new Uint32Array(0);
       partial = new Uint32Array(0);
     }

@@ -4,7 +4,8 @@ round at exact halves on both sides of zero (llround, not round-half-even), edge
 of every direction (the exact div), back faces and triangles with no area on the grid, a vertex
 behind the camera that no triangle uses, orthographic shade, a source with no area in the world
 (shade of a non-finite factor), meshes without triangles, ids leaving and entering the whole set,
-polygons of removed and of previous sources, twins and point references, and deflate.
+polygons of removed and of previous sources, twins and point references, deflate, and frames
+with nothing to draw.
 
 `sequences()` gives {name: [frame bytes, ...]}: each sequence decodes in order. The decoders'
 tests compare them with `vismap decode FRAMES... --json` (core/delta.cpp):
@@ -254,6 +255,12 @@ def sequences():
     f0 = s.frame(rows, v, t, whole=[1, 2, 3], polygons=[(0, [("pt", 20, 20), ("pt", 30, 40), ("pt", 10, 40)])],
                  key=True, eye=(0.0, 0.0, 0.0))
     out["degenerate"] = [f0]
+
+    # Nothing visible, then one triangle, then nothing again.
+    s = Stream(8, 8, 2, [(2, 4, (0.5, 0.5, 0.5))])
+    out["empty"] = [s.frame(rows, key=True),
+                    s.frame(rows, {0: (0.0, 0.0, 1.0), 1: (0.5, 0.0, 1.0), 2: (0.0, 0.5, 1.0)}, {0: (0, 1, 2)}, whole=[0]),
+                    s.frame(rows, whole=[])]
     return out
 
 

@@ -2,8 +2,9 @@
 """vismap_client.DeltaDecoder against the reference (core/delta.cpp via `vismap decode FRAMES...
 --json`): the delta test vectors decode in sequence to their JSON exactly (as sent, zstd, and
 repacked with raw deflate); a skipped frame raises DeltaOutOfSync and a keyframe recovers; every
-truncation and many mutations of vector 1 after vector 0 raise ValueError and nothing else, and
-leave the state so that vector 1 then decodes exactly (where the C++ decoder accepts a mutated
+truncation and many mutations of vector 1 after vector 0 (and of the keyframe, vector 0, after
+vectors 0 and 1) raise ValueError and nothing else, and leave the state so that the next vector
+then decodes exactly (where the C++ decoder accepts a mutated
 frame Python accepts it with the same arrays, and vice versa); hand-made frames (delta_craft.py:
 ties of the rounding on both sides of zero, edge points in all directions, twins, back faces,
 non-finite shade factors, deflate) decode as C++ decodes them; bunny orbits made by
@@ -316,6 +317,9 @@ def test_mutations(vismap, tmp):
     cases = mutations(v1, rng, 2000)
     accepted, checked = check_mutations([v0], v1, vector_json(1), cases, vismap, tmp)
     print(f"  {len(cases)} mutations of vector 1: {accepted} still valid frames, {checked} compared with vismap decode")
+    cases = mutations(v0, rng, 600)  # the keyframe (its mesh table), after vectors 0 and 1: then vector 2
+    accepted, checked = check_mutations([v0, v1], vector(2), vector_json(2), cases, vismap, tmp)
+    print(f"  {len(cases)} mutations of vector 0 after vector 1: {accepted} still valid, {checked} compared")
     cases = mutations(repack(v1), rng, 300)  # deflate
     accepted, checked = check_mutations([repack(v0)], repack(v1), vector_json(1), cases, vismap, tmp)
     print(f"  {len(cases)} mutations of vector 1 in deflate: {accepted} still valid, {checked} compared")

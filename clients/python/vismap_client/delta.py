@@ -278,8 +278,11 @@ class DeltaDecoder:
                 _fail("mesh", "more than 2^28 triangles or vertices")
             mesh_base = first
             n_tris, n_verts = int(tris_end[-1]), int(verts_end[-1])
-            vertex = np.full((n_verts, 3), np.nan, np.float32)
-            tri = np.full((n_tris, 3), UNSENT, np.uint32)
+            try:  # (as C++: the store is sized by the mesh table, up to 2^28 of each)
+                vertex = np.full((n_verts, 3), np.nan, np.float32)
+                tri = np.full((n_tris, 3), UNSENT, np.uint32)
+            except MemoryError:
+                _fail("mesh", f"no memory for {n_verts} vertices and {n_tris} triangles")
             whole = np.zeros(0, np.int64)
             partial = np.zeros(0, np.int64)
         else:
