@@ -22,12 +22,12 @@
 // orientations (coordinates of source vertices may reach 1e9 grid steps: BigInt past 2^26).
 // Calls to decode run one after another in call order, whatever their awaits.
 //
-// Time (clients/js/test_delta.mjs --time): a 1920x1080 bunny orbit delta frame (18 KB, 31,300
-// triangles of which 27,600 whole, 2,200 polygons with 8,900 corners) decodes in 11-14 ms (best
-// of 15) in Node 20 on the build machine (a shared 2-vCPU VM, load average 3-5, where compact.js
-// takes 14-17 ms for the compact frame of the same view); its keyframe (330 KB) in ~20 ms. Of a
-// delta frame: the whole triangles ~60% (projection, orientation, shade each), the corners ~20%,
-// inflate ~15%.
+// Time (clients/js/test_delta.mjs --time): a 1920x1080 bunny orbit delta frame (18-23 KB, 31,000
+// triangles of which 26,000-28,000 whole, 2,200-2,500 polygons with 9,000-10,000 corners)
+// decodes in 12-15 ms (best of 15) in Node 20 on the build machine (a shared 2-vCPU VM, load
+// average 3-5, where compact.js takes 14-17 ms for the compact frame of the same view); a 53 KB
+// frame (4,900 polygons) in ~17 ms, a 330 KB keyframe in 20-30 ms. Of a delta frame: the whole
+// triangles ~60% (projection, orientation and shade of each), the corners ~20%, inflate ~15%.
 
 import { decompress, Numbers } from './frame_io.js';
 
