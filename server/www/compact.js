@@ -1,9 +1,10 @@
 // Decoder for the vismap compact frame, version 1 (proto/COMPACT.md), for the browser and Node 20.
-// An ES module with no dependencies: raw deflate through the platform's
-// DecompressionStream("deflate-raw"), meshoptimizer's index codec and the walk written here. It
-// accepts exactly the frames the reference (read_compact, core/compact.cpp) accepts, except zstd
-// frames, which need a native decoder (ask hello for compression: "deflate"), and throws a
-// CompactFrameError ("compact frame: PART: what") for every other frame.
+// An ES module with no dependencies beyond its folder: raw deflate through the platform's
+// DecompressionStream("deflate-raw") and the sections' numbers (frame_io.js, shared with
+// delta.js), meshoptimizer's index codec and the walk written here. It accepts exactly the
+// frames the reference (read_compact, core/compact.cpp) accepts, except zstd frames, which need a
+// native decoder (ask hello for compression: "deflate"), and throws a CompactFrameError
+// ("compact frame: PART: what") for every other frame.
 //
 //   import { decodeCompact, triangleColors } from './compact.js';
 //   const f = await decodeCompact(await blob.arrayBuffer());
@@ -16,6 +17,8 @@
 // a shared 2-vCPU VM under load average 5-7, where a plain integer loop runs ~5x slower than on a
 // desktop core: ~3 ms there. Of it: the walk ~70%, one inflate ~15% (Node inflates twice, below),
 // the index codec ~7%. A per-vertex edge table keeps the walk in cache (EdgeMap).
+
+import { decompress, Numbers } from './frame_io.js';
 
 const MAGIC = 0x46434d56; // "VMCF" little-endian
 const VERSION = 1;
@@ -37,64 +40,6 @@ export class CompactFrameError extends Error {
 
 function fail(part, message) {
   throw new CompactFrameError(part, message);
-}
-
-// ---------------------------------------------------------------------------------------------
-// Raw deflate: exactly `size` bytes, the stream ending exactly at the message's end.
-
-// Node 20's DecompressionStream ignores bytes after the end of the deflate stream (Chromium's
-// refuses them, as the Compression Streams spec asks). Where they are ignored, a stream that ends
-// exactly at the message's end is told by its prefix one byte shorter failing: the last byte
-// holds the end-of-block code's last bit.
-let lenientInflate = null;
-
-async function inflate(bytes, size) {
-  const ds = new DecompressionStream('deflate-raw');
-  const writer = ds.writable.getWriter();
-  writer.write(bytes).catch(() => {});
-  writer.close().catch(() => {});
-  const reader = ds.readable.getReader();
-  const out = new Uint8Array(size);
-  let n = 0;
-  for (;;) {
-    const { value, done } = await reader.read();
-    if (done) break;
-    if (value.length > size - n) {
-      reader.cancel().catch(() => {});
-      throw new RangeError('longer than stated');
-    }
-    out.set(value, n);
-    n += value.length;
-  }
-  return n === size ? out : null;
-}
-
-async function isLenient() {
-  // 0x03 0x00: an empty final fixed-Huffman block; 0x2a: a byte after it.
-  if (lenientInflate === null) {
-    lenientInflate = inflate(new Uint8Array([0x03, 0x00, 0x2a]), 0).then(() => true, () => false);
-  }
-  return lenientInflate;
-}
-
-async function inflateExactly(z, size) {
-  let out;
-  try {
-    out = await inflate(z, size);
-  } catch (e) {
-    fail('payload', `not one raw deflate stream of the stated size (${e.message})`);
-  }
-  if (out === null) fail('payload', `fewer bytes after decompression than the header's ${size}`);
-  if (await isLenient()) {
-    let ends = false;
-    try {
-      ends = z.length === 0 || (await inflate(z.subarray(0, z.length - 1), size)) === null;
-    } catch {
-      ends = true;
-    }
-    if (!ends) fail('payload', 'bytes after the end of the deflate stream');
-  }
-  return out;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -246,54 +191,6 @@ export function decodeIndexBuffer(indexCount, buf) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// A section's numbers: LEB128 varints (at most 10 bytes, 64-bit wrap as in C++), zigzag-signed,
-// as Numbers: exact below 2^53 in magnitude, else +-Infinity (no frame that holds such a residual
-// is valid: every sum it enters leaves its range).
-
-class Numbers {
-  constructor(bytes, part) {
-    this.b = bytes;
-    this.p = 0;
-    this.part = part;
-  }
-
-  next() {
-    const b = this.b;
-    let p = this.p;
-    let z = 0;
-    for (let shift = 0; shift < 28; shift += 7) { // up to 4 bytes: 28 bits in int32 arithmetic
-      if (p >= b.length) fail(this.part, 'ends inside a number');
-      const c = b[p++];
-      z |= (c & 0x7f) << shift;
-      if (c < 0x80) {
-        this.p = p;
-        return (z >>> 1) ^ -(z & 1);
-      }
-    }
-    return this.long(z, p);
-  }
-
-  long(z, p) { // five bytes or more: rare, exactly in BigInt
-    const b = this.b;
-    let big = BigInt(z);
-    for (let shift = 28n; shift < 70n; shift += 7n) {
-      if (p >= b.length) fail(this.part, 'ends inside a number');
-      const c = b[p++];
-      big |= BigInt(c & 0x7f) << shift;
-      if (c < 0x80) {
-        this.p = p;
-        big &= 0xffffffffffffffffn;
-        const s = big & 1n ? -(big >> 1n) - 1n : big >> 1n;
-        if (s >= 2n ** 53n) return Infinity;
-        if (s <= -(2n ** 53n)) return -Infinity;
-        return Number(s);
-      }
-    }
-    fail(this.part, 'a number longer than 64 bits');
-  }
-}
-
-// ---------------------------------------------------------------------------------------------
 // The walk's directed-edge map: (a, b) -> its first entry, 3 * triangle + the corner at a. Kept
 // per start vertex a: its first SLOTS edges inline, next to a's other edges, so a walk in
 // vertex-cache order stays in cache (one hash table over all 3T edges missed it: ~40 ms for the
@@ -408,21 +305,7 @@ export async function decodeCompact(arrayBuffer, options = {}) {
   }
   const z = msg.subarray(HEADER_BYTES);
   if (size > MAX_RATIO * z.length + 4096) fail('header', 'payload size out of proportion');
-  let payload;
-  if (codec === DEFLATE) {
-    payload = await inflateExactly(z, size);
-  } else if (!options.zstd) {
-    fail('payload', 'zstd frames need a native decoder; ask the server for compression: "deflate"');
-  } else {
-    try {
-      payload = await options.zstd(z, size);
-    } catch (e) {
-      fail('payload', `zstd: ${e.message}`);
-    }
-    if (!(payload instanceof Uint8Array) || payload.length !== size) {
-      fail('payload', `not one zstd frame of the stated size ${size}`);
-    }
-  }
+  const payload = await decompress(codec, z, size, options.zstd, fail);
   const frame = decodePayload(payload, { width, height, quantum, flags, nv, nt, nm });
   frame.compression = codec === ZSTD ? 'zstd' : 'deflate';
   return frame;
@@ -477,8 +360,8 @@ function decodePayload(payload, { width, height, quantum, flags, nv, nt, nm }) {
   const xmax = width * quantum;
   const ymax = height * quantum;
   const firstId = meshBase[0];
-  const positions = new Numbers(sections.positions, 'positions');
-  const ids = new Numbers(sections.ids, 'ids');
+  const positions = new Numbers(sections.positions, 'positions', fail);
+  const ids = new Numbers(sections.ids, 'ids', fail);
   const edges = new EdgeMap(nv, nt);
   const pxy = new Float64Array(2);
   let last = -1;

@@ -11,13 +11,12 @@ positions in one Python loop over the vertices and the ids and shades by pointer
 ~60-80 ms of CPU on the (shared, loaded) build machine; the literal loop (_walk_plain, which the
 tests hold _walk to) takes ~200-230 ms. `tests/test_decoders.py --time` prints both."""
 import struct
-import zlib
 from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
 
-from . import _meshopt
+from . import _meshopt, _wire
 
 MAGIC = b"VMCF"
 VERSION = 1
@@ -86,56 +85,15 @@ def _fail(part, msg):
 
 
 def _inflate(codec, z, size):
-    """The payload: exactly `size` bytes from one zstd frame or one raw deflate stream that ends
-    exactly at the message's end."""
-    if codec == 1:
-        try:
-            import zstandard
-        except ImportError as e:
-            raise ImportError("zstd compact frames need the zstandard module (Debian: python3-zstandard); "
-                              "or ask the server for compression: deflate") from e
-        try:
-            content = zstandard.get_frame_parameters(z).content_size
-            if content != size:
-                _fail("payload", "not one zstd frame of the stated size")
-            out = zstandard.ZstdDecompressor().decompress(z, allow_extra_data=False)
-        except zstandard.ZstdError as e:
-            _fail("payload", f"zstd: {e}")
-    else:
-        d = zlib.decompressobj(-15)
-        try:
-            out = d.decompress(z, size + 1)  # one byte more than stated shows a longer stream
-        except zlib.error as e:
-            _fail("payload", f"deflate: {e}")
-        if not d.eof or d.unused_data or d.unconsumed_tail:
-            _fail("payload", "not one raw deflate stream ending at the message's end")
-    if len(out) != size:
-        _fail("payload", f"{len(out)} bytes after decompression, the header says {size}")
-    return out
+    return _wire.inflate(codec, z, size, _fail)
 
 
 def _varints(sec, part, count):
     """`count` LEB128 numbers filling `sec` exactly, unzigzagged, as int64."""
-    b = np.frombuffer(sec, np.uint8)
-    ends = np.flatnonzero(b < 0x80)
-    if len(b) and b[-1] >= 0x80:
-        _fail(part, "ends inside a number")
-    if len(ends) != count:
-        _fail(part, f"{len(ends)} numbers, {count} expected")
-    if count == 0:
-        return []
-    starts = np.empty_like(ends)
-    starts[0] = 0
-    starts[1:] = ends[:-1] + 1
-    lengths = ends - starts + 1
-    if lengths.max() > 10:
-        _fail(part, "a number longer than 64 bits")
-    groups = (b & 0x7F).astype(np.uint64)
-    z = groups[starts]
-    for k in range(1, int(lengths.max())):  # the k-th 7-bit group of the numbers that have one
-        z |= np.where(lengths > k, groups[np.minimum(starts + k, len(b) - 1)], 0) << np.uint64(7 * k)
-    # (a 10th group keeps only its low bit, as in C++: the shift by 63 drops the rest)
-    return ((z >> np.uint64(1)).astype(np.int64) ^ -(z & np.uint64(1)).astype(np.int64))
+    z = _wire.leb128(sec, part, _fail)
+    if len(z) != count:
+        _fail(part, f"{len(z)} numbers, {count} expected")
+    return _wire.unzigzag(z)
 
 
 def read_compact(data) -> CompactFrame:

@@ -5,19 +5,23 @@ import random
 
 from .bin import read_bin
 from .compact import read_compact
+from .delta import DeltaDecoder, DeltaOutOfSync
 
 try:
     import websockets
 except ImportError:  # the decoders work without it; Session needs it
     websockets = None
 
-PROTOCOL_VERSIONS = (1, 2)  # 2: compact frames (proto/COMPACT.md)
+PROTOCOL_VERSIONS = (1, 2)  # 2: compact and delta frames (proto/COMPACT.md, proto/DELTA.md)
 PROTOCOL_VERSION = PROTOCOL_VERSIONS[-1]
-FORMATS = ("svg", "bin", "compact")
+FORMATS = ("svg", "bin", "compact", "delta")
 
 
 def read_frame(data):
-    """A binary frame by its magic: BinFrame (VMAP) or CompactFrame (VMCF); ValueError otherwise."""
+    """A binary frame by its magic: BinFrame (VMAP) or CompactFrame (VMCF); ValueError otherwise
+    (a delta frame, VMDF, needs the frames before it: DeltaDecoder)."""
+    if bytes(data[:4]) == b"VMDF":
+        raise ValueError("delta frame: header: decoded only in its stream, by a DeltaDecoder")
     return read_compact(data) if bytes(data[:4]) == b"VMCF" else read_bin(data)
 
 
@@ -38,21 +42,31 @@ class Session:
     deploy/nginx.conf): connecting retries with exponential backoff and jitter (backoff, doubling
     up to max_backoff seconds), and when the connection drops, or the server answers a fatal
     `shutting_down`, frame() reconnects, sends hello and the last scene again, and retries the
-    camera. `reconnects` counts the reconnections."""
+    camera. `reconnects` counts the reconnections.
+
+    fmt="delta" (proto/DELTA.md) keeps a DeltaDecoder (`self.delta`, new on every connection:
+    the server's stream starts with a keyframe). When a frame does not apply (DeltaOutOfSync: one
+    was lost) or is malformed, the session sends `{"type": "keyframe"}`, after which the server's
+    next delta frame is a keyframe; frame() then sends its camera once more and returns that
+    keyframe's frame. `keyframes_requested` counts the requests."""
 
     def __init__(self, url, fmt="svg", width=1024, height=1024, attributes=False, token=None, timeout=60,
                  retries=0, backoff=0.1, max_backoff=2.0, quantum=None, compression=None, fill=None):
-        """fmt: "svg" (frames as str), "bin" (BinFrame) or "compact" (CompactFrame, protocol
-        version 2, proto/COMPACT.md) with optional quantum (grid steps per pixel, 1 ... 256) and
-        compression ("zstd" or "deflate"); fill: "shade" or "id" (the server's default if None)."""
+        """fmt: "svg" (frames as str), "bin" (BinFrame), "compact" (CompactFrame, protocol
+        version 2, proto/COMPACT.md) or "delta" (DeltaFrame, protocol version 2, proto/DELTA.md),
+        the last two with optional quantum (grid steps per pixel, 1 ... 256) and compression
+        ("zstd" or "deflate"); fill: "shade" or "id" (the server's default if None)."""
         if websockets is None:
             raise ImportError("vismap_client.Session needs the websockets module (Debian: python3-websockets)")
         if fmt not in FORMATS:
             raise ValueError(f"fmt must be one of {FORMATS}, got {fmt!r}")
-        if fmt != "compact" and (quantum is not None or compression is not None):
-            raise ValueError("quantum and compression are options of fmt='compact'")
+        if fmt not in ("compact", "delta") and (quantum is not None or compression is not None):
+            raise ValueError("quantum and compression are options of fmt='compact' and 'delta'")
         if fmt == "compact" and attributes:
             raise ValueError("compact frames carry no barycentrics; use fmt='bin' for attributes")
+        if fmt == "delta" and attributes:
+            raise ValueError("delta frames carry no barycentrics (the client computes them from the "
+                             "source triangles it holds: proto/DELTA.md); use fmt='bin' for attributes")
         self.url, self.fmt, self.timeout = url, fmt, timeout
         self.hello = {"type": "hello", "versions": list(PROTOCOL_VERSIONS), "format": fmt, "attributes": attributes,
                       "viewport": {"width": width, "height": height}}
@@ -71,6 +85,8 @@ class Session:
         self.scene = None
         self._scene_source = None  # ("upload", name, bytes) or ("library", name): replayed on reconnect
         self._seq = 0
+        self.delta = DeltaDecoder() if fmt == "delta" else None
+        self.keyframes_requested = 0
 
     async def __aenter__(self):
         await self._open_with_retry()
@@ -83,10 +99,12 @@ class Session:
         self.ws = await websockets.connect(self.url, max_size=None, open_timeout=self.timeout)
         await self.send(self.hello)
         self.welcome = await self.recv_json()
-        if self.fmt == "compact" and self.welcome.get("version", 1) < 2:
+        if self.fmt in ("compact", "delta") and self.welcome.get("version", 1) < 2:
             await self.ws.close()
             raise ValueError(f"the server speaks protocol version {self.welcome.get('version')}; "
-                             "compact frames need version 2")
+                             f"{self.fmt} frames need version 2")
+        if self.delta is not None:
+            self.delta.reset()  # a new connection is a new stream: it starts with a keyframe
 
     async def _open_with_retry(self):
         delay = self.backoff
@@ -153,7 +171,9 @@ class Session:
         return self._seq
 
     async def next_frame(self):
-        """(header, payload): payload is str (svg), BinFrame (bin) or CompactFrame (compact)."""
+        """(header, payload): payload is str (svg), BinFrame (bin), CompactFrame (compact) or
+        DeltaFrame (delta). A delta frame that does not apply raises DeltaOutOfSync, a malformed
+        one ValueError, after asking the server for a keyframe."""
         header = await self.recv_json()
         if header.get("type") != "frame":
             raise ValueError(f"expected a frame, got {header}")
@@ -161,16 +181,31 @@ class Session:
         fmt = header.get("format")
         if fmt == "svg" and isinstance(payload, str):
             return header, payload
+        if fmt == "delta" and isinstance(payload, bytes) and self.delta is not None:
+            try:
+                return header, self.delta.decode(payload)
+            except ValueError:  # (DeltaOutOfSync too) the decoder's state is as it was
+                self.keyframes_requested += 1
+                await self.send({"type": "keyframe"})
+                raise
         if fmt in ("bin", "compact", None) and isinstance(payload, bytes):
             return header, read_frame(payload)
         raise ValueError(f"a {fmt} frame header followed by a {type(payload).__name__} message")
 
+    async def _camera_frame(self, fields):
+        await self.camera(**fields)
+        try:
+            return await self.next_frame()
+        except DeltaOutOfSync:  # a keyframe was asked for: the next frame is one
+            await self.camera(**fields)
+            return await self.next_frame()
+
     async def frame(self, **fields):
-        """Sends a camera and returns its frame; with retries, reconnects when the server is lost."""
+        """Sends a camera and returns its frame; with retries, reconnects when the server is lost.
+        In a delta stream, a frame that does not apply is followed by a keyframe of the camera."""
         for attempt in range(self.retries + 1):
             try:
-                await self.camera(**fields)
-                return await self.next_frame()
+                return await self._camera_frame(fields)
             except (websockets.ConnectionClosed, OSError, ServerError) as e:
                 lost = not isinstance(e, ServerError) or (e.fatal and e.code == "shutting_down")
                 if not lost or attempt == self.retries:

@@ -1,0 +1,86 @@
+// Writes a delta stream (proto/DELTA.md) of an orbit, one file per frame, for the clients' delta
+// decoders to check against `vismap decode FRAME... --json` (clients/python/tests/test_delta.py,
+// clients/js/test_delta.mjs). Frame i: the framing camera turned by `step` degrees about +Y, as
+// tests/test_delta.cpp's orbit.
+//   vismap_delta_orbit SCENE OUTDIR [--frames N] [--width W] [--height H] [--quantum Q]
+//                      [--compression zstd|deflate] [--step DEG] [--keyframe-every K]
+// writes OUTDIR/delta_000.vmd ... and prints one line per frame (bytes, polygons, corners).
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <string>
+
+#include "core/delta.h"
+#include "core/error.h"
+#include "core/pipeline.h"
+#include "core/scene.h"
+
+using namespace vismap;
+
+int main(int argc, char** argv) {
+  if (argc < 3) {
+    std::fprintf(stderr,
+                 "usage: vismap_delta_orbit SCENE OUTDIR [--frames N] [--width W] [--height H] "
+                 "[--quantum Q] [--compression zstd|deflate] [--step DEG] [--keyframe-every K]\n");
+    return 2;
+  }
+  int frames = 4;
+  uint32_t width = 1920, height = 1080;
+  double step = 6;
+  DeltaOptions opt;
+  for (int i = 3; i + 1 < argc; i += 2) {
+    const std::string a = argv[i], v = argv[i + 1];
+    if (a == "--frames")
+      frames = std::atoi(v.c_str());
+    else if (a == "--width")
+      width = uint32_t(std::atoi(v.c_str()));
+    else if (a == "--height")
+      height = uint32_t(std::atoi(v.c_str()));
+    else if (a == "--quantum")
+      opt.quantum = uint32_t(std::atoi(v.c_str()));
+    else if (a == "--step")
+      step = std::atof(v.c_str());
+    else if (a == "--keyframe-every")
+      opt.keyframe_every = uint32_t(std::atoi(v.c_str()));
+    else if (a == "--compression" && (v == "zstd" || v == "deflate"))
+      opt.compression = v == "zstd" ? Compression::Zstd : Compression::Deflate;
+    else {
+      std::fprintf(stderr, "vismap_delta_orbit: unknown option %s %s\n", a.c_str(), v.c_str());
+      return 2;
+    }
+  }
+  try {
+    const Scene s = load_scene(argv[1]);
+    Renderer renderer;
+    DeltaEncoder enc(s, opt);
+    for (int i = 0; i < frames; ++i) {
+      Camera c = frame_scene(s, width, height);
+      const double a = i * step * M_PI / 180;
+      const Vec3 d{c.eye[0] - c.target[0], c.eye[1] - c.target[1], c.eye[2] - c.target[2]};
+      c.eye = {c.target[0] + std::cos(a) * d[0] + std::sin(a) * d[2], c.target[1] + d[1],
+               c.target[2] - std::sin(a) * d[0] + std::cos(a) * d[2]};
+      c.near_plane = c.far_plane = 0;
+      fit_near_far(c, s);
+      RenderOptions o;
+      o.keep_screen_triangles = true;
+      ScreenTriangles screen;
+      const PlanarMap map = renderer.render(s, c, o, nullptr, &screen);
+      DeltaStats st;
+      const std::string bytes = enc.encode(map, screen, c, &st);
+      char name[32];
+      std::snprintf(name, sizeof name, "/delta_%03d.vmd", i);
+      std::ofstream(std::string(argv[2]) + name, std::ios::binary) << bytes;
+      std::printf(
+          "%s: %zu bytes, keyframe %d, whole %llu, polygons %llu, corners %llu, points %llu\n",
+          name + 1, bytes.size(), int(st.keyframe), (unsigned long long)st.whole,
+          (unsigned long long)st.partial, (unsigned long long)st.partial_corners,
+          (unsigned long long)st.points);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "vismap_delta_orbit: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
