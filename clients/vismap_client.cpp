@@ -14,6 +14,7 @@
 
 #include "clients/wsclient.h"
 #include "core/compact.h"
+#include "core/delta.h"
 #include "core/output.h"
 
 using nlohmann::json;
@@ -21,12 +22,13 @@ using namespace vismap::client;
 
 static const char* kUsage =
     "usage: vismap-client --url ws://HOST:PORT/ (--scene FILE | --library NAME) --frames N\n"
-    "                     [--format svg|bin|compact] [--out DIR] [--width W] [--height H]\n"
+    "                     [--format svg|bin|compact|delta] [--out DIR] [--width W] [--height H]\n"
     "                     [--attributes] [--fill shade|id] [--quantum Q]\n"
     "                     [--compression zstd|deflate] [--permessage-deflate]\n"
     "                     [--token-file FILE] [--timeout S] [--retries N]\n"
-    "  compact (and --quantum, --compression) negotiate protocol version 2; bin and\n"
-    "  compact frames are decoded (read_bin, read_compact) and their triangles counted.\n"
+    "  compact, delta (and --quantum, --compression) negotiate protocol version 2; bin,\n"
+    "  compact and delta frames are decoded (read_bin, read_compact, DeltaDecoder: a delta\n"
+    "  frame that does not apply asks the server for a keyframe) and their triangles counted.\n"
     "       vismap-client --health http://HOST:PORT/health   (exit 0 when the server answers 200 "
     "ok;\n"
     "                                                         a container HEALTHCHECK without "
@@ -148,7 +150,7 @@ int main(int argc, char** argv) {
     }
     if (!health_url.empty()) return health(health_url, std::min(timeout, 10.0));
     if (url.empty() || (scene.empty() == library.empty()) || frames < 1 ||
-        (format != "svg" && format != "bin" && format != "compact") ||
+        (format != "svg" && format != "bin" && format != "compact" && format != "delta") ||
         (!fill.empty() && fill != "shade" && fill != "id") ||
         (!compression.empty() && compression != "zstd" && compression != "deflate"))
       throw std::runtime_error("bad arguments");
@@ -161,7 +163,7 @@ int main(int argc, char** argv) {
     WsClient c;
     connect_with_retry(c, url, retries, deflate);
     // Version 2 only where it is needed, so svg and bin keep working with a version 1 server.
-    bool v2 = format == "compact" || quantum || !compression.empty();
+    bool v2 = format == "compact" || format == "delta" || quantum || !compression.empty();
     json hello = {{"type", "hello"},
                   {"version", v2 ? 2 : 1},
                   {"format", format},
@@ -202,6 +204,8 @@ int main(int argc, char** argv) {
     double dx = eye[0] - target[0], dz = eye[2] - target[2];
     if (!out.empty()) std::filesystem::create_directories(out);
     std::vector<double> latency;
+    vismap::DeltaDecoder delta;
+    uint64_t keyframes = 0, resyncs = 0;
     double render_ms_sum = 0, decode_ms_sum = 0;
     uint64_t bytes_sum = 0, triangles_sum = 0;
     const uint64_t wire0 = c.wire_bytes_received();
@@ -225,12 +229,24 @@ int main(int argc, char** argv) {
         triangles_sum += vismap::read_bin(payload.data).triangle_count();
       else if (format == "compact")
         triangles_sum += vismap::read_compact(payload.data).triangle_count();
+      else if (format == "delta") {
+        try {
+          const vismap::DeltaFrame d = delta.decode(payload.data);
+          triangles_sum += d.triangle_count();
+          keyframes += d.keyframe;
+        } catch (const vismap::DeltaOutOfSync&) {  // lost state: the next frame stands alone
+          ++resyncs;
+          c.send_text(json{{"type", "keyframe"}}.dump());
+        }
+      }
       decode_ms_sum +=
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - td).count();
       if (!out.empty()) {
         char name[64];
         std::snprintf(name, sizeof name, "frame_%04d.%s", i,
-                      format == "compact" ? "vmc" : format.c_str());
+                      format == "compact" ? "vmc"
+                      : format == "delta" ? "vmd"
+                                          : format.c_str());
         std::ofstream(std::filesystem::path(out) / name, std::ios::binary) << payload.data;
       }
     }
@@ -260,6 +276,10 @@ int main(int argc, char** argv) {
     r["wire_bytes_per_frame"] = wire / frames;
     r["protocol"] = welcome.value("version", 1);
     r["permessage_deflate"] = c.deflate_negotiated();
+    if (format == "delta") {
+      per["keyframes"] = keyframes;
+      per["resyncs"] = resyncs;  // frames that did not apply (then a keyframe was asked for)
+    }
     r["by_format"] = {{format, per}};
     std::printf(
         "%d frames in %.2f s: %.1f fps, latency p50 %.1f ms p99 %.1f ms, %llu bytes/frame\n",

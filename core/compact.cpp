@@ -158,7 +158,11 @@ void walk_mesh(const uint32_t* idx, size_t nt, std::vector<int32_t>& pos,
 uint64_t zigzag(int64_t d) {
   return d < 0 ? ~(uint64_t(d) << 1) : uint64_t(d) << 1;
 }
-int64_t unzigzag(uint64_t z) {
+// A residual a reader adds to a prediction: at most 2^40 in size, so no sum overflows.
+int64_t small(uint64_t z, const char* what) {
+  if (z > (uint64_t(1) << 41))
+    throw InputError(InputErrorKind::ParseError, "compact frame", "", what, -1,
+                     "a number out of range");
   return z & 1 ? ~int64_t(z >> 1) : int64_t(z >> 1);
 }
 
@@ -397,8 +401,8 @@ CompactFrame read_compact(const std::string& bytes) {
   walk_mesh(
       f.indices.data(), nt, f.xy, placed,
       [&](uint32_t v, int64_t px, int64_t py) {
-        const int64_t x = px + unzigzag(get_varint(vp, vend, "positions"));
-        const int64_t y = py + unzigzag(get_varint(vp, vend, "positions"));
+        const int64_t x = px + small(get_varint(vp, vend, "positions"), "positions");
+        const int64_t y = py + small(get_varint(vp, vend, "positions"), "positions");
         if (x < 0 || y < 0 || x > xmax || y > ymax)
           malformed(InputErrorKind::ParseError, "vertex", int64_t(v), "outside the viewport");
         f.xy[2 * v] = int32_t(x), f.xy[2 * v + 1] = int32_t(y);
@@ -406,7 +410,7 @@ CompactFrame read_compact(const std::string& bytes) {
       },
       [&](size_t t, int64_t pred) {
         const int64_t id =
-            (pred >= 0 ? int64_t(f.source[pred]) : 0) + unzigzag(get_varint(ip, iend, "ids"));
+            (pred >= 0 ? int64_t(f.source[pred]) : 0) + small(get_varint(ip, iend, "ids"), "ids");
         if (id < int64_t(f.mesh_base[0]) || id > int64_t(UINT32_MAX))
           malformed(InputErrorKind::ParseError, "triangle", int64_t(t), "source id out of range");
         f.source[t] = uint32_t(id);

@@ -25,7 +25,7 @@ constexpr size_t kHeaderBytes = 48;
 constexpr uint32_t kKeyframe = 1;
 constexpr uint32_t kNoBase = 0xFFFFFFFFu;
 constexpr uint64_t kMaxRatio = 256;
-constexpr uint64_t kMaxSourceCount = 1ull << 28;  // triangles, and vertices, a client holds
+constexpr uint64_t kMaxSourceCount = 1ull << 26;  // triangles, and vertices, a client holds
 constexpr double kOnEdge = 1e-6;                  // as core/conform.cpp
 constexpr int kSections = 10;
 // Polygon corner codes (proto/DELTA.md, "Polygons").
@@ -56,6 +56,12 @@ void put_varint(std::string& s, uint64_t v) {
 uint64_t zigzag(int64_t d) {
   return d < 0 ? ~(uint64_t(d) << 1) : uint64_t(d) << 1;
 }
+int64_t unzigzag(uint64_t z);
+// A zigzagged number a reader adds to something: at most 2^40 in size (none of ours is near),
+// so that no sum can overflow.
+struct Stream;
+int64_t small(Stream& s, const char* what);
+
 int64_t unzigzag(uint64_t z) {
   return z & 1 ? ~int64_t(z >> 1) : int64_t(z >> 1);
 }
@@ -95,6 +101,12 @@ struct Stream {
     if (p != end) malformed(name, -1, "trailing bytes");
   }
 };
+
+int64_t small(Stream& s, const char* what) {
+  const uint64_t z = s.varint();
+  if (z > (uint64_t(1) << 41)) malformed(what, -1, "a number out of range");
+  return unzigzag(z);
+}
 
 double orient_d(const double* a, const double* b, const double* c) {
   return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
@@ -737,8 +749,8 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     for (uint64_t i = 0; i < n; ++i) {
       const uint64_t d = s.varint();
       if (i > 0 && d == 0) malformed("vertices", int64_t(i), "not ascending");
+      if (d >= n_verts - gv) malformed("vertices", int64_t(i), "out of range");
       gv += d;
-      if (gv >= n_verts) malformed("vertices", int64_t(i), "out of range");
       const unsigned char* p = sec[1].take(12);
       for (int c = 0; c < 3; ++c) {
         const float v = std::bit_cast<float>(get_u32(reinterpret_cast<const char*>(p) + 4 * c));
@@ -758,10 +770,10 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     for (uint64_t i = 0; i < n; ++i) {
       const uint64_t d = s.varint();
       if (i > 0 && d == 0) malformed("triangles", int64_t(i), "not ascending");
+      if (d >= n_tris - id) malformed("triangles", int64_t(i), "out of range");
       id += d;
-      if (id >= n_tris) malformed("triangles", int64_t(i), "out of range");
       for (int k = 0; k < 3; ++k) {
-        last_v += unzigzag(s.varint());
+        last_v += small(s, "triangles");
         if (last_v < 0 || uint64_t(last_v) >= n_verts || std::isnan(vertex[3 * last_v]))
           malformed("triangles", int64_t(i), "names a vertex not sent");
         tri[3 * id + k] = uint32_t(last_v);
@@ -777,8 +789,8 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     for (uint64_t i = 0; i < n; ++i) {
       const uint64_t d = s.varint();
       if (i > 0 && d == 0) malformed(s.name, int64_t(i), "not ascending");
+      if (d >= n_tris - id) malformed(s.name, int64_t(i), "out of range");
       id += d;
-      if (id >= n_tris) malformed(s.name, int64_t(i), "out of range");
       ids.push_back(uint32_t(id));
     }
     s.done();
@@ -890,8 +902,8 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
       for (uint64_t i = 0; i < nr; ++i) {
         const uint64_t d = ids.varint();
         if (i > 0 && d == 0) malformed("polygons", int64_t(i), "not ascending");
+        if (d >= n_tris - id) malformed("polygons", int64_t(i), "source out of range");
         id += d;
-        if (id >= n_tris) malformed("polygons", int64_t(i), "source out of range");
         order.push_back(uint32_t(id));
       }
       std::vector<uint32_t> all = order;
@@ -903,9 +915,10 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     }
     std::vector<uint32_t> poly_source;
     for (uint32_t src_id : order) {
-      const uint64_t count = s.varint() + 1;
-      if (count > (1u << 20) || poly_source.size() + count > (1ull << 28))
+      const uint64_t more = s.varint();
+      if (more >= (1u << 20) || poly_source.size() + more + 1 > (1ull << 28))
         malformed("polygons", -1, "too many");
+      const uint64_t count = more + 1;
       poly_source.insert(poly_source.end(), count, src_id);
     }
     const uint64_t n = poly_source.size();
@@ -919,8 +932,9 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     for (uint64_t i = 0; i < n; ++i) {
       id = poly_source[i];
       if (tri[3 * id] == ~0u) malformed("polygons", int64_t(i), "unknown source");
-      const uint64_t corners = s.varint() + 3;
-      if (corners > 1u << 20) malformed("polygons", int64_t(i), "too many corners");
+      const uint64_t extra = s.varint();
+      if (extra > 1u << 20) malformed("polygons", int64_t(i), "too many corners");
+      const uint64_t corners = extra + 3;
       ring.clear();
       ring_id.clear();
       bool point_before = false;
@@ -931,7 +945,7 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
           ring_id.push_back(tri[3 * id + code]);
           point_before = false;
         } else if (code == kVertexRef) {
-          const int64_t gv = int64_t(tri[3 * id]) + unzigzag(refs.varint());
+          const int64_t gv = int64_t(tri[3 * id]) + small(refs, "vertex refs");
           if (gv < 0 || uint64_t(gv) >= n_verts) malformed("polygons", int64_t(i), "vertex ref");
           ring.push_back(out_vertex(vertex_at(uint32_t(gv), "polygons", int64_t(i))));
           ring_id.push_back(uint64_t(gv));
@@ -953,8 +967,8 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
             const uint32_t prev = ring.empty() ? 0 : ring.back();
             const int64_t bx = point_before ? f.xy[2 * prev] : lx;
             const int64_t by = point_before ? f.xy[2 * prev + 1] : ly;
-            x = lx = bx + unzigzag(pts.varint());
-            y = ly = by + unzigzag(pts.varint());
+            x = lx = bx + small(pts, "points");
+            y = ly = by + small(pts, "points");
           } else {  // a step along own edge k, as the client projects its ends
             const int k = int(code - kEdgePoint);
             const uint32_t a = vertex_at(tri[3 * id + k], "polygons", int64_t(i));

@@ -1,6 +1,9 @@
 #include "server/frame_encoder.h"
 
+#include <atomic>
+
 #include "core/compact.h"
+#include "core/delta.h"
 #include "core/output.h"
 
 namespace vismap::server {
@@ -10,8 +13,9 @@ namespace {
 class SvgEncoder : public FrameEncoder {
  public:
   explicit SvgEncoder(Fill fill) : fill_(fill) {}
-  EncodedFrame encode(const PlanarMap& map, const Scene& scene, const Camera& camera) override {
-    return {write_svg(map, scene, camera, fill_)};
+  EncodedFrame encode(const PlanarMap& map, const std::shared_ptr<const Scene>& scene,
+                      const Camera& camera, const ScreenTriangles*) override {
+    return {write_svg(map, *scene, camera, fill_)};
   }
 
  private:
@@ -20,23 +24,61 @@ class SvgEncoder : public FrameEncoder {
 
 class BinEncoder : public FrameEncoder {
  public:
-  EncodedFrame encode(const PlanarMap& map, const Scene& scene, const Camera&) override {
-    return {write_bin(map, scene)};
+  EncodedFrame encode(const PlanarMap& map, const std::shared_ptr<const Scene>& scene,
+                      const Camera&, const ScreenTriangles*) override {
+    return {write_bin(map, *scene)};
   }
 };
 
 class CompactEncoder : public FrameEncoder {
  public:
   explicit CompactEncoder(const CompactOptions& o) : options_(o) {}
-  EncodedFrame encode(const PlanarMap& map, const Scene& scene, const Camera& camera) override {
+  EncodedFrame encode(const PlanarMap& map, const std::shared_ptr<const Scene>& scene,
+                      const Camera& camera, const ScreenTriangles*) override {
     CompactStats st;
-    EncodedFrame f{write_compact(map, scene, camera, options_, &st)};
+    EncodedFrame f{write_compact(map, *scene, camera, options_, &st)};
     f.header = {{"vertices", st.vertices}, {"out_triangles", st.triangles}};
     return f;
   }
 
  private:
   CompactOptions options_;
+};
+
+// Delta frames (proto/DELTA.md): the client's state is mirrored in a DeltaEncoder, made anew
+// (so the next frame is a keyframe) whenever the session's scene changes. Its size is bounded
+// by the scene: a byte per source triangle and vertex, and the previous frame's id sets.
+class DeltaFrameEncoder : public FrameEncoder {
+ public:
+  explicit DeltaFrameEncoder(const DeltaOptions& o) : options_(o) {}
+  bool needs_screen() const override { return true; }
+  void request_keyframe() override { keyframe_requested_ = true; }
+  uint64_t state_bytes() const override { return state_bytes_; }
+  EncodedFrame encode(const PlanarMap& map, const std::shared_ptr<const Scene>& scene,
+                      const Camera& camera, const ScreenTriangles* screen) override {
+    if (!screen) throw std::logic_error("delta encoder: the render kept no screen triangles");
+    if (!encoder_ || scene_.owner_before(scene) || scene.owner_before(scene_)) {
+      encoder_ = std::make_unique<DeltaEncoder>(*scene, options_);
+      scene_ = scene;
+    }
+    if (keyframe_requested_.exchange(false)) encoder_->request_keyframe();
+    DeltaStats st;
+    EncodedFrame f{encoder_->encode(map, *screen, camera, &st)};
+    state_bytes_ = encoder_->state_bytes();
+    f.header = {{"keyframe", st.keyframe},
+                {"whole", st.whole},
+                {"polygons", st.partial},
+                {"points", st.points},
+                {"new_triangles", st.new_triangles}};
+    return f;
+  }
+
+ private:
+  DeltaOptions options_;
+  std::weak_ptr<const Scene> scene_;  // the scene encoder_ mirrors (weak: a new one replaces it)
+  std::unique_ptr<DeltaEncoder> encoder_;
+  std::atomic<bool> keyframe_requested_{false};
+  std::atomic<uint64_t> state_bytes_{0};
 };
 
 }  // namespace
@@ -53,6 +95,13 @@ std::unique_ptr<FrameEncoder> make_encoder(const Hello& h) {
       o.shade = !h.fill_id;
       o.compression = h.compression;
       return std::make_unique<CompactEncoder>(o);
+    }
+    case Format::Delta: {
+      DeltaOptions o;
+      o.quantum = h.quantum;
+      o.compression = h.compression;
+      o.keyframe_every = h.keyframe_every;
+      return std::make_unique<DeltaFrameEncoder>(o);
     }
   }
   throw std::logic_error("make_encoder: a Format without an encoder");

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/camera.h"
+#include "core/pipeline.h"
 #include "core/planar_map.h"
 #include "core/scene.h"
 #include "server/protocol.h"
@@ -28,8 +29,15 @@ struct EncodedFrame {
 class FrameEncoder {
  public:
   virtual ~FrameEncoder() = default;
-  virtual EncodedFrame encode(const PlanarMap& map, const Scene& scene, const Camera& camera) = 0;
+  // `screen`: the render's screen triangles, when needs_screen() asked for them.
+  virtual EncodedFrame encode(const PlanarMap& map, const std::shared_ptr<const Scene>& scene,
+                              const Camera& camera, const ScreenTriangles* screen) = 0;
   virtual uint64_t state_bytes() const { return 0; }
+  // The render must keep its screen triangles (RenderOptions::keep_screen_triangles).
+  virtual bool needs_screen() const { return false; }
+  // The client lost its state (a `keyframe` message): the next frame must stand alone. Called
+  // on the session's strand while encode() may run on the pool.
+  virtual void request_keyframe() {}
 };
 
 // The encoder for hello's format and options: the one place a format's writer is chosen.

@@ -136,6 +136,12 @@ Hello parse_hello(const json& j, uint32_t max_viewport) {
       else
         bad("'compression' must be \"zstd\" or \"deflate\" (raw deflate)");
     }
+    if (field(j, "keyframe_every")) {
+      const json* v = field(j, "keyframe_every");
+      if (!v->is_number_integer() || v->get<int64_t>() < 0 || v->get<int64_t>() > 1000000)
+        bad("'keyframe_every' must be an integer from 0 to 1000000 (frames; 0: on request only)");
+      h.keyframe_every = v->get<uint32_t>();
+    }
   }
   if (h.attributes && format_spec(h.format).no_attributes)
     bad(std::string("'attributes': ") + format_spec(h.format).no_attributes);
@@ -302,6 +308,7 @@ Request parse_request(const std::string& text, uint64_t max_scene_bytes, uint32_
     if (field(j, "seq")) p.seq = uint(j, "seq", UINT64_MAX);
     return p;
   }
+  if (type == "keyframe") return KeyframeRequest{};
   std::string shown = type.size() > 40 ? type.substr(0, 40) + "..." : type;
   throw ProtoError(code::unknown_message, "unknown message type '" + shown + "'");
 }

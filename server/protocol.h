@@ -49,7 +49,7 @@ struct ProtoError : std::runtime_error {
 // The frame formats, one row each in kFormats. Adding one is a row there and its encoder in
 // frame_encoder.cpp (make_encoder); the hello parser, welcome.formats, the frame header's
 // `format`, the payload's message type and the per-format metrics all follow the table.
-enum class Format : uint8_t { Svg, Bin, Compact };
+enum class Format : uint8_t { Svg, Bin, Compact, Delta };
 
 struct FormatSpec {
   Format format;
@@ -60,11 +60,14 @@ struct FormatSpec {
   const char* no_attributes;  // why attributes: true is refused; nullptr: accepted (or ignored)
 };
 
-inline constexpr std::array<FormatSpec, 3> kFormats{{
+inline constexpr std::array<FormatSpec, 4> kFormats{{
     {Format::Svg, "svg", 1, false, false, nullptr},  // v1 ignores attributes with svg: kept
     {Format::Bin, "bin", 1, true, true, nullptr},
     {Format::Compact, "compact", 2, true, false,
      "compact frames carry no barycentrics; use format \"bin\" for attributes"},
+    {Format::Delta, "delta", 2, true, false,
+     "delta frames carry no barycentrics: the client computes them from the source triangles "
+     "it holds (proto/DELTA.md)"},
 }};
 
 static_assert(
@@ -89,6 +92,9 @@ struct Hello {
   // Compact frames (version 2): grid steps per pixel and the payload's entropy coder.
   uint32_t quantum = 16;
   vismap::Compression compression = vismap::Compression::Zstd;
+  // Delta frames (version 2): a keyframe every N frames besides the first and those the client
+  // asks for (0: none).
+  uint32_t keyframe_every = 0;
 };
 
 // Scene upload header. Exactly one source: `library` (a file in the server's library), `data`
@@ -114,7 +120,10 @@ struct Ping {
   uint64_t seq = 0;
 };
 
-using Request = std::variant<Hello, SceneRequest, CameraRequest, Ping>;
+// Delta sessions (version 2): the client lost its state; the next frame is a keyframe.
+struct KeyframeRequest {};
+
+using Request = std::variant<Hello, SceneRequest, CameraRequest, Ping, KeyframeRequest>;
 
 // Deepest JSON nesting a control message may have (ours need 3: {"viewport":{...}}, [x,y,z]).
 inline constexpr int kMaxJsonDepth = 8;

@@ -260,6 +260,11 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     if (auto* s = std::get_if<SceneRequest>(&r)) return on_scene(std::move(*s));
     if (auto* c = std::get_if<CameraRequest>(&r)) return on_camera(*c);
     if (auto* p = std::get_if<Ping>(&r)) send_text(json{{"type", "pong"}, {"seq", p->seq}}.dump());
+    if (std::holds_alternative<KeyframeRequest>(r)) {
+      if (hello_->format != Format::Delta)
+        throw ProtoError(code::unexpected_message, "keyframe is for delta sessions");
+      encoder_->request_keyframe();
+    }
   }
 
   void on_hello(const Hello& h) {
@@ -467,6 +472,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     double queue_ms = 0;
     RenderStats stats;
     PlanarMap map;
+    ScreenTriangles screen;  // kept when the encoder needs them (delta)
   };
 
   // Runs on a render worker. Returns as soon as the planar map is built: the Renderer goes back
@@ -500,8 +506,10 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       opts.attributes = h.attributes && format_spec(h.format).carries_attributes;
       opts.memory_budget = srv_.cfg.limits.render_memory_bytes;
       opts.time_limit_s = srv_.cfg.limits.render_time_limit_s;
+      opts.keep_screen_triangles = encoder_->needs_screen();
       if (srv_.cfg.before_render) srv_.cfg.before_render(opts);
-      job.map = renderer->render(*job.scene, cam, opts, &job.stats);
+      job.map = renderer->render(*job.scene, cam, opts, &job.stats,
+                                 opts.keep_screen_triangles ? &job.screen : nullptr);
     } catch (...) {
       return frame_failed(error_reply(std::current_exception(), "rendering"), job.seq);
     }
@@ -519,7 +527,8 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     json header;
     try {
       auto t0 = Clock::now();
-      EncodedFrame enc = encoder_->encode(job.map, *job.scene, job.camera);
+      EncodedFrame enc = encoder_->encode(job.map, job.scene, job.camera,
+                                          encoder_->needs_screen() ? &job.screen : nullptr);
       double encode_ms = ms_since(t0);
       *frame = std::move(enc.bytes);
       header = {{"type", "frame"},

@@ -61,7 +61,15 @@ TEST(Protocol, CompactRefusals) {
   EXPECT_EQ(code_of(R"({"type":"hello","version":2,"quantum":1})"), "ok");
   EXPECT_EQ(code_of(R"({"type":"hello","version":2,"quantum":1e3})"), "bad_message");
   EXPECT_EQ(code_of(R"({"type":"hello","version":2,"compression":"gzip"})"), "bad_message");
-  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"delta"})"), "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"delta"})"), "ok");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":1,"format":"delta"})"), "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"delta","attributes":true})"),
+            "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"delta","keyframe_every":-1})"),
+            "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"delta","keyframe_every":30})"), "ok");
+  EXPECT_EQ(code_of(R"({"type":"keyframe"})"), "ok");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"frobnicate"})"), "bad_message");
   try {
     parse_request(R"({"type":"hello","version":1,"format":"compact"})", 10, 4096);
   } catch (const ProtoError& e) {

@@ -81,7 +81,7 @@ async def raw_session_v2(url, compression):
         await ws.send(json.dumps(hello))
         welcome = check(json.loads(await recv()))
         assert welcome["version"] == 2 and welcome["format"] == "compact", welcome
-        assert welcome["formats"] == ["svg", "bin", "compact"], welcome
+        assert welcome["formats"] == ["svg", "bin", "compact", "delta"], welcome
         await ws.send(json.dumps(check({"type": "scene", "name": "tet.obj", "size": len(TET)})))
         await ws.send(TET)
         check(json.loads(await recv()))

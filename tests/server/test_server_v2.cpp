@@ -7,6 +7,7 @@
 #include <string>
 
 #include "core/compact.h"
+#include "core/delta.h"
 #include "core/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
@@ -64,7 +65,7 @@ TEST_F(ServerV2Test, HelloPicksTheHighestVersionAndListsFormats) {
   json w = hello_answer(both, {{"versions", {1, 2}}});
   ASSERT_EQ(w["type"], "welcome") << w.dump();
   EXPECT_EQ(w["version"], 2);
-  EXPECT_EQ(w["formats"], json::array({"svg", "bin", "compact"}));
+  EXPECT_EQ(w["formats"], json::array({"svg", "bin", "compact", "delta"}));
   EXPECT_EQ(w["format"], "svg");
   WsClient future;  // a version this server does not speak is passed over, not refused
   w = hello_answer(future, {{"versions", {3, 2}}, {"format", "compact"}});
@@ -280,6 +281,65 @@ TEST_F(ServerV2Test, PermessageDeflateOffNotNegotiated) {
   EXPECT_FALSE(c.deflate_negotiated());
   c.send_text(R"({"type":"hello","version":2})");
   EXPECT_EQ(next(c)["type"], "welcome");
+}
+
+// Delta sessions (proto/DELTA.md): the first frame is a keyframe, the next ones apply to it and
+// decode to the same triangles as the same render encoded here; a `keyframe` message makes the
+// next frame stand alone; a new scene starts from a keyframe; keyframe in another format is
+// refused.
+TEST_F(ServerV2Test, DeltaFramesApplyInSequenceAndKeyframesOnRequest) {
+  start();
+  WsClient c;
+  hello2(c, "delta");
+  const std::string grid = grid_obj(12);
+  upload(c, "grid.obj", grid);
+  ASSERT_EQ(next(c, 60)["type"], "scene_ready");
+  vismap::Scene scene = vismap::load_scene_from_memory("grid.obj", grid);
+  vismap::DeltaDecoder dec;
+  vismap::DeltaEncoder mine(scene, {});
+  for (int i = 0; i < 4; ++i) {
+    if (i == 2) c.send_text(json{{"type", "keyframe"}}.dump());
+    const double angle = 0.3 * i;
+    auto [h, p] = frame(c, i, angle);
+    EXPECT_EQ(h["format"], "delta");
+    EXPECT_TRUE(p.binary);
+    EXPECT_EQ(h["keyframe"], i == 0 || i == 2) << "frame " << i;
+    const vismap::DeltaFrame f = dec.decode(p.data);
+    EXPECT_EQ(f.keyframe, i == 0 || i == 2);
+    EXPECT_GT(f.triangle_count(), 0u);
+
+    vismap::Camera cam;
+    vismap::RenderOptions opts;
+    opts.keep_screen_triangles = true;
+    opts.memory_budget = cfg_.limits.render_memory_bytes;
+    cam = vismap::frame_scene(scene, 128, 96);
+    cam.eye = {3 * std::sin(angle), 1.5, 3 * std::cos(angle)};
+    cam.target = {0.25, 0.25, 0.25};
+    cam.near_plane = cam.far_plane = 0;
+    vismap::fit_near_far(cam, scene);
+    if (!renderer_) renderer_ = std::make_unique<vismap::Renderer>(cfg_.device);
+    vismap::ScreenTriangles st;
+    const vismap::PlanarMap map = renderer_->render(scene, cam, opts, nullptr, &st);
+    if (i == 2) mine.request_keyframe();
+    EXPECT_TRUE(mine.encode(map, st, cam) == p.data) << "frame " << i;
+  }
+  // A new scene: the next frame is a keyframe again.
+  upload(c, "grid2.obj", grid_obj(6));
+  ASSERT_EQ(next(c, 60)["type"], "scene_ready");
+  auto [h, p] = frame(c, 9, 0.1);
+  EXPECT_EQ(h["keyframe"], true);
+  EXPECT_TRUE(dec.decode(p.data).keyframe);
+}
+
+TEST_F(ServerV2Test, KeyframeOutsideDeltaIsRefused) {
+  start();
+  WsClient c;
+  hello2(c, "compact");
+  c.send_text(json{{"type", "keyframe"}}.dump());
+  json e = next(c);
+  EXPECT_EQ(e["type"], "error");
+  EXPECT_EQ(e["code"], "unexpected_message");
+  EXPECT_EQ(e["fatal"], false);
 }
 
 }  // namespace
