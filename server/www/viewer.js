@@ -3,32 +3,39 @@
 //   svg      protocol version 1, each frame's SVG put into the page as it comes;
 //   compact  protocol version 2, compact frames (proto/COMPACT.md) with raw deflate, decoded by
 //            compact.js (decodeCompact, the browser inflates with DecompressionStream) and
-//            drawn on a 2D canvas.
-// Drag orbits the camera, the wheel zooms. ?scene=NAME opens a library scene, ?format=svg|compact
+//            drawn on a 2D canvas;
+//   delta    protocol version 2, delta frames (proto/DELTA.md) with raw deflate, decoded in
+//            sequence by delta.js (DeltaDecoder: the page holds the source triangles and the
+//            previous frame; a frame that does not apply asks the server for a keyframe), drawn
+//            as compact frames are.
+// Drag orbits the camera, the wheel zooms. ?scene=NAME opens a library scene, ?format=svg|compact|delta
 // picks the mode (the selector switches it live: a new session, the same scene and camera).
 (() => {
   const view = document.getElementById('view');
   const stats = document.getElementById('stats');
   const formatSelect = document.getElementById('format');
   const params = new URLSearchParams(location.search);
-  let format = params.get('format') === 'compact' ? 'compact' : 'svg';
+  const FORMATS = ['svg', 'compact', 'delta'];
+  let format = FORMATS.includes(params.get('format')) ? params.get('format') : 'svg';
   formatSelect.value = format;
   let ws = null, pendingHeader = null, orbit = null, keepOrbit = false;
   let seq = 0, sentAt = new Map(), lastFps = [];
   let lastScene = null;  // {message, bytes}: sent again when the mode changes
   let compact = null;  // the module compact.js (decodeCompact, triangleColor), imported on first use
+  let deltaModule = null, delta = null;  // delta.js, and this session's DeltaDecoder
   let frameNo = 0, shownNo = 0;  // a decode that ends after a newer frame's is not drawn
   const send = (m) => ws && ws.readyState === 1 && ws.send(JSON.stringify(m));
 
   function connect() {
     if (ws) { ws.onclose = null; ws.close(); }
     pendingHeader = null;
+    delta = null;  // a new session starts from a keyframe
     ws = new WebSocket((location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/');
     ws.binaryType = 'arraybuffer';
     ws.onopen = () => {
-      const hello = { type: 'hello', version: format === 'compact' ? 2 : 1, format,
+      const hello = { type: 'hello', version: format === 'svg' ? 1 : 2, format,
                       viewport: { width: view.clientWidth | 0 || 800, height: view.clientHeight | 0 || 600 } };
-      if (format === 'compact') hello.compression = 'deflate';  // browsers inflate it natively
+      if (format !== 'svg') hello.compression = 'deflate';  // browsers inflate it natively
       if (params.get('token')) hello.token = params.get('token');
       send(hello);
     };
@@ -41,6 +48,7 @@
     if (pendingHeader) {  // the payload that follows a frame header
       const h = pendingHeader; pendingHeader = null;
       if (h.format === 'compact') return showCompact(h, e.data);
+      if (h.format === 'delta') return showDelta(h, e.data);
       view.innerHTML = e.data;
       return shown(h);
     }
@@ -73,7 +81,9 @@
     const t = sentAt.get(h.seq); sentAt.delete(h.seq);
     const now = performance.now();
     lastFps.push(now); while (lastFps.length && now - lastFps[0] > 1000) lastFps.shift();
-    const count = h.format === 'compact' ? `${h.out_triangles} triangles` : `${h.fragments} fragments`;
+    const count = h.format === 'compact' ? `${h.out_triangles} triangles`
+      : h.format === 'delta' ? `${h.whole} whole + ${h.polygons} polygons${h.keyframe ? ' (keyframe)' : ''}`
+      : `${h.fragments} fragments`;
     stats.textContent = `${lastFps.length} fps  render ${h.render_ms.toFixed(1)} ms  ` +
       (t ? `latency ${(now - t).toFixed(0)} ms  ` : '') + `${(h.bytes / 1024).toFixed(0)} KiB  ${count}`;
   }
@@ -89,6 +99,28 @@
       shown(h);
     } catch (err) {
       stats.textContent = `compact frame: ${err.message || err}`;
+    }
+  }
+
+  // Delta frames decode in order (DeltaDecoder queues them): each is drawn when it is the newest.
+  async function showDelta(h, bytes) {
+    const no = ++frameNo;
+    try {
+      if (!compact) compact = await import('./compact.js');
+      if (!deltaModule) deltaModule = await import('./delta.js');
+      if (!delta) delta = new deltaModule.DeltaDecoder();
+      const f = await delta.decode(bytes);
+      if (no < shownNo) return;
+      shownNo = no;
+      drawCompact(f);  // the same arrays as a compact frame's, shades included
+      shown(h);
+    } catch (err) {
+      if (deltaModule && err instanceof deltaModule.DeltaOutOfSync) {
+        send({ type: 'keyframe' });  // this frame did not apply: the next one stands alone
+        sendCamera();
+        return;
+      }
+      stats.textContent = `delta frame: ${err.message || err}`;
     }
   }
 

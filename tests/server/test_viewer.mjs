@@ -132,6 +132,28 @@ try {
     if (d.objectA < 1000 || d.objectB < 1000) throw new Error('an image shows almost no bunny');
     if (d.fraction > MAX_DIFFERING) throw new Error('svg and compact screenshots differ too much');
     console.log('ok: bunny in compact mode matches svg mode');
+
+    // 3. the same camera in delta mode: a keyframe, then frames applied to it.
+    await bunny.selectOption('#format', 'delta');
+    await bunny.waitForFunction(() => { const c = document.querySelector('#view canvas');
+      return c && /whole/.test(document.querySelector('#stats').textContent); }, null, { timeout: 90000 });
+    const deltaShot = await bunny.locator('#view canvas').screenshot();
+    const dd = await compare(bunny, svgShot, deltaShot);
+    if (dd.error) throw new Error(`screenshots differ in size: ${dd.error}`);
+    console.log(`svg vs delta: ${dd.object} object pixels (svg ${dd.objectA}, delta ${dd.objectB}), ` +
+                `${dd.differ} differ by more than ${PIXEL_TOLERANCE} (${(100 * dd.fraction).toFixed(2)}%), ` +
+                `mean difference ${dd.mean.toFixed(2)}`);
+    if (dd.objectB < 1000) throw new Error('the delta image shows almost no bunny');
+    if (dd.fraction > MAX_DIFFERING) throw new Error('svg and delta screenshots differ too much');
+    // Orbit a little: the next frames are deltas (not keyframes) and still draw.
+    const b = await bunny.$eval('#view', (v) => { const r = v.getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2]; });
+    await bunny.mouse.move(b[0], b[1]);
+    await bunny.mouse.down();
+    for (let i = 1; i <= 5; ++i) await bunny.mouse.move(b[0] + 8 * i, b[1]);
+    await bunny.mouse.up();
+    await bunny.waitForFunction(() => { const t = document.querySelector('#stats').textContent;
+      return /whole/.test(t) && !/keyframe/.test(t); }, null, { timeout: 60000 });
+    console.log(`ok: bunny in delta mode matches svg mode, and orbits on delta frames (${await bunny.$eval('#stats', (e) => e.textContent)})`);
   }
   if (errors.length) throw new Error(`page errors: ${errors.join('; ')}`);
 } catch (e) {
