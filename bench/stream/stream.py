@@ -147,14 +147,12 @@ def psnr(dist_input, ref_png_dir, dist_chain, ref_chain, stats_path):
 
 
 def packets(video):
-    """Packet sizes (bytes) and keyframe flags, in decode order, from ffprobe."""
-    p = run(["ffprobe", "-v", "error", "-select_streams", "v:0", "-show_entries", "packet=size,flags",
-             "-of", "csv=p=0", video])
-    out = []
-    for line in p.stdout.split():
-        size, flags = line.split(",")[:2]
-        out.append((int(size), "K" in flags))
-    return out
+    """Packet sizes (bytes) and keyframe flags from ffprobe, in presentation order (x265 codes
+    B-frames out of order), so packet i is frame i."""
+    p = run(["ffprobe", "-v", "error", "-select_streams", "v:0", "-show_entries", "packet=pts,size,flags",
+             "-of", "json", video])
+    pk = sorted(json.loads(p.stdout)["packets"], key=lambda q: int(q["pts"]))
+    return [(int(q["size"]), "K" in q["flags"]) for q in pk]
 
 
 def measure_videos(png_dir, vid_dir, n, tmp):
@@ -231,7 +229,8 @@ def measure_scene(build, name, path, args, frames_root, tmp):
     vr, vraw = measure_videos(exact_png, os.path.join(frames_dir, "video"), args.frames, tmp)
     row.update(vr)
     row["scene_wall_s"] = time.perf_counter() - t0
-    raw = [dict(j, scene=name) for j in frames] + [dict(summary, scene=name)] + [dict(v, scene=name) for v in vraw]
+    raw = ([dict(j, scene=name) for j in frames] + [dict(summary, scene=name)] +
+           [dict(v, scene=name) for v in vraw] + [{"row": row}])
     if args.clean:
         shutil.rmtree(frames_dir)
     return row, raw
@@ -309,7 +308,7 @@ def write_outputs(out, rows, raw, env, args):
         w.writeheader()
         for r in rows:
             w.writerow(r)
-    with open(os.path.join(out, "raw.jsonl"), "w") as f:
+    with open(os.path.join(out, "raw.jsonl"), "w") as f:  # rows included: --replot reads them back
         for j in raw:
             f.write(json.dumps(j) + "\n")
     with open(os.path.join(out, "env.txt"), "w") as f:
@@ -328,6 +327,18 @@ def write_outputs(out, rows, raw, env, args):
                       f"Bytes per frame, {args.width}x{args.height}, {FPS} fps (scene means)",
                       "visible output triangles per frame", "bytes per frame", series, logx=True, logy=True,
                       width=980, height=520)
+    # Every frame on its own: a frame's triangles against what that frame cost in each encoding
+    # (video: that frame's packet, keyframes included).
+    tri = {(j["scene"], j["frame"]): j["visible_triangles"] for j in raw if "frame" in j}
+    fseries = [(e, [(t, j["encodings"][e]["bytes"]) for j in raw if "frame" in j and e in j["encodings"]
+                    for t in [j["visible_triangles"]]], "points") for e in vec]
+    for v, label in vids:
+        fseries.append((label, [(tri.get((j["scene"], i)), b) for j in raw if j.get("video") == v
+                                for i, b in enumerate(j["packet_bytes"])], "points"))
+    svgplot.line_plot(os.path.join(out, "plots", "bytes_vs_triangles_frames.svg"),
+                      f"Bytes per frame, {args.width}x{args.height}, {FPS} fps (every frame)",
+                      "visible output triangles in the frame", "bytes for the frame", fseries, logx=True,
+                      logy=True, width=980, height=520)
 
     md = [f"# vismap streaming bench {env['date']}", "",
           f"Commit {env['commit']}; {env['nproc']} cores, {env['cpu']}; device `{rows[0]['device'] if rows else ''}`; "
@@ -339,11 +350,12 @@ def write_outputs(out, rows, raw, env, args):
           f"35 degree vertical fov. Video at {FPS} fps, yuv420p (BT.601, limited range) from the exact raster "
           f"(rsvg-convert of the SVG, white background). docs/STREAMING.md has the methodology.", "",
           "## Bytes per frame (kB = 1000 bytes; video: mean packet size from ffprobe)", "",
-          "| scene | input triangles | visible triangles | " + " | ".join(vec) + " | " +
+          "| scene | input triangles | visible triangles (min-max) | " + " | ".join(vec) + " | " +
           " | ".join(label for _, label in vids) + " |",
           "|---|" + "---:|" * (2 + len(vec) + len(vids))]
     for r in rows:
-        md.append(f"| {r['scene']} | {fmt(r['input_triangles'])} | {fmt(r['visible_triangles_mean'])} | " +
+        md.append(f"| {r['scene']} | {fmt(r['input_triangles'])} | {fmt(r['visible_triangles_mean'])} "
+                  f"({fmt(r['visible_triangles_min'])}-{fmt(r['visible_triangles_max'])}) | " +
                   " | ".join(kb(r.get(f"{e}_bytes")) for e in vec) + " | " +
                   " | ".join(kb(r.get(f"{v}_bytes")) for v, _ in vids) + " |")
     md += ["", "A video's mean includes its keyframes (the first frame, and any the encoder's scene-cut "
@@ -384,9 +396,22 @@ def write_outputs(out, rows, raw, env, args):
                   " | ".join(ed(e) for e in vec) + " | " +
                   " | ".join(f"{fmt(r.get(f'{v}_encode_ms'), 1)} / {fmt(r.get(f'{v}_decode_ms'), 1)}" for v, _ in vids) + " |")
     md += ["", "## Where vector and video cross", "",
-           "Interpolated in log-log between the two scenes (ordered by visible triangles) whose sign of "
-           "(vector bytes - video bytes) differs; scenes differ in more than triangle count, so this is a "
-           "rough guide. ![bytes per frame](plots/bytes_vs_triangles.svg)", ""]
+           "Plots: [scene means](plots/bytes_vs_triangles.svg), [every frame](plots/bytes_vs_triangles_frames.svg). "
+           "Break-even: the visible triangles at which an encoding's frame would cost what this scene's "
+           "video costs per frame (video bytes / the encoding's bytes per visible triangle in this scene).", "",
+           "| scene | encoding | bytes per visible triangle | " +
+           " | ".join(f"= {label} at" for _, label in vids) + " |",
+           "|---|---|---:|" + "---:|" * len(vids)]
+    for r in rows:
+        for e in vec:
+            if not r.get(f"{e}_bytes") or not r["visible_triangles_mean"]:
+                continue
+            per = r[f"{e}_bytes"] / r["visible_triangles_mean"]
+            md.append(f"| {r['scene']} | {e} | {per:.1f} | " +
+                      " | ".join(fmt(r[f'{v}_bytes'] / per) if r.get(f"{v}_bytes") else "" for v, _ in vids) + " |")
+    md += ["", "Between scenes: interpolated in log-log between the two scenes (ordered by mean visible "
+           "triangles) whose sign of (vector bytes - video bytes) differs; scenes differ in more than "
+           "triangle count, so this is a rough guide.", ""]
     for e, label, t, b in cross:
         md.append(f"- {e} = {label} at about {t:,.0f} visible triangles ({b / 1000:,.1f} kB per frame)")
     for n in notes:
@@ -408,9 +433,23 @@ def environment(build):
     }
 
 
+def replot(out):
+    """Rewrites results.csv, results.md and the plots of a finished run from its raw.jsonl."""
+    raw = [json.loads(line) for line in open(os.path.join(out, "raw.jsonl"))]
+    rows = [j["row"] for j in raw if "row" in j]
+    raw = [j for j in raw if "row" not in j]
+    env = {}
+    for line in open(os.path.join(out, "env.txt")):
+        k, _, v = line.rstrip("\n").partition(": ")
+        env[k] = v
+    s = next(j for j in raw if j.get("summary"))
+    args = argparse.Namespace(frames=s["frames"], width=s["width"], height=s["height"])
+    write_outputs(out, rows, raw, env, args)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--build", required=True)
+    ap.add_argument("--build", default=os.path.join(ROOT, "build"))
     ap.add_argument("--quick", action="store_true", help=f"{QUICK_FRAMES} frames, scenes {','.join(QUICK_SCENES)}")
     ap.add_argument("--scenes", help="comma-separated: " + ",".join(n for n, _ in SCENES))
     ap.add_argument("--frames", type=int)
@@ -420,7 +459,10 @@ def main():
     ap.add_argument("--out", help="results folder (default bench/results/<date>-stream[-quick])")
     ap.add_argument("--frames-dir", help="SVG, PNG and video files (default bench/out/stream/<tag>)")
     ap.add_argument("--clean", action="store_true", help="delete each scene's frames once measured")
+    ap.add_argument("--replot", metavar="DIR", help="rewrite DIR's tables and plots from its raw.jsonl")
     args = ap.parse_args()
+    if args.replot:
+        return replot(args.replot)
     names = args.scenes.split(",") if args.scenes else (QUICK_SCENES if args.quick else [n for n, _ in SCENES])
     known = dict(SCENES)
     for n in names:
