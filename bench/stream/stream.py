@@ -129,13 +129,13 @@ RETIME = f"settb=1/{FPS},setpts=N"
 PSNR_RE = re.compile(r"PSNR (.*) average:([\d.inf]+) min:([\d.inf]+) max:([\d.inf]+)")
 
 
-def psnr(dist_input, ref_png_dir, dist_chain, ref_chain, stats_path):
+def psnr(dist_input, ref_input, dist_chain, ref_chain, stats_path):
     """ffmpeg's psnr filter: 'average' is 10 log10(255^2 / MSE), the MSE over every frame, pixel
     and plane (planes weighted by their size). Returns (average, {plane: dB}, frames compared)."""
     lavfi = (f"[0:v]{RETIME}{',' + dist_chain if dist_chain else ''}[d];"
              f"[1:v]{RETIME}{',' + ref_chain if ref_chain else ''}[r];"
              f"[d][r]psnr=stats_file={stats_path}")
-    p = run(["ffmpeg", "-hide_banner", "-nostats"] + dist_input + seq(ref_png_dir) +
+    p = run(["ffmpeg", "-hide_banner", "-nostats"] + dist_input + ref_input +
             ["-lavfi", lavfi, "-f", "null", "-"])
     m = PSNR_RE.search(p.stderr)
     if not m:
@@ -158,25 +158,27 @@ def packets(video):
 def measure_videos(png_dir, vid_dir, n, tmp):
     os.makedirs(vid_dir, exist_ok=True)
     r = {}
-    # What reading the PNGs and converting them costs ffmpeg: subtracted from the encode times.
-    read_ms, _ = timed(["ffmpeg", "-v", "error"] + seq(png_dir) + ["-vf", TO_YUV, "-f", "null", "-"])
-    r["png_read_ms"] = read_ms / n
+    # The encoders' input, converted once: the exact raster as yuv420p (Y4M), so that an encode's
+    # wall time is the codec's (plus process start), not PNG decoding and colour conversion.
+    y4m = os.path.join(vid_dir, "exact.y4m")
+    ms, _ = timed(["ffmpeg", "-v", "error", "-y"] + seq(png_dir) + ["-vf", TO_YUV, "-pix_fmt", "yuv420p",
+                                                               "-f", "yuv4mpegpipe", y4m])
+    r["png_to_yuv_ms"] = ms / n
     # The ceiling of any yuv420p video: the exact raster through RGB -> YUV 4:2:0 -> RGB alone.
-    r["yuv420p_psnr_rgb"], _, _ = psnr(seq(png_dir), png_dir, TO_YUV + "," + TO_RGB, "format=rgb24",
+    r["yuv420p_psnr_rgb"], _, _ = psnr(["-i", y4m], seq(png_dir), TO_RGB, "format=rgb24",
                                        os.path.join(tmp, "psnr_yuv420p.log"))
     raw = []
     for name, label, opts in VIDEOS:
         v = os.path.join(vid_dir, name + ".mkv")
-        ms, _ = timed(["ffmpeg", "-v", "error", "-y"] + seq(png_dir) + ["-vf", TO_YUV] + opts +
-                      ["-pix_fmt", "yuv420p", "-r", str(FPS), v])
+        ms, _ = timed(["ffmpeg", "-v", "error", "-y", "-i", y4m] + opts + ["-pix_fmt", "yuv420p", v])
         pk = packets(v)
         if len(pk) != n:
             raise RuntimeError(f"{name}: {len(pk)} packets for {n} frames")
         sizes = [s for s, _ in pk]
         inter = [s for s, k in pk if not k]
         dec_ms, _ = timed(["ffmpeg", "-v", "error", "-i", v, "-f", "null", "-"])
-        rgb, _, nr = psnr(["-i", v], png_dir, TO_RGB, "format=rgb24", os.path.join(tmp, f"psnr_{name}_rgb.log"))
-        _, yuv, ny = psnr(["-i", v], png_dir, "", TO_YUV, os.path.join(tmp, f"psnr_{name}_y.log"))
+        rgb, _, nr = psnr(["-i", v], seq(png_dir), TO_RGB, "format=rgb24", os.path.join(tmp, f"psnr_{name}_rgb.log"))
+        _, yuv, ny = psnr(["-i", v], ["-i", y4m], "", "", os.path.join(tmp, f"psnr_{name}_y.log"))
         if nr != n or ny != n:
             raise RuntimeError(f"{name}: PSNR compared {nr}/{ny} frames of {n}")
         r.update({
@@ -186,11 +188,12 @@ def measure_videos(png_dir, vid_dir, n, tmp):
             f"{name}_file_bytes": os.path.getsize(v),
             f"{name}_keyframes": sum(1 for _, k in pk if k),
             f"{name}_psnr_rgb": rgb, f"{name}_psnr_y": yuv["y"],
-            f"{name}_encode_ms": max(0.0, ms - read_ms) / n, f"{name}_decode_ms": dec_ms / n,
+            f"{name}_encode_ms": ms / n, f"{name}_decode_ms": dec_ms / n,
         })
         raw.append({"video": name, "label": label, "packet_bytes": sizes, "encode_wall_ms": ms,
-                    "png_read_wall_ms": read_ms, "decode_wall_ms": dec_ms, "psnr_rgb": rgb, "psnr_yuv": yuv})
+                    "decode_wall_ms": dec_ms, "psnr_rgb": rgb, "psnr_yuv": yuv})
         log(f"  {label}: {r[name + '_bytes']:.0f} B/frame, PSNR {rgb:.2f} dB RGB / {yuv['y']:.2f} dB Y")
+    os.remove(y4m)  # 3 MB a frame
     return r, raw
 
 
@@ -208,22 +211,24 @@ def measure_scene(build, name, path, args, frames_root, tmp):
     row = {"scene": name, "input_triangles": summary["input_triangles"], "frames": summary["frames"],
            "device": summary["device"]}
     for k in ("visible_triangles_mean", "visible_triangles_min", "visible_triangles_max", "fragments_mean",
-              "render_ms_median", "first_render_ms", "load_ms"):
+              "render_ms_median", "render_ms_mean", "first_render_ms", "load_ms"):
         row[k] = summary[k]
     for e, s in summary["encodings"].items():
         row[f"{e}_bytes"] = s["bytes_mean"]
-        row[f"{e}_encode_ms"] = s["encode_ms_median"]
-        row[f"{e}_decode_ms"] = s["decode_ms_median"]
+        row[f"{e}_encode_ms"] = s["encode_ms_mean"]
+        row[f"{e}_decode_ms"] = s["decode_ms_mean"]
+        row[f"{e}_encode_ms_median"] = s["encode_ms_median"]
+        row[f"{e}_decode_ms_median"] = s["decode_ms_median"]
     log(f"{name}: rasterizing")
     png = os.path.join(frames_dir, "png")
     exact_png = os.path.join(png, "exact")
-    row["svg_raster_ms"] = statistics.median(
+    row["svg_raster_ms"] = statistics.fmean(
         rasterize(summary["exact_svg_dir"], exact_png, args.frames, args.width, args.height))
     for e, s in summary["encodings"].items():
         if s.get("decoded_svg_dir"):  # lossy vector encodings: their decoded frames against exact
             d = os.path.join(png, e)
             rasterize(s["decoded_svg_dir"], d, args.frames, args.width, args.height)
-            row[f"{e}_psnr_rgb"], _, _ = psnr(seq(d), exact_png, "format=rgb24", "format=rgb24",
+            row[f"{e}_psnr_rgb"], _, _ = psnr(seq(d), seq(exact_png), "format=rgb24", "format=rgb24",
                                               os.path.join(tmp, f"psnr_{name}_{e}.log"))
     log(f"{name}: video")
     vr, vraw = measure_videos(exact_png, os.path.join(frames_dir, "video"), args.frames, tmp)
@@ -247,12 +252,13 @@ def vector_names(rows):
 def columns(rows):
     vec = vector_names(rows)
     cols = ["scene", "input_triangles", "frames", "visible_triangles_mean", "visible_triangles_min",
-            "visible_triangles_max", "fragments_mean", "load_ms", "first_render_ms", "render_ms_median"]
+            "visible_triangles_max", "fragments_mean", "load_ms", "first_render_ms", "render_ms_median",
+            "render_ms_mean"]
     for e in vec:
-        cols += [f"{e}_bytes", f"{e}_encode_ms", f"{e}_decode_ms"]
+        cols += [f"{e}_bytes", f"{e}_encode_ms", f"{e}_decode_ms", f"{e}_encode_ms_median", f"{e}_decode_ms_median"]
         if any(f"{e}_psnr_rgb" in r for r in rows):
             cols.append(f"{e}_psnr_rgb")
-    cols += ["svg_raster_ms", "png_read_ms", "yuv420p_psnr_rgb"]
+    cols += ["svg_raster_ms", "png_to_yuv_ms", "yuv420p_psnr_rgb"]
     for v, _, _ in VIDEOS:
         cols += [f"{v}_{k}" for k in ("bytes", "key_bytes", "inter_bytes", "file_bytes", "keyframes", "psnr_rgb",
                                       "psnr_y", "encode_ms", "decode_ms")]
@@ -380,19 +386,21 @@ def write_outputs(out, rows, raw, env, args):
                   "".join(f"{fmt(r.get(f'{e}_psnr_rgb'), 2)} | " for e in vec if any(f"{e}_psnr_rgb" in q for q in rows)) +
                   " | ".join(f"{fmt(r.get(f'{v}_psnr_rgb'), 2)} / {fmt(r.get(f'{v}_psnr_y'), 2)}" for v, _ in vids) + " |")
     md += ["", "## Time per frame (ms)", "",
-           "Render: the warm pipeline (median over frames; the first render, untimed there, is apart). "
-           "Vector encode/decode: in process, median over frames (svg decode: rsvg-convert to PNG, the whole "
-           "process, median). Video encode: ffmpeg's wall time for the sequence less the time it takes to "
-           "read and convert the PNGs alone, per frame; decode: `ffmpeg -i video -f null -` per frame. "
+           "Render: the warm pipeline, median and mean over frames (the warm-up render of frame 0 apart). "
+           "Vector encode/decode: in process, mean over frames (medians in results.csv; svg decode: "
+           "rsvg-convert to PNG, the whole process, mean). Video encode: ffmpeg's wall time encoding the "
+           "exact raster from Y4M (converted from the PNGs once beforehand), per frame; decode: "
+           "`ffmpeg -i video -f null -` per frame; both with process start, both cores. "
            "Shared 2-core machine: noisy.", "",
-           "| scene | render | first render | " + " | ".join(f"{e} enc / dec" for e in vec) + " | " +
+           "| scene | render median / mean | first render | " + " | ".join(f"{e} enc / dec" for e in vec) + " | " +
            " | ".join(f"{label} enc / dec" for _, label in vids) + " |",
            "|---|---:|---:|" + "---:|" * (len(vec) + len(vids))]
     for r in rows:
         def ed(e):
             d = r.get(f"{e}_decode_ms") if e != "svg" else r.get("svg_raster_ms")
             return f"{fmt(r.get(f'{e}_encode_ms'), 2)} / {fmt(d, 2)}"
-        md.append(f"| {r['scene']} | {fmt(r['render_ms_median'])} | {fmt(r['first_render_ms'])} | " +
+        md.append(f"| {r['scene']} | {fmt(r['render_ms_median'])} / {fmt(r.get('render_ms_mean'))} | "
+                  f"{fmt(r['first_render_ms'])} | " +
                   " | ".join(ed(e) for e in vec) + " | " +
                   " | ".join(f"{fmt(r.get(f'{v}_encode_ms'), 1)} / {fmt(r.get(f'{v}_decode_ms'), 1)}" for v, _ in vids) + " |")
     md += ["", "## Where vector and video cross", "",

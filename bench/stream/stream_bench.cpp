@@ -414,7 +414,9 @@ int main(int argc, char** argv) {
       j.num("bytes_mean", mean(bytes[e]))
           .num("bytes_min", *std::min_element(bytes[e].begin(), bytes[e].end()))
           .num("bytes_max", *std::max_element(bytes[e].begin(), bytes[e].end()))
+          .num("encode_ms_mean", mean(enc_ms[e]))
           .num("encode_ms_median", median(enc_ms[e]))
+          .num("decode_ms_mean", mean(dec_ms[e]))
           .num("decode_ms_median", median(dec_ms[e]));
       if (encs[e].decoded_map) j.str("decoded_svg_dir", a.out + "/" + encs[e].name);
       per_enc.raw(encs[e].name, j.done());
