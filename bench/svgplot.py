@@ -40,7 +40,7 @@ def _fmt(v):
 
 
 def line_plot(path, title, xlabel, ylabel, series, logx=False, logy=False, width=880, height=440):
-    """series: list of (label, [(x, y), ...], style) with style 'line' or 'points'."""
+    """series: list of (label, [(x, y), ...], style) with style 'line', 'dashed' or 'points'."""
     pts = [(x, y) for _, s, _ in series for x, y in s if x is not None and y is not None
            and (not logx or x > 0) and (not logy or y > 0)]
     if not pts:
@@ -90,9 +90,10 @@ def line_plot(path, title, xlabel, ylabel, series, logx=False, logy=False, width
                    and (not logx or x > 0) and (not logy or y > 0))
         if not s:
             continue
-        if style == "line" and len(s) > 1:
+        if style in ("line", "dashed") and len(s) > 1:
             d = " ".join(f"{fx(x):.1f},{fy(y):.1f}" for x, y in s)
-            o.append(f'<polyline points="{d}" fill="none" stroke="{c}" stroke-width="2"/>')
+            dash = ' stroke-dasharray="7,4"' if style == "dashed" else ""
+            o.append(f'<polyline points="{d}" fill="none" stroke="{c}" stroke-width="2"{dash}/>')
         for x, y in s:
             o.append(f'<circle cx="{fx(x):.1f}" cy="{fy(y):.1f}" r="3.5" fill="{c}">'
                      f'<title>{escape(label)}: {_fmt(x)}, {y:.4g}</title></circle>')
