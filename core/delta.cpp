@@ -206,8 +206,8 @@ DeltaEncoder::DeltaEncoder(const Scene& scene, const DeltaOptions& options)
   if (tris > kMaxSourceCount || verts > kMaxSourceCount)
     throw InputError(InputErrorKind::TooLarge, "delta writer", "", "scene", -1,
                      "more than 2^28 triangles or vertices");
-  known_tri_.assign(tris, 0);
-  known_vertex_.assign(verts, 0);
+  known_tri_.assign(tris, options.client_holds_scene);
+  known_vertex_.assign(verts, options.client_holds_scene);
 }
 
 size_t DeltaEncoder::state_bytes() const {
@@ -222,8 +222,8 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
   if (options_.keyframe_every && frame_ % options_.keyframe_every == 0) keyframe_ = true;
   const bool key = keyframe_;
   if (key) {
-    std::fill(known_tri_.begin(), known_tri_.end(), 0);
-    std::fill(known_vertex_.begin(), known_vertex_.end(), 0);
+    std::fill(known_tri_.begin(), known_tri_.end(), options_.client_holds_scene);
+    std::fill(known_vertex_.begin(), known_vertex_.end(), options_.client_holds_scene);
     whole_.clear();
     partial_.clear();
   }

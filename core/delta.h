@@ -24,6 +24,10 @@ struct DeltaOptions {
   Compression compression = Compression::Zstd;
   int level = 0;                // 0: the coder's default
   uint32_t keyframe_every = 0;  // 0: only the first frame and on request
+  // Measurement only (bench/stream): code frames as if the client held every source triangle
+  // already (sends none). DeltaDecoder cannot decode such a stream yet: it has no way to be given
+  // the scene; a client that parses the scene it uploaded will need one.
+  bool client_holds_scene = false;
 };
 
 struct DeltaStats {

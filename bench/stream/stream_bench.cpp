@@ -24,6 +24,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <functional>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -42,6 +43,7 @@
 #if __has_include("core/compact.h")
 #include "core/compact.h"
 #define VISMAP_STREAM_HAVE_COMPACT 1
+#include "core/delta.h"
 #endif
 
 namespace {
@@ -56,6 +58,7 @@ struct Frame {
   PlanarMap& map;
   const Scene& scene;
   const Camera& camera;
+  const ScreenTriangles& screen;  // the render's screen triangles (delta wants them)
 };
 
 // Extra figures an encoder reports for the frame's JSON line (compact: its CompactStats).
@@ -150,8 +153,71 @@ std::vector<Encoding> encodings() {
   };
   list.push_back(compact);
 #endif
-  // delta (issue 16, later): the difference against the previous frame plugs in here, keeping
-  // the previous frame in its lambdas' captures; its decoded frame is drawn like compact's.
+#ifdef VISMAP_STREAM_HAVE_COMPACT
+  // delta (proto/DELTA.md): coded against the previous frame; the sources the client lacks go
+  // with the frame that first needs them (the first turn pays for them). The decoder keeps its
+  // state across frames: decode() is called once per frame, in order, before decoded_map().
+  struct DeltaState {
+    std::unique_ptr<DeltaEncoder> enc;
+    DeltaDecoder dec;
+    DeltaFrame last;
+  };
+  auto ds = std::make_shared<DeltaState>();
+  Encoding delta;
+  delta.name = "delta";
+  delta.encode = [ds](const Frame& f, Extras& x) {
+    if (!ds->enc) ds->enc = std::make_unique<DeltaEncoder>(f.scene, DeltaOptions{});
+    DeltaStats st;
+    std::string b = ds->enc->encode(f.map, f.screen, f.camera, &st);
+    x = {{"keyframe", double(st.keyframe)},
+         {"whole", double(st.whole)},
+         {"polygons", double(st.partial)},
+         {"points", double(st.points)},
+         {"new_triangles", double(st.new_triangles)},
+         {"source_bytes", double(st.source_bytes)}};
+    return b;
+  };
+  delta.decode = [ds](const std::string& b) {
+    ds->last = ds->dec.decode(b);
+    return ds->last.triangle_count();
+  };
+  delta.decoded_map = [ds](const std::string&, const Scene& scene) {
+    const DeltaFrame& d = ds->last;
+    PlanarMap m;
+    m.width = d.width, m.height = d.height;
+    const std::vector<uint64_t> base = scene.triangle_id_base();
+    for (size_t t = 0; t < d.triangle_count(); ++t) {
+      for (int c = 0; c < 3; ++c) {
+        const uint32_t v = d.indices[3 * t + c];
+        m.xy.push_back(double(d.xy[2 * v]) / d.quantum);
+        m.xy.push_back(double(d.xy[2 * v + 1]) / d.quantum);
+      }
+      m.offsets.push_back(uint32_t(m.xy.size() / 2));
+      const uint32_t mesh = d.mesh[t];
+      const std::vector<uint32_t>& ids = scene.meshes[mesh].face_ids;
+      const auto it = std::lower_bound(ids.begin(), ids.end(), uint32_t(d.source[t] - base[mesh]));
+      m.mesh.push_back(mesh);
+      m.triangle.push_back(uint32_t(it - ids.begin()));
+    }
+    return m;
+  };
+  list.push_back(delta);
+  // delta_held: bytes only, as if the client held the scene already (it uploaded it, or had
+  // it from an earlier session): no sources in any frame. Not decoded (DeltaDecoder has no way
+  // to be given the scene yet).
+  auto dh = std::make_shared<std::unique_ptr<DeltaEncoder>>();
+  Encoding held;
+  held.name = "delta_held";
+  held.encode = [dh](const Frame& f, Extras&) {
+    if (!*dh) {
+      DeltaOptions o;
+      o.client_holds_scene = true;
+      *dh = std::make_unique<DeltaEncoder>(f.scene, o);
+    }
+    return (*dh)->encode(f.map, f.screen, f.camera);
+  };
+  list.push_back(held);
+#endif
   return list;
 }
 
@@ -329,7 +395,8 @@ int main(int argc, char** argv) {
       if (e.decoded_map) make_dir(a.out + "/" + e.name);
 
     RenderOptions opts;
-    opts.attributes = true;  // bin_attr wants them; the others detach or ignore them
+    opts.attributes = true;             // bin_attr wants them; the others detach or ignore them
+    opts.keep_screen_triangles = true;  // delta wants them (the map is the same)
     // Warm-up: frame 0 once, untimed in the per-frame figures (scene upload, PoCL's kernel JIT).
     const auto t2 = Clock::now();
     RenderStats first;
@@ -341,12 +408,13 @@ int main(int argc, char** argv) {
     for (uint32_t i = 0; i < a.orbit.frames; ++i) {
       const Camera cam = orbit_camera(scene, bounds, a.orbit, i);
       RenderStats st;
-      PlanarMap map = renderer.render(scene, cam, opts, &st);
+      ScreenTriangles screen;
+      PlanarMap map = renderer.render(scene, cam, opts, &st, &screen);
       const uint64_t fan = fan_triangles(map);
       render_ms.push_back(st.pipeline_ms);
       tris.push_back(double(fan));
       frags.push_back(double(map.fragment_count()));
-      const Frame frame{map, scene, cam};
+      const Frame frame{map, scene, cam, screen};
 
       Json line;
       line.str("scene", a.scene)
