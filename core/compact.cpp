@@ -2,8 +2,6 @@
 #include "core/compact.h"
 
 #include <meshoptimizer.h>
-#include <zlib.h>
-#include <zstd.h>
 
 #include <algorithm>
 #include <bit>
@@ -13,11 +11,17 @@
 #include "core/conform.h"
 #include "core/error.h"
 #include "core/flat_map.h"
+#include "core/frame_io.h"
 #include "core/output_internal.h"
 
 namespace vismap {
 
 namespace {
+
+using frame_io::get_u32;
+using frame_io::put_u32;
+using frame_io::put_varint;
+using frame_io::zigzag;
 
 constexpr char kMagic[4] = {'V', 'M', 'C', 'F'};
 constexpr uint32_t kVersion = 1;
@@ -27,22 +31,6 @@ constexpr uint32_t kMaxTriangles = 1u << 28;
 // A payload may be at most this many times its compressed size: zstd over meshoptimizer's
 // output gains 1-3x, so this only stops a small message from asking for gigabytes.
 constexpr uint64_t kMaxRatio = 256;
-
-void put_u32(std::string& s, uint32_t v) {
-  for (int i = 0; i < 4; ++i) s += char((v >> (8 * i)) & 0xFF);
-}
-void put_varint(std::string& s, uint64_t v) {
-  while (v >= 0x80) {
-    s += char((v & 0x7F) | 0x80);
-    v >>= 7;
-  }
-  s += char(v);
-}
-uint32_t get_u32(const char* p) {
-  uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v |= uint32_t(static_cast<unsigned char>(p[i])) << (8 * i);
-  return v;
-}
 
 [[noreturn]] void malformed(InputErrorKind kind, const std::string& element, int64_t index,
                             const std::string& msg) {
@@ -71,36 +59,6 @@ uint64_t get_varint(const unsigned char*& p, const unsigned char* end, const cha
     if (!(b & 0x80)) return v;
   }
   malformed(InputErrorKind::ParseError, section, -1, "a number longer than 64 bits");
-}
-
-std::string deflate_raw(const std::string& in, int level) {
-  z_stream z{};
-  if (deflateInit2(&z, level, Z_DEFLATED, -15, 9, Z_DEFAULT_STRATEGY) != Z_OK)
-    throw std::runtime_error("compact writer: deflateInit2 failed");
-  std::string out(deflateBound(&z, in.size()), '\0');
-  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
-  z.avail_in = uInt(in.size());
-  z.next_out = reinterpret_cast<Bytef*>(out.data());
-  z.avail_out = uInt(out.size());
-  const int rc = deflate(&z, Z_FINISH);
-  out.resize(z.total_out);
-  deflateEnd(&z);
-  if (rc != Z_STREAM_END) throw std::runtime_error("compact writer: deflate failed");
-  return out;
-}
-
-// Inflates exactly `size` bytes that end the raw deflate stream exactly at the input's end.
-bool inflate_raw(const char* in, size_t n, std::string& out) {
-  z_stream z{};
-  if (inflateInit2(&z, -15) != Z_OK) return false;
-  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in));
-  z.avail_in = uInt(n);
-  z.next_out = reinterpret_cast<Bytef*>(out.data());
-  z.avail_out = uInt(out.size());
-  const int rc = inflate(&z, Z_FINISH);
-  const bool ok = rc == Z_STREAM_END && z.avail_out == 0 && z.avail_in == 0;
-  inflateEnd(&z);
-  return ok;
 }
 
 // The walk both sides make over the decoded triangles (proto/COMPACT.md, "Prediction"): in
@@ -155,9 +113,6 @@ void walk_mesh(const uint32_t* idx, size_t nt, std::vector<int32_t>& pos,
   }
 }
 
-uint64_t zigzag(int64_t d) {
-  return d < 0 ? ~(uint64_t(d) << 1) : uint64_t(d) << 1;
-}
 // A residual a reader adds to a prediction: at most 2^40 in size, so no sum overflows.
 int64_t small(uint64_t z, const char* what) {
   if (z > (uint64_t(1) << 41))
@@ -278,16 +233,7 @@ std::string write_compact(const PlanarMap& map, const Scene& scene, const Camera
                      uint32_t(used), uint32_t(nt), uint32_t(scene.meshes.size()),
                      uint32_t(options.compression), uint32_t(payload.size())})
     put_u32(out, v);
-  if (zstd) {
-    out.resize(kHeaderBytes + ZSTD_compressBound(payload.size()));
-    const size_t z = ZSTD_compress(out.data() + kHeaderBytes, out.size() - kHeaderBytes,
-                                   payload.data(), payload.size(), level);
-    if (ZSTD_isError(z))
-      throw std::runtime_error(std::string("compact writer: zstd: ") + ZSTD_getErrorName(z));
-    out.resize(kHeaderBytes + z);
-  } else {
-    out += deflate_raw(payload, level);
-  }
+  out += frame_io::compress(payload, options.compression, level, "compact writer");
   if (stats) {
     stats->vertices = used;
     stats->triangles = nt;
@@ -338,18 +284,10 @@ CompactFrame read_compact(const std::string& bytes) {
   if (payload_bytes > kMaxRatio * zbytes + 4096)
     malformed(InputErrorKind::ParseError, "header", -1, "payload size out of proportion");
   std::string payload(payload_bytes, '\0');
-  if (f.compression == Compression::Zstd) {
-    const unsigned long long content = ZSTD_getFrameContentSize(h + kHeaderBytes, zbytes);
-    if (content != payload_bytes)
-      malformed(InputErrorKind::ParseError, "payload", -1, "not one zstd frame of the stated size");
-    const size_t got = ZSTD_decompress(payload.data(), payload.size(), h + kHeaderBytes, zbytes);
-    if (ZSTD_isError(got) || got != payload_bytes)
-      malformed(InputErrorKind::ParseError, "payload", -1,
-                std::string("zstd: ") + (ZSTD_isError(got) ? ZSTD_getErrorName(got) : "short"));
-  } else if (!inflate_raw(h + kHeaderBytes, zbytes, payload)) {
-    malformed(InputErrorKind::ParseError, "payload", -1,
-              "not one raw deflate stream of the stated size");
-  }
+  if (const std::string why =
+          frame_io::decompress(h + kHeaderBytes, zbytes, f.compression, payload);
+      !why.empty())
+    malformed(InputErrorKind::ParseError, "payload", -1, why);
 
   Reader r{payload.data(), payload.size()};
   f.mesh_base.resize(nm);

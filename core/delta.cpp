@@ -1,9 +1,6 @@
 // The delta frame encoding, version 1 (proto/DELTA.md): DeltaEncoder and DeltaDecoder.
 #include "core/delta.h"
 
-#include <zlib.h>
-#include <zstd.h>
-
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -13,11 +10,18 @@
 #include "core/conform.h"
 #include "core/error.h"
 #include "core/flat_map.h"
+#include "core/frame_io.h"
 #include "core/output_internal.h"
 
 namespace vismap {
 
 namespace {
+
+using frame_io::get_u32;
+using frame_io::put_u32;
+using frame_io::put_varint;
+using frame_io::unzigzag;
+using frame_io::zigzag;
 
 constexpr char kMagic[4] = {'V', 'M', 'D', 'F'};
 constexpr uint32_t kVersion = 1;
@@ -38,38 +42,16 @@ constexpr uint64_t kEdgePoint = 6;  // 6, 7, 8: a new point on own edge k (verte
                                     // at step t of the edge (t follows in the edge steps section)
 constexpr uint64_t kPointRef = 9;   // 9 + j: the j-th most recent new point of this frame
 
-void put_u32(std::string& s, uint32_t v) {
-  for (int i = 0; i < 4; ++i) s += char((v >> (8 * i)) & 0xFF);
-}
 void put_f64(std::string& s, double d) {
   const uint64_t v = std::bit_cast<uint64_t>(d);
   put_u32(s, uint32_t(v));
   put_u32(s, uint32_t(v >> 32));
 }
-void put_varint(std::string& s, uint64_t v) {
-  while (v >= 0x80) {
-    s += char((v & 0x7F) | 0x80);
-    v >>= 7;
-  }
-  s += char(v);
-}
-uint64_t zigzag(int64_t d) {
-  return d < 0 ? ~(uint64_t(d) << 1) : uint64_t(d) << 1;
-}
-int64_t unzigzag(uint64_t z);
+
 // A zigzagged number a reader adds to something: at most 2^40 in size (none of ours is near),
 // so that no sum can overflow.
 struct Stream;
 int64_t small(Stream& s, const char* what);
-
-int64_t unzigzag(uint64_t z) {
-  return z & 1 ? ~int64_t(z >> 1) : int64_t(z >> 1);
-}
-uint32_t get_u32(const char* p) {
-  uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v |= uint32_t(static_cast<unsigned char>(p[i])) << (8 * i);
-  return v;
-}
 
 [[noreturn]] void malformed(const std::string& element, int64_t index, const std::string& msg,
                             InputErrorKind kind = InputErrorKind::ParseError) {
@@ -110,50 +92,6 @@ int64_t small(Stream& s, const char* what) {
 
 double orient_d(const double* a, const double* b, const double* c) {
   return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-}
-
-std::string compress(const std::string& payload, Compression c, int level) {
-  if (c == Compression::Zstd) {
-    std::string out(ZSTD_compressBound(payload.size()), '\0');
-    const size_t z =
-        ZSTD_compress(out.data(), out.size(), payload.data(), payload.size(), level ? level : 3);
-    if (ZSTD_isError(z)) throw std::runtime_error("delta writer: zstd failed");
-    out.resize(z);
-    return out;
-  }
-  z_stream z{};
-  if (deflateInit2(&z, level ? level : 6, Z_DEFLATED, -15, 9, Z_DEFAULT_STRATEGY) != Z_OK)
-    throw std::runtime_error("delta writer: deflateInit2 failed");
-  std::string out(deflateBound(&z, payload.size()), '\0');
-  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(payload.data()));
-  z.avail_in = uInt(payload.size());
-  z.next_out = reinterpret_cast<Bytef*>(out.data());
-  z.avail_out = uInt(out.size());
-  const int rc = deflate(&z, Z_FINISH);
-  out.resize(z.total_out);
-  deflateEnd(&z);
-  if (rc != Z_STREAM_END) throw std::runtime_error("delta writer: deflate failed");
-  return out;
-}
-
-void decompress(const char* in, size_t n, Compression c, std::string& out) {
-  if (c == Compression::Zstd) {
-    if (ZSTD_getFrameContentSize(in, n) != out.size())
-      malformed("payload", -1, "not one zstd frame of the stated size");
-    const size_t got = ZSTD_decompress(out.data(), out.size(), in, n);
-    if (ZSTD_isError(got) || got != out.size()) malformed("payload", -1, "zstd failed");
-    return;
-  }
-  z_stream z{};
-  if (inflateInit2(&z, -15) != Z_OK) malformed("payload", -1, "inflateInit2 failed");
-  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in));
-  z.avail_in = uInt(n);
-  z.next_out = reinterpret_cast<Bytef*>(out.data());
-  z.avail_out = uInt(out.size());
-  const int rc = inflate(&z, Z_FINISH);
-  const bool ok = rc == Z_STREAM_END && z.avail_out == 0 && z.avail_in == 0;
-  inflateEnd(&z);
-  if (!ok) malformed("payload", -1, "not one raw deflate stream of the stated size");
 }
 
 std::array<double, 4> clip_of(const Mat4& m, const float* p) {
@@ -607,7 +545,7 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
         key ? kNoBase : frame_ - 1, uint32_t(scene_.meshes.size()), uint32_t(options_.compression),
         uint32_t(payload.size()), uint32_t(whole.size())})
     put_u32(out, v);
-  out += compress(payload, options_.compression, options_.level);
+  out += frame_io::compress(payload, options_.compression, options_.level, "delta writer");
 
   if (stats) {
     *stats = {};
@@ -666,7 +604,10 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
   if (payload_bytes > kMaxRatio * zbytes + 4096)
     malformed("header", -1, "payload size out of proportion");
   std::string payload(payload_bytes, '\0');
-  decompress(h + kHeaderBytes, zbytes, Compression(codec), payload);
+  if (const std::string why =
+          frame_io::decompress(h + kHeaderBytes, zbytes, Compression(codec), payload);
+      !why.empty())
+    malformed("payload", -1, why);
 
   DeltaFrame f;
   f.width = w[1], f.height = w[2], f.quantum = quantum, f.index = index, f.keyframe = key;
