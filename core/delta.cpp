@@ -143,7 +143,7 @@ DeltaEncoder::DeltaEncoder(const Scene& scene, const DeltaOptions& options)
   }
   if (tris > kMaxSourceCount || verts > kMaxSourceCount)
     throw InputError(InputErrorKind::TooLarge, "delta writer", "", "scene", -1,
-                     "more than 2^28 triangles or vertices");
+                     "more than 2^26 triangles or vertices");
   known_tri_.assign(tris, options.client_holds_scene);
   known_vertex_.assign(verts, options.client_holds_scene);
 }
@@ -658,7 +658,7 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
       }
       colors.push_back(rgb);
       if (tris > kMaxSourceCount || verts > kMaxSourceCount)
-        malformed("mesh", m, "more than 2^28 triangles or vertices");
+        malformed("mesh", m, "more than 2^26 triangles or vertices");
     }
     vertex.assign(3 * verts, std::numeric_limits<float>::quiet_NaN());
     tri.assign(3 * tris, ~0u);

@@ -36,7 +36,7 @@ const VERSION = 1;
 const HEADER_BYTES = 48;
 const KEYFRAME = 1;
 const MAX_RATIO = 256;
-const MAX_SOURCES = 2 ** 28; // triangles, and vertices, a client holds
+const MAX_SOURCES = 2 ** 26; // triangles, and vertices, a client holds (as core/delta.cpp)
 const CAMERA_BYTES = 4 + 18 * 8;
 const UNSENT = 0xffffffff;
 const SECTIONS = ['vertices', 'vertex positions', 'triangles', 'removed', 'added', 'polygons', 'corner codes',
@@ -386,7 +386,7 @@ export class DeltaDecoder {
           if (!(v >= 0 && v <= 1)) fail(`mesh ${m}`, 'color not in [0, 1]');
           colors[3 * m + c] = v;
         }
-        if (tris > MAX_SOURCES || verts > MAX_SOURCES) fail(`mesh ${m}`, 'more than 2^28 triangles or vertices');
+        if (tris > MAX_SOURCES || verts > MAX_SOURCES) fail(`mesh ${m}`, 'more than 2^26 triangles or vertices');
       }
       try { // (as C++: the store is sized by the mesh table, up to 2^28 of each)
         vertex = new Float32Array(3 * verts).fill(NaN);

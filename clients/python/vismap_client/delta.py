@@ -32,7 +32,7 @@ HEADER_BYTES = 48
 KEYFRAME = 1
 NO_BASE = 0xFFFFFFFF
 MAX_RATIO = 256
-MAX_SOURCES = 1 << 28  # triangles, and vertices, a client holds
+MAX_SOURCES = 1 << 26  # triangles, and vertices, a client holds (as core/delta.cpp)
 CAMERA_BYTES = 4 + 18 * 8
 SECTIONS = ("vertices", "vertex positions", "triangles", "removed", "added", "polygons", "corner codes",
             "vertex refs", "points", "edge steps")
@@ -277,10 +277,10 @@ class DeltaDecoder:
             if len(bad):
                 _fail(f"mesh {bad[0]}", "color not in [0, 1]")
             if tris_end[-1] > MAX_SOURCES or verts_end[-1] > MAX_SOURCES:
-                _fail("mesh", "more than 2^28 triangles or vertices")
+                _fail("mesh", "more than 2^26 triangles or vertices")
             mesh_base = first
             n_tris, n_verts = int(tris_end[-1]), int(verts_end[-1])
-            try:  # (as C++: the store is sized by the mesh table, up to 2^28 of each)
+            try:  # (as C++: the store is sized by the mesh table, up to 2^26 of each)
                 vertex = np.full((n_verts, 3), np.nan, np.float32)
                 tri = np.full((n_tris, 3), UNSENT, np.uint32)
             except MemoryError:
