@@ -48,6 +48,27 @@ std::string number(double v) {
   return s == "-0" ? "0" : s;
 }
 
+// A compact or delta frame's triangles (grid steps) in pixels, filled with the shade colour
+// (mesh colour x shade/255) when t.shaded, else the id colour.
+template <class F>
+void add_grid_triangles(Triangles& t, const F& f) {
+  for (size_t k = 0; k < f.triangle_count(); ++k) {
+    for (int j = 0; j < 3; ++j) {
+      const uint32_t v = f.indices[3 * k + j];
+      t.xy.push_back(double(f.xy[2 * v]) / f.quantum);
+      t.xy.push_back(double(f.xy[2 * v + 1]) / f.quantum);
+    }
+    t.source.push_back(f.source[k]);
+    uint32_t rgb = (f.source[k] + 1) & 0xFFFFFF;
+    if (t.shaded) {
+      rgb = 0;
+      for (int j = 0; j < 3; ++j)
+        rgb = rgb << 8 | srgb8(f.mesh_color[f.mesh[k]][j] * (f.shade[k] / 255.0));
+    }
+    t.rgb.push_back(rgb);
+  }
+}
+
 template <class V>
 void json_array(std::string& out, const char* key, const V& v, bool last = false) {
   out += std::string("  \"") + key + "\": [";
@@ -110,18 +131,7 @@ int cmd_decode(int argc, char** argv) {
       t.version = 1, t.width = d.width, t.height = d.height, t.quantum = d.quantum;
       t.vertices = d.xy.size() / 2;
       t.shaded = true;
-      for (size_t k = 0; k < d.triangle_count(); ++k) {
-        for (int j = 0; j < 3; ++j) {
-          const uint32_t v = d.indices[3 * k + j];
-          t.xy.push_back(double(d.xy[2 * v]) / d.quantum);
-          t.xy.push_back(double(d.xy[2 * v + 1]) / d.quantum);
-        }
-        t.source.push_back(d.source[k]);
-        uint32_t rgb = 0;
-        for (int j = 0; j < 3; ++j)
-          rgb = rgb << 8 | srgb8(d.mesh_color[d.mesh[k]][j] * (d.shade[k] / 255.0));
-        t.rgb.push_back(rgb);
-      }
+      add_grid_triangles(t, d);
       if (json) {
         json_array(detail, "xy", d.xy);
         json_array(detail, "indices", d.indices);
@@ -135,21 +145,7 @@ int cmd_decode(int argc, char** argv) {
       t.version = c.version, t.width = c.width, t.height = c.height, t.quantum = c.quantum;
       t.vertices = c.vertex_count();
       t.shaded = !c.shade.empty();
-      for (size_t k = 0; k < c.triangle_count(); ++k) {
-        for (int j = 0; j < 3; ++j) {
-          const uint32_t v = c.indices[3 * k + j];
-          t.xy.push_back(double(c.xy[2 * v]) / c.quantum);
-          t.xy.push_back(double(c.xy[2 * v + 1]) / c.quantum);
-        }
-        t.source.push_back(c.source[k]);
-        uint32_t rgb = (c.source[k] + 1) & 0xFFFFFF;
-        if (t.shaded) {
-          rgb = 0;
-          for (int j = 0; j < 3; ++j)
-            rgb = rgb << 8 | srgb8(c.mesh_color[c.mesh[k]][j] * (c.shade[k] / 255.0));
-        }
-        t.rgb.push_back(rgb);
-      }
+      add_grid_triangles(t, c);
       if (json) {
         json_array(detail, "xy", c.xy);
         json_array(detail, "indices", c.indices);

@@ -29,22 +29,9 @@ MAX_RATIO = 256
 COMPRESSION = {1: "zstd", 2: "deflate"}
 
 
-@dataclass(eq=False)
-class CompactFrame:
-    """One decoded compact frame. Flat arrays, as proto/COMPACT.md and the C++ CompactFrame."""
-    version: int
-    width: int
-    height: int
-    flags: int
-    quantum: int              # grid steps per pixel
-    compression: str          # "zstd" or "deflate"
-    xy: np.ndarray            # int32, 2 per vertex: grid steps (pixels * quantum), (0, 0) top-left, y down
-    indices: np.ndarray       # uint32, 3 per triangle, clockwise on screen (positive shoelace, y down)
-    source: np.ndarray        # uint32 per triangle: global source triangle id (FORMAT.md)
-    mesh: np.ndarray          # uint32 per triangle: the mesh's index in the frame's mesh table
-    mesh_base: np.ndarray     # uint32 per mesh: its first global triangle id
-    mesh_color: np.ndarray    # float32 (meshes, 3): linear RGB in [0, 1]
-    shade: Optional[np.ndarray] = None  # uint8 per triangle when flags & 1, else None
+class GridTriangles:
+    """What compact and delta frames share once decoded: triangles on the grid (xy, indices,
+    quantum) with their sources (source, mesh, mesh_base, mesh_color, shade)."""
 
     @property
     def triangle_count(self):
@@ -70,6 +57,24 @@ class CompactFrame:
             rgb = (self.source.astype(np.uint32) + 1) & 0xFFFFFF
             return np.stack([rgb >> 16, (rgb >> 8) & 255, rgb & 255], axis=1).astype(np.uint8)
         return srgb8(self.mesh_color[self.mesh].astype(np.float64) * (self.shade / 255.0)[:, None])
+
+
+@dataclass(eq=False)
+class CompactFrame(GridTriangles):
+    """One decoded compact frame. Flat arrays, as proto/COMPACT.md and the C++ CompactFrame."""
+    version: int
+    width: int
+    height: int
+    flags: int
+    quantum: int              # grid steps per pixel
+    compression: str          # "zstd" or "deflate"
+    xy: np.ndarray            # int32, 2 per vertex: grid steps (pixels * quantum), (0, 0) top-left, y down
+    indices: np.ndarray       # uint32, 3 per triangle, clockwise on screen (positive shoelace, y down)
+    source: np.ndarray        # uint32 per triangle: global source triangle id (FORMAT.md)
+    mesh: np.ndarray          # uint32 per triangle: the mesh's index in the frame's mesh table
+    mesh_base: np.ndarray     # uint32 per mesh: its first global triangle id
+    mesh_color: np.ndarray    # float32 (meshes, 3): linear RGB in [0, 1]
+    shade: Optional[np.ndarray] = None  # uint8 per triangle when flags & 1, else None
 
 
 def srgb8(linear):

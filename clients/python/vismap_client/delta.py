@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _wire
-from .compact import srgb8
+from .compact import GridTriangles
 
 MAGIC = b"VMDF"
 VERSION = 1
@@ -52,7 +52,7 @@ def _fail(part, msg):
 
 
 @dataclass(eq=False)
-class DeltaFrame:
+class DeltaFrame(GridTriangles):
     """One decoded delta frame: triangles on the grid, as the C++ DeltaFrame."""
     width: int
     height: int
@@ -71,28 +71,6 @@ class DeltaFrame:
     shade: np.ndarray         # uint8 per triangle: llround(255 k), k the --fill shade factor
     mesh_base: np.ndarray     # uint32 per mesh: its first global triangle id
     mesh_color: np.ndarray    # float32 (meshes, 3): linear RGB
-
-    @property
-    def triangle_count(self):
-        return len(self.source)
-
-    @property
-    def vertex_count(self):
-        return len(self.xy) // 2
-
-    @property
-    def face_id(self):
-        """Per triangle: the source triangle's number within its mesh (FORMAT.md's face id)."""
-        return self.source - self.mesh_base[self.mesh]
-
-    def pixels(self):
-        """Vertex positions in pixels, float64 (vertices, 2)."""
-        return self.xy.reshape(-1, 2) / self.quantum
-
-    def colors(self):
-        """Fill colour per triangle, uint8 (triangles, 3) sRGB: mesh colour times shade/255, as
-        `vismap decode` draws it."""
-        return srgb8(self.mesh_color[self.mesh].astype(np.float64) * (self.shade / 255.0)[:, None])
 
 
 def llround(g):
