@@ -7,6 +7,7 @@
 #include <string>
 
 #include "cli/args.h"
+#include "core/lines.h"
 #include "core/reference/scene_check.h"
 
 namespace vismap::cli {
@@ -18,6 +19,9 @@ struct CheckArgs {
   check::SceneCheckOptions opts;
   bool reverse = false;
   check::Tolerances tol;
+  bool lines = false;
+  std::string lines_image;  // a PPM of where the drawing and the raster agree (--lines-image)
+  LineOptions line_opts;
 };
 
 CheckArgs parse_check(int argc, char** argv) {
@@ -37,7 +41,15 @@ CheckArgs parse_check(int argc, char** argv) {
       a.opts.tile_pixels = parse_pixels(f, value());
     else if (f == "--memory-budget")
       a.opts.memory_budget = parse_bytes(f, value());
-    else if (f == "--reverse")
+    else if (f == "--lines")
+      a.lines = true;
+    else if (f == "--lines-image")
+      a.lines_image = value();
+    else if (f == "--crease-angle") {
+      a.line_opts.crease_angle_deg = parse_number(f, value());
+      if (!(a.line_opts.crease_angle_deg >= 0 && a.line_opts.crease_angle_deg <= 180))
+        throw UsageError("--crease-angle: expected 0 ... 180 degrees");
+    } else if (f == "--reverse")
       a.reverse = true;
     else if (f == "--strict")
       a.tol.strict = true;
@@ -78,6 +90,50 @@ int cmd_check(int argc, char** argv) {
   j["height"] = cam.height;
   j["reversed"] = a.reverse;
   std::vector<std::string> bad = check::over_tolerance(f, a.tol);
+  if (a.lines) {
+    // The drawing `vismap render --style lines` makes, against the id raster of the same view.
+    RenderOptions ro;
+    ro.keep_screen_triangles = true;
+    ro.memory_budget = a.opts.memory_budget;
+    ScreenTriangles screen;
+    const PlanarMap map = renderer.render(scene, cam, ro, nullptr, &screen);
+    const LineSet lines = extract_lines(map, screen, scene, cam, a.line_opts);
+    std::vector<uint32_t> ids;
+    renderer.raster_ids(scene, cam, &ids);
+    std::vector<uint8_t> img;
+    const LineCheck lc = check_lines(lines, ids, cam.width, cam.height, scene, 1.0,
+                                     a.lines_image.empty() ? nullptr : &img);
+    if (!a.lines_image.empty()) {
+      // White: nothing; grey: a line and no change; green: a change with a line near; red: a
+      // change between surfaces apart with no line near; orange: a lesser change without one.
+      std::string ppm = "P6\n" + std::to_string(cam.width) + " " + std::to_string(cam.height) +
+                        "\n255\n";
+      for (uint8_t v : img) {
+        const bool line = v & 4;
+        const int rel = v & 3;
+        uint8_t c[3] = {255, 255, 255};
+        if (rel && line) c[0] = 40, c[1] = 160, c[2] = 40;
+        else if (rel == 3) c[0] = 230, c[1] = 0, c[2] = 0;
+        else if (rel) c[0] = 255, c[1] = 190, c[2] = 120;
+        else if (line) c[0] = c[1] = c[2] = 150;
+        ppm.append(reinterpret_cast<const char*>(c), 3);
+      }
+      write_atomically(a.lines_image, ppm);
+    }
+    nlohmann::ordered_json l;
+    l["chains"] = lines.chain_count();
+    for (size_t k = 0; k < kLineKinds; ++k)
+      l[std::string(line_kind_name(LineKind(k))) + "_edges"] = lines.edges[k];
+    l["change_pixels"] = lc.change_pixels;
+    l["changes_covered"] = lc.changes_covered();
+    l["change_pixels_no_vertex"] = lc.change_pixels_no_vertex;
+    l["changes_covered_no_vertex"] = lc.changes_covered_no_vertex();
+    l["change_pixels_apart"] = lc.change_pixels_apart;
+    l["changes_covered_apart"] = lc.changes_covered_apart();
+    l["line_px"] = lc.line_px;
+    l["lines_supported"] = lc.lines_supported();
+    j["lines"] = l;
+  }
   j["over_tolerance"] = bad;
   std::printf("%s\n", j.dump().c_str());
   return bad.empty() ? 0 : 4;

@@ -19,6 +19,7 @@
 #include "core/camera.h"
 #include "core/compact.h"
 #include "core/error.h"
+#include "core/lines.h"
 #include "core/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
@@ -33,10 +34,13 @@ const char* kRenderUsage =
     "                [--quantum Q] [--compression zstd|deflate] [--width W --height H]\n"
     "                [--eye X,Y,Z --target X,Y,Z --up X,Y,Z] [--fov-y DEG | --ortho HEIGHT]\n"
     "                [--near N --far F] [--device NAME] [--memory-budget BYTES]\n"
-    "                [--time-limit SECONDS] [--stats]\n";
+    "                [--time-limit SECONDS] [--stats]\n"
+    "                [--style fill|lines|fill+lines] [--crease-angle DEG] [--line-width PX]\n"
+    "                [--line-color KIND=#RRGGBB] [--simplify PX] [--hidden]   (lines: svg only)\n";
 const char* kCheckUsage =
     "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
     "                [--memory-budget BYTES]\n"
+    "                [--lines [--crease-angle DEG] [--lines-image OUT.ppm]]\n"
     "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 "
     "if over tolerance\n";
 const char* kDecodeUsage =
@@ -82,7 +86,28 @@ struct RenderArgs {
   double time_limit_s = 0;
   uint32_t quantum = 16;  // compact: grid steps per pixel
   std::string compression = "zstd";
+  std::string style = "fill";
+  LineOptions lines;
+  SvgStyle svg;
 };
+
+// "KIND=#RRGGBB" for --line-color.
+void parse_line_color(const std::string& v, SvgStyle& svg) {
+  const size_t eq = v.find('=');
+  const std::string kind = v.substr(0, eq);
+  for (size_t k = 0; k < kLineKinds; ++k) {
+    if (kind != line_kind_name(LineKind(k))) continue;
+    const std::string c = eq == std::string::npos ? "" : v.substr(eq + 1);
+    if (c.size() == 7 && c[0] == '#' &&
+        c.find_first_not_of("0123456789abcdefABCDEF", 1) == std::string::npos) {
+      svg.line_color[k] = uint32_t(std::stoul(c.substr(1), nullptr, 16));
+      return;
+    }
+    throw UsageError("--line-color: expected " + kind + "=#RRGGBB, got '" + v + "'");
+  }
+  throw UsageError("--line-color: expected contour, boundary, crease, intersection or border "
+                   "=#RRGGBB, got '" + v + "'");
+}
 
 RenderArgs parse_render(int argc, char** argv) {
   RenderArgs a;
@@ -108,6 +133,24 @@ RenderArgs parse_render(int argc, char** argv) {
         throw UsageError("--compression: expected zstd or deflate");
     } else if (parse_view_flag(f, value, a.view))
       continue;
+    else if (f == "--style")
+      a.style = value();
+    else if (f == "--crease-angle") {
+      a.lines.crease_angle_deg = parse_number(f, value());
+      if (!(a.lines.crease_angle_deg >= 0 && a.lines.crease_angle_deg <= 180))
+        throw UsageError("--crease-angle: expected 0 ... 180 degrees");
+    } else if (f == "--line-width") {
+      a.svg.line_width = parse_number(f, value());
+      if (!(a.svg.line_width > 0 && a.svg.line_width <= 1000))
+        throw UsageError("--line-width: expected a positive number of pixels (at most 1000)");
+    } else if (f == "--simplify") {
+      a.lines.simplify_px = parse_number(f, value());
+      if (!(a.lines.simplify_px >= 0 && a.lines.simplify_px <= 1000))
+        throw UsageError("--simplify: expected 0 ... 1000 pixels");
+    } else if (f == "--hidden")
+      a.lines.hidden = true;
+    else if (f == "--line-color")
+      parse_line_color(value(), a.svg);
     else if (f == "--stats")
       a.stats = true;
     else if (f == "--memory-budget")
@@ -130,6 +173,13 @@ RenderArgs parse_render(int argc, char** argv) {
   if (a.format != "svg" && a.format != "bin" && a.format != "compact")
     throw UsageError("--format: expected svg, bin or compact");
   if (a.fill != "shade" && a.fill != "id") throw UsageError("--fill: expected shade or id");
+  if (a.style != "fill" && a.style != "lines" && a.style != "fill+lines")
+    throw UsageError("--style: expected fill, lines or fill+lines");
+  if (a.style != "fill" && a.format != "svg")
+    throw UsageError("--style " + a.style + ": lines are written to svg only (--format svg)");
+  a.svg.fill = a.style != "lines";
+  if (a.lines.hidden && a.style == "fill")
+    throw UsageError("--hidden: draws the occluded parts of lines; give --style lines or fill+lines");
   validate_view(a.view);
   return a;
 }
@@ -154,9 +204,18 @@ int cmd_render(int argc, char** argv) {
       shown = true;
     };
   }
+  const bool lines = a.style != "fill";
+  opts.keep_screen_triangles = lines;
   RenderStats st;
-  PlanarMap map = renderer.render(scene, cam, opts, &st);
+  ScreenTriangles screen;
+  PlanarMap map = renderer.render(scene, cam, opts, &st, lines ? &screen : nullptr);
   auto t_render = Clock::now();
+  LineSet line_set;
+  if (lines) {
+    line_set = extract_lines(map, screen, scene, cam, a.lines);
+    a.svg.lines = &line_set;
+  }
+  auto t_lines = Clock::now();
   if (a.memory_budget && st.peak_device_bytes > a.memory_budget)
     std::fprintf(
         stderr,
@@ -174,7 +233,7 @@ int cmd_render(int argc, char** argv) {
     co.compression = a.compression == "deflate" ? Compression::Deflate : Compression::Zstd;
     bytes = write_compact(map, scene, cam, co, &cs);
   } else {
-    bytes = write_svg(map, scene, cam, a.fill == "id" ? Fill::Id : Fill::Shade);
+    bytes = write_svg(map, scene, cam, a.fill == "id" ? Fill::Id : Fill::Shade, a.svg);
   }
   write_atomically(a.out, bytes);
   auto t_end = Clock::now();
@@ -238,6 +297,18 @@ int cmd_render(int argc, char** argv) {
                    static_cast<unsigned long long>(cs.index_bytes),
                    static_cast<unsigned long long>(cs.id_bytes),
                    static_cast<unsigned long long>(cs.shade_bytes));
+    if (lines) {
+      std::fprintf(stderr, "lines: %zu chains;", line_set.chain_count());
+      for (size_t k = 0; k < kLineKinds; ++k)
+        std::fprintf(stderr, " %s %llu", line_kind_name(LineKind(k)),
+                     static_cast<unsigned long long>(line_set.edges[k]));
+      std::fprintf(stderr, " map edges;");
+      if (a.lines.hidden)
+        for (size_t k = 0; k < kLineKinds; ++k)
+          std::fprintf(stderr, " hidden %s %llu", line_kind_name(LineKind(k)),
+                       static_cast<unsigned long long>(line_set.hidden_edges[k]));
+      std::fprintf(stderr, " %.1f ms\n", ms(t_lines - t_render));
+    }
     std::fprintf(stderr, "time: load %.1f ms, render %.1f ms, write %.1f ms, total %.1f ms\n",
                  ms(t_load - t0), ms(t_render - t_load), ms(t_end - t_render), ms(t_end - t0));
   }

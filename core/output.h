@@ -5,6 +5,7 @@
 #include <string>
 
 #include "core/camera.h"
+#include "core/lines.h"
 #include "core/planar_map.h"
 #include "core/scene.h"
 
@@ -17,6 +18,20 @@ enum class Fill { Shade, Id };
 // with #RRGGBB = global source triangle id + 1 (Scene::triangle_id_base + face id) and
 // shape-rendering="crispEdges".
 std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& camera, Fill fill);
+
+// What write_svg draws besides (or instead of) the filled fragments: lines from extract_lines
+// (core/lines.h), over the fills, one <g class="KIND"> per line kind ("contour", "boundary",
+// "crease", "intersection", "border") inside <g class="lines">, one <path> per chain. Widths
+// in device pixels (vector-effect: non-scaling-stroke).
+struct SvgStyle {
+  bool fill = true;                // the fragments, as write_svg(map, scene, camera, fill)
+  const LineSet* lines = nullptr;  // nullptr: no lines
+  double line_width = 1.0;
+  // #RRGGBB per LineKind: contour, boundary, crease, intersection, border.
+  std::array<uint32_t, kLineKinds> line_color{0x000000, 0x000000, 0x404040, 0xb00000, 0x000000};
+};
+std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& camera, Fill fill,
+                      const SvgStyle& style);
 
 // How write_svg prints a coordinate: rounded to 1/100 pixel, trailing zeros and a leading "0"
 // dropped ("12.5", ".25", "-.05", "3"). Equal doubles print equal text.

@@ -507,13 +507,86 @@ double detail::lambert_shade(const Scene& scene, const Camera& cam, uint32_t mes
   return kAmbient + (1.0 - kAmbient) * std::min(ndl, 1.0);
 }
 
+namespace {
+
+// The lines over the fills: <g class="lines"> holding one <g class="KIND"> per kind that has
+// chains, one <path> per chain. Points rounded to units as the fills' (a chain's point that is
+// a fragment's vertex prints as that vertex); points that round onto the previous are skipped.
+void write_lines(std::string& out, const LineSet& lines, const SvgStyle& style) {
+  if (!(style.line_width > 0) || !std::isfinite(style.line_width))
+    throw InputError(InputErrorKind::BadScene, "svg", "", "line width", -1,
+                     "must be a positive number of pixels");
+  char width[32];
+  std::snprintf(width, sizeof width, "%g", style.line_width);
+  out += "<g class=\"lines\" fill=\"none\" stroke-width=\"";
+  out += width;
+  out += "\" stroke-linecap=\"round\" stroke-linejoin=\"round\">\n";
+  // The hidden parts first (under the visible ones), dashed, in a group of their own.
+  for (int hidden = 1; hidden >= 0; --hidden) {
+    bool any = false;
+    for (size_t k = 0; k < kLineKinds; ++k) {
+      bool open = false;
+      for (size_t c = 0; c < lines.chain_count(); ++c) {
+        if (size_t(lines.kind[c]) != k || lines.hidden[c] != hidden) continue;
+        if (!any && hidden) {
+          char dash[64];
+          std::snprintf(dash, sizeof dash, "%g %g", 4 * style.line_width, 3 * style.line_width);
+          out += std::string("<g class=\"hidden\" stroke-dasharray=\"") + dash + "\">\n";
+        }
+        any = true;
+        if (!open) {
+          out += std::string("<g class=\"") + line_kind_name(LineKind(k)) + "\" stroke=\"" +
+                 hex_color(style.line_color[k]) + "\">\n";
+          open = true;
+        }
+        out += "<path d=\"";
+        PathData d(out, true);
+        Q prev{0, 0};
+        size_t n = 0;
+        for (uint32_t i = lines.off[c]; i < lines.off[c + 1]; ++i) {
+          const Q q{quantize(lines.xy[2 * i]), quantize(lines.xy[2 * i + 1])};
+          if (n > 0 && q == prev) continue;
+          if (n == 0)
+            d.move(q);
+          else
+            d.line(q);
+          prev = q;
+          ++n;
+        }
+        if (n == 1) d.line(prev);  // a chain shorter than a unit: a dot (round caps draw it)
+        if (lines.closed[c] && n > 2) d.close();
+        out += "\"/>\n";
+      }
+      if (open) out += "</g>\n";
+    }
+    if (any && hidden) out += "</g>\n";
+  }
+  out += "</g>\n";
+}
+
+}  // namespace
+
 std::string svg_number(double v) {
   char buf[32];
   return std::string(buf, format_units(quantize(v), buf));
 }
 
 std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& camera, Fill fill) {
+  return write_svg(map, scene, camera, fill, SvgStyle{});
+}
+
+std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& camera, Fill fill,
+                      const SvgStyle& style) {
   detail::check_map(map, scene, "svg");
+  if (!style.fill) {
+    std::string out;
+    const std::string w = std::to_string(map.width), h = std::to_string(map.height);
+    out += "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 " + w + " " + h +
+           "\" width=\"" + w + "\" height=\"" + h +
+           "\">\n<style>path{vector-effect:non-scaling-stroke}</style>\n";
+    if (style.lines) write_lines(out, *style.lines, style);
+    return out + "</svg>\n";
+  }
   const size_t nf = map.fragment_count();
   const std::vector<uint64_t> base = scene.triangle_id_base();
 
@@ -604,7 +677,12 @@ std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& ca
     }
     out += "</g>\n";
   }
-  out += shade ? "</g>\n</svg>\n" : "</svg>\n";
+  if (shade) out += "</g>\n";
+  if (style.lines) {
+    if (!shade) out += "<style>path{vector-effect:non-scaling-stroke}</style>\n";
+    write_lines(out, *style.lines, style);
+  }
+  out += "</svg>\n";
   return out;
 }
 

@@ -136,6 +136,32 @@ TEST_F(Cli, BadInputFailsCleanly) {
             3);  // stderr.txt, nan.obj, scene.xyz
 }
 
+// --style lines: the classes in the SVG, --hidden's group, --stats' line counts; bad line
+// flags are usage errors (exit 2) that write nothing.
+TEST_F(Cli, LineDrawing) {
+  fs::path out = dir / "lines.svg";
+  CliRun r = run("render " + bunny + " -o " + out.string() +
+                     " --width 512 --height 512 --style lines --hidden --stats "
+                     "--line-color crease=#00ff00 --line-width 1.5 --simplify 0.1",
+                 dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string svg = slurp(out);
+  EXPECT_NE(svg.find("<g class=\"contour\" stroke=\"#000000\">"), std::string::npos);
+  EXPECT_NE(svg.find("<g class=\"crease\" stroke=\"#00ff00\">"), std::string::npos);
+  EXPECT_NE(svg.find("<g class=\"hidden\" stroke-dasharray="), std::string::npos);
+  EXPECT_NE(svg.find("stroke-width=\"1.5\""), std::string::npos);
+  EXPECT_EQ(svg.find("<g color="), std::string::npos);  // no fills
+  EXPECT_NE(r.err.find("lines: "), std::string::npos) << r.err;
+  fs::remove(out);
+  for (const char* bad : {"--style outline", "--style lines --format bin", "--hidden",
+                          "--style lines --crease-angle 200", "--style lines --line-color red",
+                          "--style lines --line-color contour=#12345", "--style lines --line-width 0"}) {
+    CliRun u = run("render " + bunny + " -o " + out.string() + " " + bad, dir);
+    EXPECT_EQ(u.status, 2) << bad << ": " << u.err;
+    EXPECT_FALSE(fs::exists(out)) << bad;
+  }
+}
+
 // --time-limit: a frame past it fails with one line naming the scene and the stage (exit 1,
 // nothing written); a bad value is a usage error.
 TEST_F(Cli, TimeLimitFailsCleanly) {

@@ -1,0 +1,275 @@
+// Line drawings (core/lines.h): each line kind on small scenes whose answer is known, exact ends,
+// chaining, the SVG groups, and the check against the id raster.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+
+#include "core/lines.h"
+#include "core/output.h"
+#include "core/pipeline.h"
+#include "core/scene.h"
+#include "support/triangle_scene.h"
+
+namespace vismap {
+namespace {
+
+using test_support::ortho_view_256;
+
+Renderer& renderer() {
+  static Renderer r;
+  return r;
+}
+
+// A box [lo, hi], faces outward, as one mesh.
+Mesh box(const std::string& name, const double (&lo)[3], const double (&hi)[3]) {
+  Mesh m;
+  m.name = name;
+  for (int i = 0; i < 8; ++i) {
+    m.positions.push_back(float(i & 1 ? hi[0] : lo[0]));
+    m.positions.push_back(float(i & 2 ? hi[1] : lo[1]));
+    m.positions.push_back(float(i & 4 ? hi[2] : lo[2]));
+  }
+  // Quads (counter-clockwise seen from outside), each as two triangles.
+  const uint32_t q[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                            {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& f : q) m.indices.insert(m.indices.end(), {f[0], f[1], f[2], f[0], f[2], f[3]});
+  for (uint32_t t = 0; t < 12; ++t) m.face_ids.push_back(t);
+  m.source_triangles = 12;
+  return m;
+}
+
+// A square in the plane z (or tilted: z grows by `slope` per unit of x from x0), two triangles.
+Mesh square(const std::string& name, double x0, double y0, double x1, double y1, double z,
+            double slope = 0, double xz = 0) {
+  Mesh m;
+  m.name = name;
+  const double p[4][2] = {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}};
+  for (const auto& v : p)
+    m.positions.insert(m.positions.end(),
+                       {float(v[0]), float(v[1]), float(z + slope * (v[0] - xz))});
+  m.indices = {0, 1, 2, 0, 2, 3};
+  m.face_ids = {0, 1};
+  m.source_triangles = 2;
+  return m;
+}
+
+struct Drawn {
+  PlanarMap map;
+  ScreenTriangles screen;
+  LineSet lines;
+};
+
+Drawn draw(const Scene& s, const Camera& cam, const LineOptions& o = {}) {
+  Drawn d;
+  RenderOptions ro;
+  ro.keep_screen_triangles = true;
+  d.map = renderer().render(s, cam, ro, nullptr, &d.screen);
+  d.lines = extract_lines(d.map, d.screen, s, cam, o);
+  // VISMAP_LINES_SVG_DIR=DIR: each drawing as DIR/<test>-<n>.svg, to look at.
+  if (const char* dir = std::getenv("VISMAP_LINES_SVG_DIR")) {
+    static int n = 0;
+    SvgStyle st;
+    st.lines = &d.lines;
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    std::ofstream(std::string(dir) + "/" + info->name() + "-" + std::to_string(n++) + ".svg")
+        << write_svg(d.map, s, cam, Fill::Shade, st);
+  }
+  return d;
+}
+
+size_t chains_of(const LineSet& l, LineKind k) {
+  return size_t(std::count(l.kind.begin(), l.kind.end(), k));
+}
+
+Camera perspective(const Scene& s, Vec3 eye, Vec3 target) {
+  Camera cam;
+  cam.width = cam.height = 512;
+  cam.eye = eye;
+  cam.target = target;
+  fit_near_far(cam, s);
+  return cam;
+}
+
+TEST(Lines, CubeHasOneClosedContourAndThreeCreases) {
+  Scene s;
+  s.meshes.push_back(box("cube", {-1, -1, -1}, {1, 1, 1}));
+  const Drawn d = draw(s, perspective(s, {4, 3, 5}, {0, 0, 0}));
+  ASSERT_GT(d.map.fragment_count(), 0u);
+  // The outline: six cube edges, one closed chain; the three edges at the near corner: creases
+  // (90 degrees) meeting there; the faces' diagonals: nothing.
+  EXPECT_EQ(chains_of(d.lines, LineKind::Contour), 1u);
+  EXPECT_EQ(chains_of(d.lines, LineKind::Crease), 3u);
+  EXPECT_EQ(d.lines.edges[size_t(LineKind::Boundary)], 0u);
+  EXPECT_EQ(d.lines.edges[size_t(LineKind::Intersection)], 0u);
+  EXPECT_EQ(d.lines.edges[size_t(LineKind::Border)], 0u);
+  for (size_t c = 0; c < d.lines.chain_count(); ++c)
+    if (d.lines.kind[c] == LineKind::Contour) EXPECT_TRUE(d.lines.closed[c]);
+  // A crease angle over 90 degrees leaves only the outline.
+  LineOptions wide;
+  wide.crease_angle_deg = 95;
+  const Drawn w = draw(s, perspective(s, {4, 3, 5}, {0, 0, 0}), wide);
+  EXPECT_EQ(w.lines.edges[size_t(LineKind::Crease)], 0u);
+  EXPECT_EQ(chains_of(w.lines, LineKind::Contour), 1u);
+}
+
+TEST(Lines, OpenSquareIsOneBoundaryLoop) {
+  Scene s;
+  s.meshes.push_back(square("sq", 64, 64, 192, 192, 0));
+  const Drawn d = draw(s, ortho_view_256(s));
+  ASSERT_EQ(d.lines.chain_count(), 1u);
+  EXPECT_EQ(d.lines.kind[0], LineKind::Boundary);
+  EXPECT_TRUE(d.lines.closed[0]);
+  EXPECT_EQ(d.lines.edges[size_t(LineKind::Crease)], 0u);  // the diagonal is flat
+}
+
+// The back square's outline stops exactly at the front square's edge: no gap, no overshoot.
+TEST(Lines, HiddenBoundaryStopsExactlyAtTheOccluder) {
+  Scene s;
+  s.meshes.push_back(square("back", 32, 32, 160, 160, 0));
+  s.meshes.push_back(square("front", 96, 96, 224, 224, 10));
+  const Camera cam = ortho_view_256(s);
+  const Drawn d = draw(s, cam);
+  EXPECT_EQ(d.lines.edges[size_t(LineKind::Contour)], 0u);
+  EXPECT_EQ(d.lines.edges[size_t(LineKind::Intersection)], 0u);
+  // The front square is a whole loop; the back one's visible outline an open chain from the
+  // front's left edge (x = 96, y = 160 on screen: world y 96 is screen y 160) to its top edge.
+  size_t closed = 0, open = 0;
+  for (size_t c = 0; c < d.lines.chain_count(); ++c) {
+    ASSERT_EQ(d.lines.kind[c], LineKind::Boundary);
+    if (d.lines.closed[c]) {
+      ++closed;
+      continue;
+    }
+    ++open;
+    const double* a = &d.lines.xy[2 * d.lines.off[c]];
+    const double* b = &d.lines.xy[2 * (d.lines.off[c + 1] - 1)];
+    // World (96, y) and (x, 96) are screen x = 96 and screen y = 256 - 96 = 160.
+    const bool a_on = std::abs(a[0] - 96) < 1e-9 || std::abs(a[1] - 160) < 1e-9;
+    const bool b_on = std::abs(b[0] - 96) < 1e-9 || std::abs(b[1] - 160) < 1e-9;
+    EXPECT_TRUE(a_on && b_on) << a[0] << "," << a[1] << " " << b[0] << "," << b[1];
+  }
+  EXPECT_EQ(closed, 1u);
+  EXPECT_EQ(open, 1u);
+}
+
+// Two squares crossing along world x = 128: one intersection chain there, its ends where the
+// crossing leaves the squares' overlap.
+TEST(Lines, CrossingSquaresDrawTheirIntersection) {
+  Scene s;
+  s.meshes.push_back(square("flat", 32, 64, 224, 192, 0));
+  s.meshes.push_back(square("tilted", 64, 32, 192, 224, 0, 0.5, 128));
+  const Drawn d = draw(s, ortho_view_256(s));
+  ASSERT_EQ(chains_of(d.lines, LineKind::Intersection), 1u);
+  for (size_t c = 0; c < d.lines.chain_count(); ++c) {
+    if (d.lines.kind[c] != LineKind::Intersection) continue;
+    double ylo = 1e9, yhi = -1e9;
+    for (uint32_t i = d.lines.off[c]; i < d.lines.off[c + 1]; ++i) {
+      EXPECT_NEAR(d.lines.xy[2 * i], 128, 1e-6);
+      ylo = std::min(ylo, d.lines.xy[2 * i + 1]);
+      yhi = std::max(yhi, d.lines.xy[2 * i + 1]);
+    }
+    EXPECT_NEAR(ylo, 256 - 192, 1e-6);
+    EXPECT_NEAR(yhi, 256 - 64, 1e-6);
+  }
+}
+
+// A box standing on a floor: the line where they meet is a border, not a contour.
+TEST(Lines, BoxOnAFloorMeetsItAtABorder) {
+  Scene s;
+  Mesh floor = square("floor", -4, -4, 4, 4, 0);
+  // The floor in y = 0 (square() builds in z): swap y and z, and keep it facing up.
+  for (size_t v = 0; v < floor.positions.size(); v += 3) std::swap(floor.positions[v + 1], floor.positions[v + 2]);
+  floor.indices = {0, 2, 1, 0, 3, 2};
+  s.meshes.push_back(floor);
+  s.meshes.push_back(box("box", {-1, 0, -1}, {1, 2, 1}));
+  const Drawn d = draw(s, perspective(s, {10, 8, 12}, {0, 0.5, 0}));
+  EXPECT_GT(d.lines.edges[size_t(LineKind::Border)], 0u);
+  EXPECT_EQ(d.lines.edges[size_t(LineKind::Intersection)], 0u);
+  EXPECT_GT(d.lines.edges[size_t(LineKind::Boundary)], 0u);  // the floor's rim
+  EXPECT_GT(d.lines.edges[size_t(LineKind::Crease)], 0u);    // the box's visible edges
+}
+
+// --hidden: the cube's three edges at its far corner, and nothing of its outline; the back
+// square's outline under the front square, ending exactly where the visible part ends.
+TEST(Lines, HiddenPartsAreTheRestOfTheEdgeLines) {
+  Scene s;
+  s.meshes.push_back(box("cube", {-1, -1, -1}, {1, 1, 1}));
+  LineOptions o;
+  o.hidden = true;
+  const Drawn d = draw(s, perspective(s, {4, 3, 5}, {0, 0, 0}), o);
+  EXPECT_EQ(d.lines.hidden_edges[size_t(LineKind::Crease)], 3u);
+  EXPECT_EQ(d.lines.hidden_edges[size_t(LineKind::Contour)], 0u);
+  size_t hidden_chains = 0;
+  for (size_t c = 0; c < d.lines.chain_count(); ++c) hidden_chains += d.lines.hidden[c];
+  EXPECT_EQ(hidden_chains, 3u);  // three chains meeting at the far corner
+
+  Scene q;
+  q.meshes.push_back(square("back", 32, 32, 160, 160, 0));
+  q.meshes.push_back(square("front", 96, 96, 224, 224, 10));
+  const Drawn h = draw(q, ortho_view_256(q), o);
+  ASSERT_EQ(h.lines.hidden_edges[size_t(LineKind::Boundary)], 2u);
+  for (size_t c = 0; c < h.lines.chain_count(); ++c) {
+    if (!h.lines.hidden[c]) continue;
+    ASSERT_EQ(h.lines.off[c + 1] - h.lines.off[c], 3u);  // an L: (96,y) - corner - (x,160)
+    const double* a = &h.lines.xy[2 * h.lines.off[c]];
+    const double* m = a + 2;
+    const double* b = a + 4;
+    EXPECT_DOUBLE_EQ(m[0], 160);  // the back square's corner (160, 160) world, (160, 96) screen
+    EXPECT_DOUBLE_EQ(m[1], 96);
+    const bool a_on = a[0] == 96 || a[1] == 160, b_on = b[0] == 96 || b[1] == 160;
+    EXPECT_TRUE(a_on && b_on) << a[0] << "," << a[1] << " " << b[0] << "," << b[1];
+  }
+}
+
+TEST(Lines, SvgGroupsByKindAndKeepsTheFillOutputAsItWas) {
+  Scene s;
+  s.meshes.push_back(box("cube", {-1, -1, -1}, {1, 1, 1}));
+  const Camera cam = perspective(s, {4, 3, 5}, {0, 0, 0});
+  const Drawn d = draw(s, cam);
+  const std::string plain = write_svg(d.map, s, cam, Fill::Shade);
+  EXPECT_EQ(write_svg(d.map, s, cam, Fill::Shade, SvgStyle{}), plain);
+  SvgStyle st;
+  st.lines = &d.lines;
+  const std::string both = write_svg(d.map, s, cam, Fill::Shade, st);
+  EXPECT_EQ(both.substr(0, plain.size() - 7), plain.substr(0, plain.size() - 7));  // "</svg>\n"
+  EXPECT_NE(both.find("<g class=\"contour\" stroke=\"#000000\">"), std::string::npos);
+  EXPECT_NE(both.find("<g class=\"crease\""), std::string::npos);
+  EXPECT_EQ(both.find("<g class=\"boundary\""), std::string::npos);  // no such lines: no group
+  st.fill = false;
+  const std::string only = write_svg(d.map, s, cam, Fill::Shade, st);
+  EXPECT_EQ(only.find("<g color="), std::string::npos);  // no fills
+  // One path per chain.
+  size_t paths = 0;
+  for (size_t at = only.find("<path"); at != std::string::npos; at = only.find("<path", at + 1))
+    ++paths;
+  EXPECT_EQ(paths, d.lines.chain_count());
+}
+
+// The drawing against the z-buffer id raster: on a cube nearly every id change is on a line
+// and every line on a change.
+TEST(Lines, CheckAgainstTheIdRaster) {
+  Scene s;
+  s.meshes.push_back(box("cube", {-1, -1, -1}, {1, 1, 1}));
+  s.meshes.push_back(box("cube2", {-0.5, -0.5, 0.5}, {0.5, 0.5, 2.5}));  // penetrates the first
+  const Camera cam = perspective(s, {4, 3, 5}, {0, 0, 0});
+  const Drawn d = draw(s, cam);
+  EXPECT_GT(d.lines.edges[size_t(LineKind::Intersection)], 0u);
+  std::vector<uint32_t> ids;
+  renderer().raster_ids(s, cam, &ids);
+  const LineCheck c = check_lines(d.lines, ids, cam.width, cam.height, s);
+  EXPECT_GT(c.change_pixels, 1000u);
+  EXPECT_GE(c.changes_covered(), 0.995) << c.change_near_line << " / " << c.change_pixels;
+  EXPECT_GE(c.lines_supported(), 0.995) << c.line_near_change << " / " << c.line_px;
+  // A drawing without its intersection lines fails the first fraction.
+  LineSet no_x = d.lines;
+  for (auto& k : no_x.kind)
+    if (k == LineKind::Intersection) k = LineKind::Crease;  // creases are not checked
+  EXPECT_LT(check_lines(no_x, ids, cam.width, cam.height, s).changes_covered(), 0.98);
+}
+
+}  // namespace
+}  // namespace vismap
