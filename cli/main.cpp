@@ -36,7 +36,7 @@ const char* kRenderUsage =
     "                [--near N --far F] [--device NAME] [--memory-budget BYTES]\n"
     "                [--time-limit SECONDS] [--stats]\n"
     "                [--style fill|lines|fill+lines] [--crease-angle DEG] [--line-width PX]\n"
-    "                [--line-color KIND=#RRGGBB] [--simplify PX] [--hidden]   (lines: svg only)\n";
+    "                [--line-color KIND=#RRGGBB] [--simplify PX] [--hidden]   (lines: svg, bin)\n";
 const char* kCheckUsage =
     "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
     "                [--memory-budget BYTES]\n"
@@ -175,8 +175,8 @@ RenderArgs parse_render(int argc, char** argv) {
   if (a.fill != "shade" && a.fill != "id") throw UsageError("--fill: expected shade or id");
   if (a.style != "fill" && a.style != "lines" && a.style != "fill+lines")
     throw UsageError("--style: expected fill, lines or fill+lines");
-  if (a.style != "fill" && a.format != "svg")
-    throw UsageError("--style " + a.style + ": lines are written to svg only (--format svg)");
+  if (a.style != "fill" && a.format == "compact")
+    throw UsageError("--style " + a.style + ": lines are written to svg and bin, not compact");
   a.svg.fill = a.style != "lines";
   if (a.lines.hidden && a.style == "fill")
     throw UsageError("--hidden: draws the occluded parts of lines; give --style lines or fill+lines");
@@ -225,7 +225,7 @@ int cmd_render(int argc, char** argv) {
   CompactStats cs;
   std::string bytes;
   if (a.format == "bin") {
-    bytes = write_bin(map, scene);
+    bytes = lines ? write_bin(map, scene, &line_set, a.style != "lines") : write_bin(map, scene);
   } else if (a.format == "compact") {
     CompactOptions co;
     co.quantum = a.quantum;

@@ -40,6 +40,10 @@ std::string svg_number(double v);
 // Binary triangle list, little-endian, versioned (proto/FORMAT.md). Fragments are fanned into
 // triangles; barycentrics and 1/w are included when the map has them.
 std::string write_bin(const PlanarMap& map, const Scene& scene);
+// The same with a line section (flags bit 1, proto/FORMAT.md "Lines") when lines is given;
+// triangles = false leaves the triangles out (T = 0: a line drawing only).
+std::string write_bin(const PlanarMap& map, const Scene& scene, const LineSet* lines,
+                      bool triangles);
 
 // Reader for the binary format (tests, clients). Throws InputError on malformed bytes.
 struct BinFrame {
@@ -48,6 +52,8 @@ struct BinFrame {
   std::vector<uint32_t> mesh, triangle_id;  // per triangle: mesh index, global source triangle id
   std::vector<float> bary;                  // 9 per triangle when flags & 1
   std::vector<float> inv_w;                 // 3 per triangle when flags & 1
+  bool has_lines = false;                   // flags & 2: the line section
+  LineSet lines;                            // its chains (points as float32 read back)
   size_t triangle_count() const { return mesh.size(); }
 };
 BinFrame read_bin(const std::string& bytes);

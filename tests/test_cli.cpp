@@ -153,7 +153,7 @@ TEST_F(Cli, LineDrawing) {
   EXPECT_EQ(svg.find("<g color="), std::string::npos);  // no fills
   EXPECT_NE(r.err.find("lines: "), std::string::npos) << r.err;
   fs::remove(out);
-  for (const char* bad : {"--style outline", "--style lines --format bin", "--hidden",
+  for (const char* bad : {"--style outline", "--style lines --format compact", "--hidden",
                           "--style lines --crease-angle 200", "--style lines --line-color red",
                           "--style lines --line-color contour=#12345", "--style lines --line-width 0"}) {
     CliRun u = run("render " + bunny + " -o " + out.string() + " " + bad, dir);

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <string>
 
+#include "core/error.h"
 #include "core/lines.h"
 #include "core/output.h"
 #include "core/pipeline.h"
@@ -106,8 +107,9 @@ TEST(Lines, CubeHasOneClosedContourAndThreeCreases) {
   EXPECT_EQ(d.lines.edges[size_t(LineKind::Boundary)], 0u);
   EXPECT_EQ(d.lines.edges[size_t(LineKind::Intersection)], 0u);
   EXPECT_EQ(d.lines.edges[size_t(LineKind::Border)], 0u);
-  for (size_t c = 0; c < d.lines.chain_count(); ++c)
+  for (size_t c = 0; c < d.lines.chain_count(); ++c) {
     if (d.lines.kind[c] == LineKind::Contour) EXPECT_TRUE(d.lines.closed[c]);
+  }
   // A crease angle over 90 degrees leaves only the outline.
   LineOptions wide;
   wide.crease_angle_deg = 95;
@@ -247,6 +249,38 @@ TEST(Lines, SvgGroupsByKindAndKeepsTheFillOutputAsItWas) {
   for (size_t at = only.find("<path"); at != std::string::npos; at = only.find("<path", at + 1))
     ++paths;
   EXPECT_EQ(paths, d.lines.chain_count());
+}
+
+// The binary format's line section: what write_bin writes read_bin reads back, and a frame
+// whose section is damaged is refused.
+TEST(Lines, BinaryLineSectionRoundTrips) {
+  Scene s;
+  s.meshes.push_back(box("cube", {-1, -1, -1}, {1, 1, 1}));
+  const Camera cam = perspective(s, {4, 3, 5}, {0, 0, 0});
+  LineOptions o;
+  o.hidden = true;
+  const Drawn d = draw(s, cam, o);
+  for (bool tris : {true, false}) {
+    const std::string bytes = write_bin(d.map, s, &d.lines, tris);
+    const BinFrame f = read_bin(bytes);
+    ASSERT_TRUE(f.has_lines);
+    EXPECT_EQ(f.triangle_count() > 0, tris);
+    ASSERT_EQ(f.lines.chain_count(), d.lines.chain_count());
+    EXPECT_EQ(f.lines.off, d.lines.off);
+    EXPECT_EQ(f.lines.kind, d.lines.kind);
+    EXPECT_EQ(f.lines.closed, d.lines.closed);
+    EXPECT_EQ(f.lines.hidden, d.lines.hidden);
+    for (size_t i = 0; i < d.lines.xy.size(); ++i)
+      EXPECT_EQ(f.lines.xy[i], double(float(d.lines.xy[i])));
+    EXPECT_THROW(read_bin(bytes.substr(0, bytes.size() - 4)), InputError);  // truncated
+    EXPECT_THROW(read_bin(bytes + std::string(4, '\0')), InputError);     // trailing
+    // The first chain's info word with an unknown kind.
+    const size_t info = bytes.size() - 8 * (d.lines.xy.size() / 2) - 4 * d.lines.chain_count();
+    std::string bad = bytes;
+    bad[info] = 9;
+    EXPECT_THROW(read_bin(bad), InputError);
+  }
+  EXPECT_FALSE(read_bin(write_bin(d.map, s)).has_lines);  // unchanged without lines
 }
 
 // The drawing against the z-buffer id raster: on a cube nearly every id change is on a line
