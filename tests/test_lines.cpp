@@ -107,9 +107,8 @@ TEST(Lines, CubeHasOneClosedContourAndThreeCreases) {
   EXPECT_EQ(d.lines.edges[size_t(LineKind::Boundary)], 0u);
   EXPECT_EQ(d.lines.edges[size_t(LineKind::Intersection)], 0u);
   EXPECT_EQ(d.lines.edges[size_t(LineKind::Border)], 0u);
-  for (size_t c = 0; c < d.lines.chain_count(); ++c) {
-    if (d.lines.kind[c] == LineKind::Contour) EXPECT_TRUE(d.lines.closed[c]);
-  }
+  for (size_t c = 0; c < d.lines.chain_count(); ++c)
+    EXPECT_TRUE(d.lines.kind[c] != LineKind::Contour || d.lines.closed[c]);
   // A crease angle over 90 degrees leaves only the outline.
   LineOptions wide;
   wide.crease_angle_deg = 95;
