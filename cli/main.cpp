@@ -36,7 +36,7 @@ const char* kRenderUsage =
     "                [--near N --far F] [--device NAME] [--memory-budget BYTES]\n"
     "                [--time-limit SECONDS] [--stats]\n"
     "                [--style fill|lines|fill+lines] [--crease-angle DEG] [--line-width PX]\n"
-    "                [--line-color KIND=#RRGGBB] [--simplify PX] [--hidden]   (lines: svg, bin)\n";
+    "                [--line-color KIND=#RRGGBB] [--simplify PX] [--hidden] [--merge]   (lines: svg, bin)\n";
 const char* kCheckUsage =
     "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
     "                [--memory-budget BYTES]\n"
@@ -147,7 +147,9 @@ RenderArgs parse_render(int argc, char** argv) {
       a.lines.simplify_px = parse_number(f, value());
       if (!(a.lines.simplify_px >= 0 && a.lines.simplify_px <= 1000))
         throw UsageError("--simplify: expected 0 ... 1000 pixels");
-    } else if (f == "--hidden")
+    } else if (f == "--merge")
+      a.svg.merge = true;
+    else if (f == "--hidden")
       a.lines.hidden = true;
     else if (f == "--line-color")
       parse_line_color(value(), a.svg);
@@ -178,6 +180,8 @@ RenderArgs parse_render(int argc, char** argv) {
   if (a.style != "fill" && a.format == "compact")
     throw UsageError("--style " + a.style + ": lines are written to svg and bin, not compact");
   a.svg.fill = a.style != "lines";
+  if (a.svg.merge && (a.format != "svg" || a.style == "lines"))
+    throw UsageError("--merge: joins the fills of an svg (--format svg, --style fill or fill+lines)");
   if (a.lines.hidden && a.style == "fill")
     throw UsageError("--hidden: draws the occluded parts of lines; give --style lines or fill+lines");
   validate_view(a.view);

@@ -261,4 +261,66 @@ GridMesh triangulate_on_grid(const ConformedPolygons& P, uint32_t quantum) {
   return g;
 }
 
+void weld_vertices(ConformedPolygons& P, double eps) {
+  const size_t nv = P.xy.size() / 2;
+  std::vector<uint32_t> root(nv);
+  for (uint32_t v = 0; v < nv; ++v) root[v] = v;
+  auto find = [&](uint32_t v) {
+    while (root[v] != v) v = root[v] = root[root[v]];
+    return v;
+  };
+  // Cells of eps: a vertex looks at its own cell and the eight around it.
+  auto cell = [eps](double x, double y) {
+    return std::pair<int64_t, int64_t>{int64_t(std::floor(x / eps)),
+                                       int64_t(std::floor(y / eps))};
+  };
+  auto key = [](int64_t cx, int64_t cy) {
+    return (uint64_t(cx) * 0x9E3779B97F4A7C15ull ^ uint64_t(cy)) * 0xC2B2AE3D27D4EB4Full >> 1;
+  };
+  FlatMap first(nv);
+  std::vector<uint32_t> next(nv, ~0u);
+  bool any = false;
+  for (uint32_t v = 0; v < nv; ++v) {
+    const double x = P.xy[2 * v], y = P.xy[2 * v + 1];
+    const auto [cx, cy] = cell(x, y);
+    for (int64_t dy = -1; dy <= 1; ++dy)
+      for (int64_t dx = -1; dx <= 1; ++dx) {
+        const uint32_t* f = first.find(key(cx + dx, cy + dy));
+        for (uint32_t w = f ? *f : ~0u; w != ~0u; w = next[w]) {
+          if (std::hypot(P.xy[2 * w] - x, P.xy[2 * w + 1] - y) > eps) continue;
+          const uint32_t a = find(v), b = find(w);
+          if (a != b) root[std::max(a, b)] = std::min(a, b), any = true;
+        }
+      }
+    auto [f, fresh] = first.emplace(key(cx, cy), v);
+    if (!fresh) {  // prepend v to the cell's list (FlatMap keeps the first; chain through next)
+      next[v] = next[f];
+      next[f] = v;
+    }
+  }
+  if (!any) return;
+  std::vector<uint32_t> off{0}, out;
+  std::vector<uint32_t> frag, orig;
+  for (size_t p = 0; p + 1 < P.off.size(); ++p) {
+    const size_t begin = out.size();
+    for (uint32_t i = P.off[p]; i < P.off[p + 1]; ++i) {
+      const uint32_t v = find(P.v[i]);
+      if (out.size() == begin || out.back() != v) out.push_back(v);
+    }
+    while (out.size() > begin + 1 && out.back() == out[begin]) out.pop_back();
+    if (out.size() - begin < 3) {
+      out.resize(begin);
+      continue;
+    }
+    off.push_back(uint32_t(out.size()));
+    frag.push_back(P.fragment[p]);
+    orig.push_back(P.original[p]);
+  }
+  P.off = std::move(off);
+  P.v = std::move(out);
+  P.fragment = std::move(frag);
+  P.original = std::move(orig);
+}
+
+
 }  // namespace vismap

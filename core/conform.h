@@ -47,6 +47,12 @@ struct ConformedPolygons {
 // cracks it prevents.
 ConformedPolygons conform_polygons(const PlanarMap& map, uint32_t quantum,
                                    bool insert_t_junctions = true);
+// Merges the polygons' vertices that lie within eps pixels of each other (and drops what
+// collapses). Two exact points of the map can be that close without being equal: a crossing
+// line of one mesh's two neighbouring triangles with another surface meets their shared edge at
+// two points ~1e-7 px apart, each triangle's depth plane snapped on its own; their edges would
+// otherwise find no twin (core/lines.cpp, the SVG writer's --merge).
+void weld_vertices(ConformedPolygons& polygons, double eps);
 // Rounds the polygons' vertices to the grid and triangulates them through every vertex.
 GridMesh triangulate_on_grid(const ConformedPolygons& polygons, uint32_t quantum);
 // Both steps.

@@ -466,71 +466,6 @@ struct Seg {
   uint32_t a, b;
 };
 
-// Merges the polygons' vertices that lie within kOnLine of each other. Two exact points of the
-// map can be that close without being equal (a crossing line of one mesh's two neighbouring
-// triangles with another surface meets their shared edge at two points ~1e-7 px apart, each
-// triangle's depth plane snapped on its own): their edges would otherwise find no twin.
-void weld(ConformedPolygons& P) {
-  const size_t nv = P.xy.size() / 2;
-  std::vector<uint32_t> root(nv);
-  for (uint32_t v = 0; v < nv; ++v) root[v] = v;
-  auto find = [&](uint32_t v) {
-    while (root[v] != v) v = root[v] = root[root[v]];
-    return v;
-  };
-  // Cells of kOnLine: a vertex looks at its own cell and the eight around it.
-  auto cell = [](double x, double y) {
-    return std::pair<int64_t, int64_t>{int64_t(std::floor(x / kOnLine)),
-                                       int64_t(std::floor(y / kOnLine))};
-  };
-  auto key = [](int64_t cx, int64_t cy) {
-    return (uint64_t(cx) * 0x9E3779B97F4A7C15ull ^ uint64_t(cy)) * 0xC2B2AE3D27D4EB4Full >> 1;
-  };
-  FlatMap first(nv);
-  std::vector<uint32_t> next(nv, ~0u);
-  bool any = false;
-  for (uint32_t v = 0; v < nv; ++v) {
-    const double x = P.xy[2 * v], y = P.xy[2 * v + 1];
-    const auto [cx, cy] = cell(x, y);
-    for (int64_t dy = -1; dy <= 1; ++dy)
-      for (int64_t dx = -1; dx <= 1; ++dx) {
-        const uint32_t* f = first.find(key(cx + dx, cy + dy));
-        for (uint32_t w = f ? *f : ~0u; w != ~0u; w = next[w]) {
-          if (std::hypot(P.xy[2 * w] - x, P.xy[2 * w + 1] - y) > kOnLine) continue;
-          const uint32_t a = find(v), b = find(w);
-          if (a != b) root[std::max(a, b)] = std::min(a, b), any = true;
-        }
-      }
-    auto [f, fresh] = first.emplace(key(cx, cy), v);
-    if (!fresh) {  // prepend v to the cell's list (FlatMap keeps the first; chain through next)
-      next[v] = next[f];
-      next[f] = v;
-    }
-  }
-  if (!any) return;
-  std::vector<uint32_t> off{0}, out;
-  std::vector<uint32_t> frag, orig;
-  for (size_t p = 0; p + 1 < P.off.size(); ++p) {
-    const size_t begin = out.size();
-    for (uint32_t i = P.off[p]; i < P.off[p + 1]; ++i) {
-      const uint32_t v = find(P.v[i]);
-      if (out.size() == begin || out.back() != v) out.push_back(v);
-    }
-    while (out.size() > begin + 1 && out.back() == out[begin]) out.pop_back();
-    if (out.size() - begin < 3) {
-      out.resize(begin);
-      continue;
-    }
-    off.push_back(uint32_t(out.size()));
-    frag.push_back(P.fragment[p]);
-    orig.push_back(P.original[p]);
-  }
-  P.off = std::move(off);
-  P.v = std::move(out);
-  P.fragment = std::move(frag);
-  P.original = std::move(orig);
-}
-
 // Chains: maximal paths of segs (over points xy) through points where exactly two of them
 // meet, appended to out as chains of this kind.
 void chain(const std::vector<double>& xy, const std::vector<Seg>& S, LineKind kind, bool hidden,
@@ -645,7 +580,7 @@ LineSet extract_lines(const PlanarMap& map, const ScreenTriangles& screen, const
         map.triangle[f] >= scene.meshes[map.mesh[f]].triangle_count())
       bad("fragment " + std::to_string(f) + " names no triangle of the scene");
   ConformedPolygons P = conform_polygons(map, 1);
-  weld(P);
+  weld_vertices(P, kOnLine);
   Classifier cls(map, screen, scene, camera, opts);
 
   // Every polygon edge, by its directed vertex pair; an edge is looked at once, from the side

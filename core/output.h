@@ -25,6 +25,9 @@ std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& ca
 // in device pixels (vector-effect: non-scaling-stroke).
 struct SvgStyle {
   bool fill = true;                // the fragments, as write_svg(map, scene, camera, fill)
+  // The fragments of one mesh with the same fill joined into one path per region (holes kept),
+  // exactly (docs/LINES.md "Flat regions").
+  bool merge = false;
   const LineSet* lines = nullptr;  // nullptr: no lines
   double line_width = 1.0;
   // #RRGGBB per LineKind: contour, boundary, crease, intersection, border.

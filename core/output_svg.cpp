@@ -39,6 +39,7 @@
 #include <unordered_set>
 #include <vector>
 
+#include "core/conform.h"
 #include "core/error.h"
 #include "core/output.h"
 #include "core/output_internal.h"
@@ -566,6 +567,202 @@ void write_lines(std::string& out, const LineSet& lines, const SvgStyle& style) 
 
 }  // namespace
 
+namespace {
+
+// --merge: the visible fragments of one mesh with the same fill joined into regions (across the
+// edges they share; T-junctions inserted and near-equal vertices welded first, core/conform.h),
+// each region one <path> of its boundary loops (holes are loops of the other orientation, so
+// the default nonzero rule fills them right). Points that lie exactly on the straight line of
+// their neighbours in units are dropped (T-junction vertices, collinear chains): a neighbour
+// that keeps such a point keeps it on that line, so nothing opens. Shade: the boundary edges a
+// region shares with another region are stroked in its colour (the seam cover of the
+// unmerged writer) in a second path; its outline is not.
+void write_merged(std::string& out, const PlanarMap& map, const Scene& scene, const Camera& camera,
+                  bool shade) {
+  ConformedPolygons P = conform_polygons(map, 1);
+  weld_vertices(P, 1e-6);
+  const size_t np = P.size();
+  const std::vector<uint64_t> base = scene.triangle_id_base();
+  std::vector<uint32_t> color(np);
+  {
+    std::unordered_map<uint64_t, uint32_t> by_source;
+    for (size_t p = 0; p < np; ++p) {
+      const uint32_t f = P.fragment[p], m = map.mesh[f], t = map.triangle[f];
+      const uint64_t key = uint64_t(m) << 32 | t;
+      auto it = by_source.find(key);
+      if (it == by_source.end()) {
+        uint32_t c;
+        if (shade) {
+          c = shade_color(scene, camera, m, t);
+        } else {
+          const uint64_t id = detail::global_triangle_id(map, scene, base, f) + 1;
+          if (id > 0xFFFFFF)
+            throw InputError(InputErrorKind::TooLarge, "svg", scene.meshes[m].name, "triangle",
+                             int64_t(t), "global triangle id does not fit a 24-bit --fill id colour");
+          c = uint32_t(id);
+        }
+        it = by_source.emplace(key, c).first;
+      }
+      color[p] = it->second;
+    }
+  }
+  auto mesh_of = [&](size_t p) { return map.mesh[P.fragment[p]]; };
+  auto ekey = [](uint32_t a, uint32_t b) { return uint64_t(a) << 32 | b; };
+  std::unordered_map<uint64_t, uint32_t> edge;  // directed edge -> polygon
+  edge.reserve(P.v.size() * 2);
+  for (uint32_t p = 0; p < np; ++p)
+    for (uint32_t i = P.off[p], n = P.off[p + 1]; i < n; ++i)
+      edge.emplace(ekey(P.v[i], P.v[i + 1 < n ? i + 1 : P.off[p]]), p);
+  std::vector<uint32_t> root(np);
+  for (uint32_t p = 0; p < np; ++p) root[p] = p;
+  auto find = [&](uint32_t p) {
+    while (root[p] != p) p = root[p] = root[root[p]];
+    return p;
+  };
+  for (uint32_t p = 0; p < np; ++p)
+    for (uint32_t i = P.off[p], n = P.off[p + 1]; i < n; ++i) {
+      auto it = edge.find(ekey(P.v[i + 1 < n ? i + 1 : P.off[p]], P.v[i]));
+      if (it == edge.end()) continue;
+      const uint32_t q = it->second;
+      if (mesh_of(q) != mesh_of(p) || color[q] != color[p]) continue;
+      const uint32_t a = find(p), b = find(q);
+      if (a != b) root[std::max(a, b)] = std::min(a, b);
+    }
+  // Boundary edges of each region: (region, from, to, shared with another region).
+  struct B {
+    uint32_t region, a, b;
+    bool shared;
+  };
+  std::vector<B> bd;
+  for (uint32_t p = 0; p < np; ++p)
+    for (uint32_t i = P.off[p], n = P.off[p + 1]; i < n; ++i) {
+      const uint32_t a = P.v[i], b = P.v[i + 1 < n ? i + 1 : P.off[p]];
+      auto it = edge.find(ekey(b, a));
+      if (it != edge.end() && find(it->second) == find(p)) continue;
+      bd.push_back({find(p), a, b, it != edge.end()});
+    }
+  // Regions in the writer's order: mesh, then colour.
+  std::sort(bd.begin(), bd.end(), [&](const B& x, const B& y) {
+    const uint32_t mx = mesh_of(x.region), my = mesh_of(y.region);
+    if (mx != my) return mx < my;
+    if (color[x.region] != color[y.region]) return color[x.region] < color[y.region];
+    if (x.region != y.region) return x.region < y.region;
+    return x.a < y.a;
+  });
+  std::vector<uint8_t> used(bd.size(), 0);
+  std::vector<uint32_t> loop_v;
+  std::vector<uint8_t> loop_shared;
+  std::vector<Q> pts;
+  std::vector<uint8_t> pshared;
+  std::string fills, strokes;
+  for (size_t i = 0; i < bd.size();) {
+    const uint32_t mesh = mesh_of(bd[i].region);
+    out += "<g><title>" + xml_escape(scene.meshes[mesh].name) + "</title>\n";
+    while (i < bd.size() && mesh_of(bd[i].region) == mesh) {
+      const uint32_t c = color[bd[i].region];
+      if (shade) out += "<g color=\"" + hex_color(c) + "\">\n";
+      while (i < bd.size() && mesh_of(bd[i].region) == mesh && color[bd[i].region] == c) {
+        const uint32_t r = bd[i].region;
+        size_t j = i;
+        while (j < bd.size() && bd[j].region == r) ++j;
+        // Boundary edges of region r are bd[i, j), sorted by their start vertex.
+        auto next_from = [&](uint32_t v) -> size_t {
+          size_t lo = std::lower_bound(bd.begin() + i, bd.begin() + j, v,
+                                       [](const B& e, uint32_t x) { return e.a < x; }) - bd.begin();
+          for (; lo < j && bd[lo].a == v; ++lo)
+            if (!used[lo]) return lo;
+          return j;
+        };
+        fills.clear();
+        strokes.clear();
+        bool every_edge_shared = shade;  // then one path, filled and stroked, does both
+        for (size_t e = i; e < j; ++e) every_edge_shared = every_edge_shared && bd[e].shared;
+        PathData fd(fills, every_edge_shared), sd(strokes, true);
+        for (size_t e = i; e < j; ++e) {
+          if (used[e]) continue;
+          loop_v.clear();
+          loop_shared.clear();
+          for (size_t k = e; k < j && !used[k]; k = next_from(bd[k].b)) {
+            used[k] = 1;
+            loop_v.push_back(bd[k].a);
+            loop_shared.push_back(bd[k].shared);
+          }
+          // In units; drop repeats and points on their neighbours' line (edge k runs from
+          // point k to point k+1; a dropped point's two edges become one, shared if either was).
+          pts.clear();
+          pshared.clear();
+          for (size_t k = 0; k < loop_v.size(); ++k) {
+            const Q q{quantize(P.xy[2 * loop_v[k]]), quantize(P.xy[2 * loop_v[k] + 1])};
+            if (!pts.empty() && pts.back() == q) {
+              pshared.back() = pshared.back() | loop_shared[k];
+              continue;
+            }
+            pts.push_back(q);
+            pshared.push_back(loop_shared[k]);
+          }
+          while (pts.size() > 1 && pts.back() == pts.front()) {
+            pshared[pshared.size() - 2] = pshared[pshared.size() - 2] | pshared.back();
+            pts.pop_back();
+            pshared.pop_back();
+          }
+          for (bool changed = true; changed && pts.size() >= 3;) {
+            changed = false;
+            for (size_t k = 0; k < pts.size() && pts.size() >= 3; ++k) {
+              const size_t a = (k + pts.size() - 1) % pts.size(), b = (k + 1) % pts.size();
+              const __int128 o = __int128(pts[k].x - pts[a].x) * (pts[b].y - pts[a].y) -
+                                 __int128(pts[k].y - pts[a].y) * (pts[b].x - pts[a].x);
+              const bool on = o == 0 && (pts[k].x - pts[a].x) * (pts[b].x - pts[k].x) >= 0 &&
+                              (pts[k].y - pts[a].y) * (pts[b].y - pts[k].y) >= 0;
+              if (!on || pshared[a] != pshared[k]) continue;  // keep where stroking changes
+              pts.erase(pts.begin() + k);
+              pshared.erase(pshared.begin() + k);
+              changed = true;
+              --k;
+            }
+          }
+          if (pts.size() < 3) continue;
+          fd.move(pts[0]);
+          for (size_t k = 1; k < pts.size(); ++k) fd.line(pts[k]);
+          fd.close();
+          if (!shade || every_edge_shared) continue;
+          // Shared runs, as open subpaths.
+          const size_t n = pts.size();
+          bool all = true;
+          for (uint8_t v : pshared) all = all && v;
+          if (all) {
+            sd.move(pts[0]);
+            for (size_t k = 1; k < n; ++k) sd.line(pts[k]);
+            sd.close();
+            continue;
+          }
+          size_t s0 = 0;  // an edge whose predecessor is not shared: runs start at or after it
+          while (pshared[(s0 + n - 1) % n]) ++s0;
+          for (size_t k = 0; k < n; ++k) {
+            const size_t a = (s0 + k) % n;
+            if (!pshared[a]) continue;
+            if (!pshared[(a + n - 1) % n]) sd.move(pts[a]);
+            sd.line(pts[(a + 1) % n]);
+          }
+        }
+        if (!fills.empty()) {
+          if (every_edge_shared)
+            out += "<path d=\"" + fills + "\"/>\n";
+          else if (shade)
+            out += "<path stroke=\"none\" d=\"" + fills + "\"/>\n";
+          else
+            out += "<path fill=\"" + hex_color(c) + "\" d=\"" + fills + "\"/>\n";
+          if (!strokes.empty()) out += "<path fill=\"none\" d=\"" + strokes + "\"/>\n";
+        }
+        i = j;
+      }
+      if (shade) out += "</g>\n";
+    }
+    out += "</g>\n";
+  }
+}
+
+}  // namespace
+
 std::string svg_number(double v) {
   char buf[32];
   return std::string(buf, format_units(quantize(v), buf));
@@ -622,60 +819,64 @@ std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& ca
     out += " shape-rendering=\"crispEdges\">\n";
   }
 
-  // One record per source triangle that has something to draw.
-  struct PathRec {
-    uint32_t mesh, tri, color;
-    size_t first, last;  // range in `order`
-  };
-  std::vector<PathRec> paths;
-  for (size_t i = 0; i < nf;) {
-    const uint32_t mesh = map.mesh[order[i]], tri = map.triangle[order[i]];
-    size_t j = i;
-    bool any = false;
-    for (; j < nf && map.mesh[order[j]] == mesh && map.triangle[order[j]] == tri; ++j)
-      any = any || q.off[order[j] + 1] > q.off[order[j]];
-    if (any) {
-      uint32_t color;
-      if (shade) {
-        color = shade_color(scene, camera, mesh, tri);
-      } else {
-        const uint64_t id = detail::global_triangle_id(map, scene, base, order[i]) + 1;
-        if (id > 0xFFFFFF)
-          throw InputError(InputErrorKind::TooLarge, "svg", scene.meshes[mesh].name, "triangle",
-                           int64_t(tri),
-                           "global triangle id " + std::to_string(id - 1) +
-                               " does not fit a 24-bit --fill id colour");
-        color = uint32_t(id);
+  if (style.merge) {
+    write_merged(out, map, scene, camera, shade);
+  } else {
+    // One record per source triangle that has something to draw.
+    struct PathRec {
+      uint32_t mesh, tri, color;
+      size_t first, last;  // range in `order`
+    };
+    std::vector<PathRec> paths;
+    for (size_t i = 0; i < nf;) {
+      const uint32_t mesh = map.mesh[order[i]], tri = map.triangle[order[i]];
+      size_t j = i;
+      bool any = false;
+      for (; j < nf && map.mesh[order[j]] == mesh && map.triangle[order[j]] == tri; ++j)
+        any = any || q.off[order[j] + 1] > q.off[order[j]];
+      if (any) {
+        uint32_t color;
+        if (shade) {
+          color = shade_color(scene, camera, mesh, tri);
+        } else {
+          const uint64_t id = detail::global_triangle_id(map, scene, base, order[i]) + 1;
+          if (id > 0xFFFFFF)
+            throw InputError(InputErrorKind::TooLarge, "svg", scene.meshes[mesh].name, "triangle",
+                             int64_t(tri),
+                             "global triangle id " + std::to_string(id - 1) +
+                                 " does not fit a 24-bit --fill id colour");
+          color = uint32_t(id);
+        }
+        paths.push_back({mesh, tri, color, i, j});
       }
-      paths.push_back({mesh, tri, color, i, j});
+      i = j;
     }
-    i = j;
-  }
-  // Shade: paths of one colour share a <g color=...> (a mesh has at most a few hundred 8-bit
-  // shades), which keeps the per-path overhead to `<path d=""/>`. Drawing order does not
-  // matter in a map of depth complexity one.
-  if (shade)
-    std::stable_sort(paths.begin(), paths.end(), [](const PathRec& a, const PathRec& b) {
-      return a.mesh != b.mesh ? a.mesh < b.mesh : a.color < b.color;
-    });
+    // Shade: paths of one colour share a <g color=...> (a mesh has at most a few hundred 8-bit
+    // shades), which keeps the per-path overhead to `<path d=""/>`. Drawing order does not
+    // matter in a map of depth complexity one.
+    if (shade)
+      std::stable_sort(paths.begin(), paths.end(), [](const PathRec& a, const PathRec& b) {
+        return a.mesh != b.mesh ? a.mesh < b.mesh : a.color < b.color;
+      });
 
-  for (size_t i = 0; i < paths.size();) {
-    const uint32_t mesh = paths[i].mesh;
-    out += "<g><title>" + xml_escape(scene.meshes[mesh].name) + "</title>\n";
-    for (; i < paths.size() && paths[i].mesh == mesh;) {
-      const uint32_t color = paths[i].color;
-      if (shade) out += "<g color=\"" + hex_color(color) + "\">\n";
-      for (; i < paths.size() && paths[i].mesh == mesh && (!shade || paths[i].color == color);
-           ++i) {
-        out += shade ? "<path d=\"" : "<path fill=\"" + hex_color(paths[i].color) + "\" d=\"";
-        PathData d(out, shade);
-        for (size_t k = paths[i].first; k < paths[i].last; ++k)
-          if (q.off[order[k] + 1] > q.off[order[k]]) write_fragment(d, q, order[k], shade);
-        out += "\"/>\n";
+    for (size_t i = 0; i < paths.size();) {
+      const uint32_t mesh = paths[i].mesh;
+      out += "<g><title>" + xml_escape(scene.meshes[mesh].name) + "</title>\n";
+      for (; i < paths.size() && paths[i].mesh == mesh;) {
+        const uint32_t color = paths[i].color;
+        if (shade) out += "<g color=\"" + hex_color(color) + "\">\n";
+        for (; i < paths.size() && paths[i].mesh == mesh && (!shade || paths[i].color == color);
+             ++i) {
+          out += shade ? "<path d=\"" : "<path fill=\"" + hex_color(paths[i].color) + "\" d=\"";
+          PathData d(out, shade);
+          for (size_t k = paths[i].first; k < paths[i].last; ++k)
+            if (q.off[order[k] + 1] > q.off[order[k]]) write_fragment(d, q, order[k], shade);
+          out += "\"/>\n";
+        }
+        if (shade) out += "</g>\n";
       }
-      if (shade) out += "</g>\n";
+      out += "</g>\n";
     }
-    out += "</g>\n";
   }
   if (shade) out += "</g>\n";
   if (style.lines) {

@@ -282,6 +282,47 @@ TEST(Lines, BinaryLineSectionRoundTrips) {
   EXPECT_FALSE(read_bin(write_bin(d.map, s)).has_lines);  // unchanged without lines
 }
 
+// --merge: a plane of 2 x 16 x 16 triangles, one shade (orthographic: the light is the view
+// direction), is one region: one path of four corners; a square in front of it cuts a hole,
+// which the plane's path keeps as a second loop.
+TEST(Lines, MergeJoinsOneFillIntoOneRegionWithHoles) {
+  Scene s;
+  Mesh plane;
+  plane.name = "plane";
+  for (int j = 0; j <= 16; ++j)
+    for (int i = 0; i <= 16; ++i)
+      plane.positions.insert(plane.positions.end(), {float(32 + 12 * i), float(32 + 12 * j), 0.f});
+  test_support::add_grid_triangles(plane, 16);
+  s.meshes.push_back(plane);
+  SvgStyle st;
+  st.merge = true;
+  {
+    const Camera cam = ortho_view_256(s);
+    const Drawn d = draw(s, cam);
+    const std::string svg = write_svg(d.map, s, cam, Fill::Shade, st);
+    const size_t at = svg.find("<path stroke=\"none\" d=\"M");
+    ASSERT_NE(at, std::string::npos) << svg;
+    EXPECT_EQ(svg.find("<path", at + 1), std::string::npos) << svg;  // the only path
+    const size_t d0 = svg.find("d=\"", at) + 3;
+    const std::string d_attr = svg.substr(d0, svg.find('"', d0) - d0);
+    EXPECT_EQ(std::count(d_attr.begin(), d_attr.end(), 'm'), 0) << d_attr;  // one loop
+  }
+  s.meshes.push_back(square("front", 96, 96, 160, 160, 10));
+  const Camera cam = ortho_view_256(s);
+  const Drawn d = draw(s, cam);
+  const std::string svg = write_svg(d.map, s, cam, Fill::Shade, st);
+  // The plane: an outer loop and the hole (a relative 'm'), its hole's edges stroked (shared
+  // with the square); the square: one region.
+  const size_t at = svg.find("<path stroke=\"none\" d=\"M");
+  ASSERT_NE(at, std::string::npos) << svg;
+  const size_t d0 = svg.find("d=\"", at) + 3;
+  const std::string d_attr = svg.substr(d0, svg.find('"', d0) - d0);
+  EXPECT_EQ(std::count(d_attr.begin(), d_attr.end(), 'm'), 1) << d_attr;
+  EXPECT_NE(svg.find("<path fill=\"none\" d=\"M"), std::string::npos) << svg;
+  // Unmerged, the plane alone writes one path per triangle.
+  EXPECT_GT(std::count(svg.begin(), svg.end(), '\n'), 5);
+}
+
 // The drawing against the z-buffer id raster: on a cube nearly every id change is on a line
 // and every line on a change.
 TEST(Lines, CheckAgainstTheIdRaster) {
