@@ -4,30 +4,62 @@
 
 #include "core/compact.h"
 #include "core/delta.h"
+#include "core/lines.h"
 #include "core/output.h"
 
 namespace vismap::server {
 
 namespace {
 
+// What a hello's style asks for: lines (from the render's screen triangles) or not.
+struct LineStyle {
+  bool lines = false, fills = true;
+  LineOptions options;
+  explicit LineStyle(const Hello& h)
+      : lines(h.style != "fill"), fills(h.style != "lines") {
+    options.hidden = h.hidden;
+    options.crease_angle_deg = h.crease_angle_deg;
+  }
+};
+
 class SvgEncoder : public FrameEncoder {
  public:
-  explicit SvgEncoder(Fill fill) : fill_(fill) {}
+  SvgEncoder(Fill fill, const LineStyle& style) : fill_(fill), style_(style) {}
+  bool needs_screen() const override { return style_.lines; }
   EncodedFrame encode(const PlanarMap& map, const std::shared_ptr<const Scene>& scene,
-                      const Camera& camera, const ScreenTriangles*) override {
-    return {write_svg(map, *scene, camera, fill_)};
+                      const Camera& camera, const ScreenTriangles* screen) override {
+    if (!style_.lines) return {write_svg(map, *scene, camera, fill_)};
+    if (!screen) throw std::logic_error("svg encoder: the render kept no screen triangles");
+    const LineSet lines = extract_lines(map, *screen, *scene, camera, style_.options);
+    SvgStyle st;
+    st.fill = style_.fills;
+    st.lines = &lines;
+    EncodedFrame f{write_svg(map, *scene, camera, fill_, st)};
+    f.header = {{"line_chains", lines.chain_count()}};
+    return f;
   }
 
  private:
   Fill fill_;
+  LineStyle style_;
 };
 
 class BinEncoder : public FrameEncoder {
  public:
+  explicit BinEncoder(const LineStyle& style) : style_(style) {}
+  bool needs_screen() const override { return style_.lines; }
   EncodedFrame encode(const PlanarMap& map, const std::shared_ptr<const Scene>& scene,
-                      const Camera&, const ScreenTriangles*) override {
-    return {write_bin(map, *scene)};
+                      const Camera& camera, const ScreenTriangles* screen) override {
+    if (!style_.lines) return {write_bin(map, *scene)};
+    if (!screen) throw std::logic_error("bin encoder: the render kept no screen triangles");
+    const LineSet lines = extract_lines(map, *screen, *scene, camera, style_.options);
+    EncodedFrame f{write_bin(map, *scene, &lines, style_.fills)};
+    f.header = {{"line_chains", lines.chain_count()}};
+    return f;
   }
+
+ private:
+  LineStyle style_;
 };
 
 class CompactEncoder : public FrameEncoder {
@@ -86,9 +118,9 @@ class DeltaFrameEncoder : public FrameEncoder {
 std::unique_ptr<FrameEncoder> make_encoder(const Hello& h) {
   switch (h.format) {
     case Format::Svg:
-      return std::make_unique<SvgEncoder>(h.fill_id ? Fill::Id : Fill::Shade);
+      return std::make_unique<SvgEncoder>(h.fill_id ? Fill::Id : Fill::Shade, LineStyle(h));
     case Format::Bin:
-      return std::make_unique<BinEncoder>();
+      return std::make_unique<BinEncoder>(LineStyle(h));
     case Format::Compact: {
       CompactOptions o;
       o.quantum = h.quantum;

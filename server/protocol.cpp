@@ -136,6 +136,24 @@ Hello parse_hello(const json& j, uint32_t max_viewport) {
       else
         bad("'compression' must be \"zstd\" or \"deflate\" (raw deflate)");
     }
+    if (field(j, "style")) {
+      h.style = string(j, "style");
+      if (h.style != "fill" && h.style != "lines" && h.style != "fill+lines")
+        bad("'style' must be \"fill\", \"lines\" or \"fill+lines\"");
+    }
+    if (const json* v = field(j, "hidden")) {
+      if (!v->is_boolean()) bad("'hidden' must be a boolean");
+      h.hidden = v->get<bool>();
+    }
+    if (const json* v = field(j, "crease_angle")) {
+      if (!v->is_number() || !(v->get<double>() >= 0 && v->get<double>() <= 180))
+        bad("'crease_angle' must be a number of degrees from 0 to 180");
+      h.crease_angle_deg = v->get<double>();
+    }
+    if (h.style != "fill" && h.format != Format::Svg && h.format != Format::Bin)
+      bad("'style': lines are drawn in svg and bin frames, not " +
+          std::string(format_spec(h.format).name));
+    if (h.hidden && h.style == "fill") bad("'hidden': needs 'style' \"lines\" or \"fill+lines\"");
     if (field(j, "keyframe_every")) {
       const json* v = field(j, "keyframe_every");
       if (!v->is_number_integer() || v->get<int64_t>() < 0 || v->get<int64_t>() > 1000000)

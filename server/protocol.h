@@ -95,6 +95,11 @@ struct Hello {
   // Delta frames (version 2): a keyframe every N frames besides the first and those the client
   // asks for (0: none).
   uint32_t keyframe_every = 0;
+  // Line drawings (version 2; svg and bin frames): "fill", "lines" or "fill+lines", the
+  // occluded parts, the crease angle (docs/LINES.md).
+  std::string style = "fill";
+  bool hidden = false;
+  double crease_angle_deg = 45.0;
 };
 
 // Scene upload header. Exactly one source: `library` (a file in the server's library), `data`

@@ -8,6 +8,7 @@
 
 #include "core/compact.h"
 #include "core/delta.h"
+#include "core/lines.h"
 #include "core/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
@@ -197,6 +198,66 @@ TEST_F(ServerV2Test, BadCompactCombinationsAreRefused) {
   }
   c.send_text(R"({"type":"hello","version":2,"format":"bin","attributes":true})");
   EXPECT_EQ(next(c)["type"], "welcome");
+}
+
+// Line drawings in svg and bin frames (hello's style): the svg frame is write_svg with the
+// lines of the same render, the bin frame carries the same chains in its line section; a lines
+// style in a format that cannot draw them, or a bad option, is bad_message.
+TEST_F(ServerV2Test, LineStylesInSvgAndBinFrames) {
+  start();
+  const std::string grid = grid_obj(12);
+  vismap::Scene scene = vismap::load_scene_from_memory("grid.obj", grid);
+  vismap::Camera cam;
+  render_like_the_server(scene, 0.0, cam);
+  vismap::RenderOptions ro;
+  ro.memory_budget = cfg_.limits.render_memory_bytes;
+  ro.keep_screen_triangles = true;
+  vismap::ScreenTriangles screen;
+  const vismap::PlanarMap map = renderer_->render(scene, cam, ro, nullptr, &screen);
+  vismap::LineOptions lo;
+  lo.hidden = true;
+  const vismap::LineSet lines = vismap::extract_lines(map, screen, scene, cam, lo);
+  ASSERT_GT(lines.chain_count(), 0u);
+  {
+    WsClient c;
+    hello2(c, "svg", {{"style", "fill+lines"}, {"hidden", true}});
+    upload(c, "grid.obj", grid);
+    ASSERT_EQ(next(c, 60)["type"], "scene_ready");
+    auto [h, p] = frame(c, 0, 0.0);
+    EXPECT_EQ(h["line_chains"], lines.chain_count());
+    vismap::SvgStyle st;
+    st.lines = &lines;
+    EXPECT_TRUE(p.data == vismap::write_svg(map, scene, cam, vismap::Fill::Shade, st));
+    EXPECT_NE(p.data.find("<g class=\"lines\""), std::string::npos);
+  }
+  {
+    WsClient c;
+    hello2(c, "bin", {{"style", "lines"}, {"hidden", true}});
+    upload(c, "grid.obj", grid);
+    ASSERT_EQ(next(c, 60)["type"], "scene_ready");
+    auto [h, p] = frame(c, 0, 0.0);
+    const vismap::BinFrame f = vismap::read_bin(p.data);
+    EXPECT_TRUE(f.has_lines);
+    EXPECT_EQ(f.triangle_count(), 0u);
+    EXPECT_EQ(f.lines.off, lines.off);
+    EXPECT_EQ(f.lines.kind, lines.kind);
+  }
+  WsClient c;
+  c.connect(url());
+  const std::pair<const char*, const char*> bad[] = {
+      {R"({"type":"hello","version":2,"format":"compact","style":"lines"})", "style"},
+      {R"({"type":"hello","version":2,"format":"delta","style":"fill+lines"})", "style"},
+      {R"({"type":"hello","version":2,"format":"svg","style":"outline"})", "style"},
+      {R"({"type":"hello","version":2,"format":"svg","hidden":true})", "hidden"},
+      {R"({"type":"hello","version":2,"format":"svg","style":"lines","crease_angle":200})",
+       "crease_angle"},
+  };
+  for (auto [text, why] : bad) {
+    c.send_text(text);
+    json e = next(c);
+    EXPECT_EQ(e["code"], "bad_message") << text;
+    EXPECT_NE(e["message"].get<std::string>().find(why), std::string::npos) << e.dump();
+  }
 }
 
 TEST_F(ServerV2Test, MetricsCountFramesAndBytesPerFormat) {
