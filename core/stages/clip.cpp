@@ -38,7 +38,7 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
     rt.scan_to(kStage, ncount, noff, nq, totals, VM_TOTAL_NEXT);
     rt.scan_to(kStage, dcount, doff, nq, totals, VM_TOTAL_DONE);
     uint32_t tot[VM_TOTAL_SLOTS];
-    rt.read(totals, 0, sizeof tot, tot);
+    rt.read(kStage, totals, 0, sizeof tot, tot);
     if (tot[VM_TOTAL_STATUS] & VM_STATUS_LINES_OVERFLOW) return ClipStatus::LinesOverflow;
     if (tot[VM_TOTAL_STATUS] & VM_STATUS_HASH_FULL) throw DeviceError("edge hash table full");
     const uint32_t nn = tot[VM_TOTAL_NEXT], dn = tot[VM_TOTAL_DONE];
@@ -53,8 +53,8 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
       cl::Buffer m2 = rt.alloc(size_t(cap) * sizeof(VmFragMeta), "finished fragments");
       cl::Buffer l2 = rt.alloc(size_t(cap) * L * sizeof(VmLine), "finished fragment lines");
       if (out.count) {
-        rt.queue().enqueueCopyBuffer(out.meta, m2, 0, 0, size_t(out.count) * sizeof(VmFragMeta));
-        rt.queue().enqueueCopyBuffer(out.lines, l2, 0, 0, size_t(out.count) * L * sizeof(VmLine));
+        rt.copy(kStage, out.meta, m2, size_t(out.count) * sizeof(VmFragMeta));
+        rt.copy(kStage, out.lines, l2, size_t(out.count) * L * sizeof(VmLine));
       }
       out.meta = m2;
       out.lines = l2;

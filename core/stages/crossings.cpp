@@ -25,7 +25,7 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
     // The pair count and the overflow flag in one read.
     rt.scan_to(kStage, cx.pcount, cx.poffset, S, totals, VM_TOTAL_PAIRS);
     uint32_t tot[VM_TOTAL_SLOTS];
-    rt.read(totals, 0, sizeof tot, tot);
+    rt.read(kStage, totals, 0, sizeof tot, tot);
     cx.pairs = tot[VM_TOTAL_PAIRS];
     const uint32_t status = tot[VM_TOTAL_STATUS];
     const size_t P1 = std::max<size_t>(cx.pairs, 1);
