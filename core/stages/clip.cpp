@@ -70,7 +70,9 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
   // and apply, which writes the children to q[qi ^ 1] if they fit next_grid (else the rounds
   // stop, clip.cl). resume: run even though the state says stopped (the host made room).
   auto find = [&](uint32_t qi, uint32_t grid, cl_uint resume) {
-    if (grid > scratch || budget.limited()) {  // under a budget: this round's, as it needs
+    // Under a budget: this round's, as it needs; else reused while it is at most 4x the grid
+    // (the first round's, sized for every screen triangle, is not kept for the small ones).
+    if (grid > scratch || budget.limited() || grid < scratch / 4) {
       split_at = rt.alloc(size_t(grid) * 4, "split edges");
       ncount = rt.alloc(size_t(grid) * 4, "queue counts");
       dcount = rt.alloc(size_t(grid) * 4, "done counts");
@@ -129,7 +131,11 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
       nq = nn;
       live ^= 1;
       resume = false;
-      if (!budget.limited() && q[live ^ 1].cap < 2 * nn) q[live ^ 1] = alloc_queue(2 * nn);
+      // The queue just read is free: resized to room for a batch (the root queue, one slot per
+      // screen triangle, is mostly far too big for the rounds after the first).
+      Queue& spare = q[live ^ 1];
+      if (!budget.limited() && (spare.cap < 2 * nn || spare.cap > 8 * nn))
+        spare = alloc_queue(2 * nn);
     } else {
       const uint32_t grid = std::min<uint32_t>(2 * nq, room);
       for (uint32_t r = 0; r < kRoundsPerRead; ++r) {
