@@ -124,7 +124,8 @@ class ClRuntime {
   template <class A, class... Rest>
   void set_args(Kernel& k, Stage stage, const char* name, cl_uint i, const A& a,
                 const Rest&... rest) {
-    if constexpr (std::is_same_v<A, cl::Buffer>) pending_bytes_ += a.template getInfo<CL_MEM_SIZE>();
+    if constexpr (std::is_same_v<A, cl::Buffer>)  // a null buffer (an unused optional) counts 0
+      if (a() != nullptr) pending_bytes_ += a.template getInfo<CL_MEM_SIZE>();
     try {
       k.k.setArg(i, a);
     } catch (const cl::Error& e) {
