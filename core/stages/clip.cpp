@@ -99,12 +99,16 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
     return (tot[VM_TOTAL_STATUS] & VM_STATUS_LINES_OVERFLOW) == 0;
   };
   bool resume = false;  // the rounds stopped for room, which the next (exact) round makes
+  // A batch's grid is `growth` times the queue it starts from: 2, doubled (up to 16) each time
+  // the children outgrew it (a folded surface's queue can grow 1.5x a round).
+  uint32_t growth = 2;
   while (nq > 0) {
     deadline.check(kStage);
     // An exact round (the first, every round under a budget, after a stop) reads its counts
     // before placing its children and sizes the next queue from them; otherwise a batch runs
-    // kRoundsPerRead rounds over a grid of twice the queue it starts from (the queue shrinks
-    // on the bench scenes after the first round; it may grow up to the grid), read back once.
+    // kRoundsPerRead rounds over a grid of `growth` times the queue it starts from (the queue
+    // shrinks on the bench scenes after the first round; it may grow up to the grid), read back
+    // once.
     const uint32_t room = std::min(q[0].cap, q[1].cap);
     if (out.rounds == 0 || budget.limited() || resume || room < nq) {
       const cl_uint packed = find(live, nq, resume);
@@ -124,7 +128,8 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
       if (grow) grow_done(out.count + dn);
       Queue& next = q[live ^ 1];
       // Under a budget the next queue is what it needs; otherwise room for a batch to grow.
-      if (budget.limited() || next.cap < nn) next = alloc_queue(budget.limited() ? nn : 2 * nn);
+      if (budget.limited() || next.cap < nn)
+        next = alloc_queue(budget.limited() ? nn : uint32_t(std::min<uint64_t>(growth * uint64_t(nn), UINT32_MAX)));
       apply(live, nq, next.cap, resume, packed);  // cannot stop: the host made room for this round
       out.count += dn;
       ++out.rounds;
@@ -134,10 +139,11 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
       // The queue just read is free: resized to room for a batch (the root queue, one slot per
       // screen triangle, is mostly far too big for the rounds after the first).
       Queue& spare = q[live ^ 1];
-      if (!budget.limited() && (spare.cap < 2 * nn || spare.cap > 8 * nn))
-        spare = alloc_queue(2 * nn);
+      const uint64_t want = growth * uint64_t(nn);
+      if (!budget.limited() && (spare.cap < want || spare.cap > 4 * want))
+        spare = alloc_queue(uint32_t(std::min<uint64_t>(want, UINT32_MAX)));
     } else {
-      const uint32_t grid = std::min<uint32_t>(2 * nq, room);
+      const uint32_t grid = uint32_t(std::min<uint64_t>(growth * uint64_t(nq), room));
       for (uint32_t r = 0; r < kRoundsPerRead; ++r) {
         const cl_uint packed = find(live ^ (r & 1), grid, 0);
         apply(live ^ (r & 1), grid, grid, 0, packed);
@@ -151,6 +157,7 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
       out.count = st[VM_CLIP_DONE];
       nq = st[VM_CLIP_NQ];
       resume = st[VM_CLIP_STOP] != 0;
+      if (st[VM_CLIP_STOP] == VM_CLIP_STOP_QUEUE) growth = std::min<uint32_t>(growth * 2, 16);
     }
     if (after_round) after_round(out.rounds);
   }
