@@ -306,6 +306,19 @@ int main(int argc, char** argv) {
       num("sliver_fragments", double(st.sliver_fragments));
       num("clip_rounds", st.clip_rounds);
       num("host_syncs", st.host_syncs);
+      num("launches", st.launches);
+      num("device_bytes", double(st.device_bytes));
+      num("transfer_bytes", double(st.transfer_bytes));
+      num("gpu_floor_ms", modelled_gpu_floor_ms(st));
+      {
+        std::string c = "{";  // per stage: [launches, blocking reads, bytes moved]
+        for (const StageStat& ss : st.stages) {
+          if (c.size() > 1) c += ",";
+          c += json_string(ss.name) + ":[" + fmt(ss.launches) + "," + fmt(ss.host_syncs) + "," +
+               fmt(double(ss.device_bytes + ss.transfer_bytes)) + "]";
+        }
+        kv("stage_counts", c + "}");
+      }
       num("output_fragments", double(map.fragment_count()));
       num("output_triangles", double(out_tris));
       num("peak_device_bytes", double(st.peak_device_bytes));

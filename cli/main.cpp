@@ -250,10 +250,12 @@ int cmd_render(int argc, char** argv) {
       out_tris += map.offsets[f + 1] - map.offsets[f] - 2;
     std::fprintf(stderr, "device: %s / %s\n", renderer.device().platform.c_str(),
                  renderer.device().name.c_str());
-    std::fprintf(stderr, "%-12s %10s %9s %12s %12s\n", "stage", "ms", "launches", "in", "out");
+    std::fprintf(stderr, "%-12s %10s %9s %6s %10s %12s %12s\n", "stage", "ms", "launches",
+                 "reads", "MB moved", "in", "out");
     double sum = 0;
     for (const StageStat& s : st.stages) {
-      std::fprintf(stderr, "%-12s %10.2f %9u %12llu %12llu\n", s.name.c_str(), s.ms, s.launches,
+      std::fprintf(stderr, "%-12s %10.2f %9u %6u %10.2f %12llu %12llu\n", s.name.c_str(), s.ms,
+                   s.launches, s.host_syncs, (s.device_bytes + s.transfer_bytes) / 1e6,
                    static_cast<unsigned long long>(s.items_in),
                    static_cast<unsigned long long>(s.items_out));
       sum += s.ms;
@@ -274,6 +276,13 @@ int cmd_render(int argc, char** argv) {
                  static_cast<unsigned long long>(st.fragments),
                  static_cast<unsigned long long>(st.visible_fragments), st.clip_rounds,
                  st.host_syncs, st.peak_device_bytes / 1e6, st.allocated_device_bytes / 1e6);
+    std::fprintf(stderr,
+                 "per frame: launches %u, blocking reads %u, bytes moved %.2f MB (device model "
+                 "%.2f MB, host<->device %.3f MB); modelled GPU floor %.3f ms (pipeline wall "
+                 "here %.2f ms)\n",
+                 st.launches, st.host_syncs, (st.device_bytes + st.transfer_bytes) / 1e6,
+                 st.device_bytes / 1e6, st.transfer_bytes / 1e6, modelled_gpu_floor_ms(st),
+                 st.pipeline_ms);
     std::fprintf(
         stderr,
         "entangled pairs %llu, crossing entries %llu, thin fragments %llu, deep tournaments %llu\n",

@@ -255,7 +255,8 @@ void ClRuntime::enqueue(Stage stage, const char* name, cl::Kernel& k, size_t n, 
                       std::to_string(n) + " items) failed: " + cl_error_name(e.err()) + " (" +
                       std::to_string(e.err()) + ") on " + info_.name);
   }
-  launches_.push_back({stage, name, ev});
+  launches_.push_back({stage, name, ev, pending_bytes_});
+  pending_bytes_ = 0;
 }
 
 namespace {
@@ -327,7 +328,7 @@ void ClRuntime::fill_u32(cl::Buffer& b, uint32_t value, size_t count, Stage stag
                       stage_name(stage) + ") failed: " + cl_error_name(e.err()) + " (" +
                       std::to_string(e.err()) + ")");
   }
-  launches_.push_back({stage, "fill", ev});
+  launches_.push_back({stage, "fill", ev, count * sizeof(uint32_t)});
 }
 
 void ClRuntime::scan_level(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
@@ -348,7 +349,7 @@ void ClRuntime::scan_to(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, ui
     cl::Event ev;
     queue_.enqueueFillBuffer(totals, uint32_t(0), slot * sizeof(uint32_t), sizeof(uint32_t),
                              nullptr, &ev);
-    launches_.push_back({stage, "fill", ev});
+    launches_.push_back({stage, "fill", ev, sizeof(uint32_t)});
     return;
   }
   scan_level(stage, counts, offsets, n);
@@ -360,19 +361,38 @@ uint32_t ClRuntime::scan(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, u
   scan_level(stage, counts, offsets, n);
   launch(stage, "scan_total", 1, counts, offsets, n, scratch_total_, 0u);
   uint32_t total = 0;
-  read(scratch_total_, 0, sizeof total, &total);
+  read(stage, scratch_total_, 0, sizeof total, &total);
   return total;
 }
 
-void ClRuntime::read(const cl::Buffer& b, size_t offset, size_t bytes, void* dst) {
+void ClRuntime::read(Stage stage, const cl::Buffer& b, size_t offset, size_t bytes, void* dst) {
   queue_.enqueueReadBuffer(b, CL_TRUE, offset, bytes, dst);
   ++syncs_;
+  ++stage_syncs_[size_t(stage)];
+  stage_transfer_[size_t(stage)] += bytes;
+}
+
+void ClRuntime::read_async(Stage stage, const cl::Buffer& b, size_t offset, size_t bytes,
+                           void* dst) {
+  if (bytes == 0) return;
+  queue_.enqueueReadBuffer(b, CL_FALSE, offset, bytes, dst);
+  stage_transfer_[size_t(stage)] += bytes;
+}
+
+void ClRuntime::copy(Stage stage, const cl::Buffer& src, cl::Buffer& dst, size_t bytes) {
+  if (bytes == 0) return;
+  cl::Event ev;
+  queue_.enqueueCopyBuffer(src, dst, 0, 0, bytes, nullptr, &ev);
+  launches_.push_back({stage, "copy", ev, 2 * uint64_t(bytes)});
 }
 
 void ClRuntime::reset_profile() {
   launches_.clear();
   kernel_profile_.clear();
   syncs_ = 0;
+  write_bytes_ = 0;
+  stage_syncs_.fill(0);
+  stage_transfer_.fill(0);
 }
 
 ClRuntime::StageTimes ClRuntime::collect_profile() {
@@ -385,11 +405,18 @@ ClRuntime::StageTimes ClRuntime::collect_profile() {
     StageTime& st = out[static_cast<size_t>(l.stage)];
     st.ms += ms;
     st.launches += 1;
+    st.bytes += l.bytes;
     auto& k = kernel_profile_[std::string(stage_name(l.stage)) + "/" + l.name];
     k.first += ms;
     k.second += 1;
   }
   launches_.clear();
+  for (size_t i = 0; i < kStageCount; ++i) {
+    out[i].syncs = stage_syncs_[i];
+    out[i].transfer_bytes = stage_transfer_[i];
+  }
+  stage_syncs_.fill(0);
+  stage_transfer_.fill(0);
   return out;
 }
 

@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "core/device.h"
@@ -57,6 +58,7 @@ class ClRuntime {
     if (n == 0) return;
     Kernel& k = kernel(name);
     check_arity(k, stage, name, sizeof...(Args));
+    pending_bytes_ = 0;
     set_args(k, stage, name, 0, args...);
     enqueue(stage, name, k.k, n, local);
   }
@@ -67,13 +69,23 @@ class ClRuntime {
   cl::Buffer upload(const std::vector<T>& v, const char* what) {
     cl::Buffer b = alloc(std::max<size_t>(v.size() * sizeof(T), sizeof(T)), what);
     if (!v.empty()) queue_.enqueueWriteBuffer(b, CL_TRUE, 0, v.size() * sizeof(T), v.data());
+    write_bytes_ += v.size() * sizeof(T);
     return b;
   }
   void fill_u32(cl::Buffer& b, uint32_t value, size_t count, Stage stage);
   // Blocking read: the host waits for the queue to drain and the copy (one round trip, ~50 us
-  // on PoCL here, ~16-19 us on an H100). Counted: host_syncs() since reset_profile().
-  void read(const cl::Buffer& b, size_t offset, size_t bytes, void* dst);
+  // on PoCL here, ~16-19 us on an H100). Counted under `stage`: host_syncs() and the stage's
+  // syncs and transfer bytes since reset_profile().
+  void read(Stage stage, const cl::Buffer& b, size_t offset, size_t bytes, void* dst);
+  // Non-blocking read (done by the next blocking read or collect_profile, the queue being in
+  // order): counted as transfer bytes only.
+  void read_async(Stage stage, const cl::Buffer& b, size_t offset, size_t bytes, void* dst);
+  // Device-side copy, recorded as a launch of `stage` ("copy") that moves 2 x bytes.
+  void copy(Stage stage, const cl::Buffer& src, cl::Buffer& dst, size_t bytes);
   uint32_t host_syncs() const { return syncs_; }
+  // Bytes written host -> device by upload() since reset_profile() (a frame's camera and cull
+  // modes; the scene's upload happens before the reset).
+  uint64_t write_bytes() const { return write_bytes_; }
 
   // Exclusive scan of n counts into offsets (device), returning the total (one read back).
   uint32_t scan(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n);
@@ -82,9 +94,15 @@ class ClRuntime {
                uint32_t slot);
 
   // Profiling: per-stage event times since the last collect (waits for the queue).
+  // bytes: the launches' modelled device traffic, each launch counting the sizes of the
+  // buffers passed to it once (fills and copies: the bytes they write, or read and write);
+  // syncs and transfer_bytes: the stage's blocking reads and its device -> host bytes.
   struct StageTime {
     double ms = 0;
     uint32_t launches = 0;
+    uint32_t syncs = 0;
+    uint64_t bytes = 0;
+    uint64_t transfer_bytes = 0;
   };
   using StageTimes = std::array<StageTime, kStageCount>;
   void reset_profile();
@@ -106,6 +124,8 @@ class ClRuntime {
   template <class A, class... Rest>
   void set_args(Kernel& k, Stage stage, const char* name, cl_uint i, const A& a,
                 const Rest&... rest) {
+    if constexpr (std::is_same_v<A, cl::Buffer>)  // a null buffer (an unused optional) counts 0
+      if (a() != nullptr) pending_bytes_ += a.template getInfo<CL_MEM_SIZE>();
     try {
       k.k.setArg(i, a);
     } catch (const cl::Error& e) {
@@ -128,8 +148,9 @@ class ClRuntime {
   std::map<std::string, Kernel> kernels_;
   struct Launch {
     Stage stage;
-    const char* name;  // kernel name, or "fill" (string literals only)
+    const char* name;  // kernel name, "fill" or "copy" (string literals only)
     cl::Event event;
+    uint64_t bytes;  // modelled device traffic (StageTime::bytes)
   };
   std::vector<Launch> launches_;
   std::map<std::string, std::pair<double, uint32_t>> kernel_profile_;
@@ -140,6 +161,10 @@ class ClRuntime {
       false;  // large buffers on host blocks: CPU devices, unless $VISMAP_HOST_BLOCKS=0
   uint64_t peak_ = 0;
   uint32_t syncs_ = 0;
+  uint64_t pending_bytes_ = 0;  // buffer sizes of the launch being set up
+  uint64_t write_bytes_ = 0;
+  std::array<uint32_t, kStageCount> stage_syncs_{};
+  std::array<uint64_t, kStageCount> stage_transfer_{};
   cl::Buffer scratch_total_;
 };
 

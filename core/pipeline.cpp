@@ -54,6 +54,9 @@ struct Tally {
     for (size_t i = 0; i < kStageCount; ++i) {
       time[i].ms += t[i].ms;
       time[i].launches += t[i].launches;
+      time[i].syncs += t[i].syncs;
+      time[i].bytes += t[i].bytes;
+      time[i].transfer_bytes += t[i].transfer_bytes;
     }
   }
 };
@@ -209,12 +212,19 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     if (fr.use_boxes) bytes_per_tri = std::max(bytes_per_tri, (rt.allocated_bytes() - base) / S);
   }
   st.host_syncs = rt.host_syncs();
+  st.transfer_bytes = rt.write_bytes();
   tally.items(Stage::Emit, st.visible_fragments, map.vertex_count());
   for (Stage s : kFrameStages) {
     StageStat ss;
     ss.name = stage_name(s);
     ss.ms = tally.time[size_t(s)].ms;
     ss.launches = tally.time[size_t(s)].launches;
+    ss.host_syncs = tally.time[size_t(s)].syncs;
+    ss.device_bytes = tally.time[size_t(s)].bytes;
+    ss.transfer_bytes = tally.time[size_t(s)].transfer_bytes;
+    st.launches += ss.launches;
+    st.device_bytes += ss.device_bytes;
+    st.transfer_bytes += ss.transfer_bytes;
     ss.items_in = tally.io[size_t(s)].first;
     ss.items_out = tally.io[size_t(s)].second;
     st.stages.push_back(ss);
@@ -227,6 +237,13 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   if (opts.memory_budget) malloc_trim(0);  // a budgeted render hands back what it freed
 #endif
   return map;
+}
+
+double modelled_gpu_floor_ms(const RenderStats& st) {
+  constexpr double kLaunchUs = 5.5, kSyncUs = 17.0, kBytesPerUs = 2.3e6;  // 2.3 TB/s
+  return (st.launches * kLaunchUs + st.host_syncs * kSyncUs +
+          double(st.device_bytes + st.transfer_bytes) / kBytesPerUs) /
+         1000.0;
 }
 
 bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uint32_t S,

@@ -15,9 +15,11 @@
  * neighbouring regions meet exactly. A triangle whose box meets the region but whose interior
  * does not gets nlines = 0 and is dropped by the first round. */
 __kernel void frag_init(__global const VmScreenTri* tris, uint ntris, int4 region, int clip_region,
-                        __global VmFragMeta* meta, __global VmLine* lines) {
+                        __global VmFragMeta* meta, __global VmLine* lines, __global uint* state) {
   uint t = get_global_id(0);
   if (t >= ntris) return;
+  if (t == 0) /* the queue state of the first round (layout.h VM_CLIP_*) */
+    for (int w = 0; w < VM_CLIP_WORDS; ++w) state[w] = w == VM_CLIP_NQ ? ntris : 0u;
   VmScreenTri s = tris[t];
   VmLine P[VM_MAXL], Q[VM_MAXL];
   uint n = 3;
@@ -114,18 +116,44 @@ inline uint split_side(__global const VmLine* L, uint n, const int* sgn, int sid
   return m;
 }
 
-__kernel void clip_find(__global const VmFragMeta* meta, __global const VmLine* lines, uint nq,
-                        __global const uint* cand_offset, __global const uint* cand_count,
-                        __global const uint* cand, __global const VmEdge* edges,
-                        __global uint* split_at, __global uint* next_count,
-                        __global uint* done_count, __global uint* status) {
+/* The queue length a round works on: none once the rounds have stopped (clip_apply). */
+inline uint clip_queue_length(__global const uint* state, uint resume) {
+  return state[VM_CLIP_STOP] && !resume ? 0u : state[VM_CLIP_NQ];
+}
+
+/* One round over a grid of `grid` items (the host's bound; clip_apply keeps the queue within it):
+ * items past the device-side queue length write zero counts, for the scans over the grid.
+ * resume: the host has made room after a stop, this round runs whatever the state says.
+ * packed: one count per item, children + (finished << VM_CLIP_PACK_SHIFT), in next_count. */
+inline void clip_counts(__global uint* next_count, __global uint* done_count, uint i, uint packed,
+                        uint next, uint done) {
+  if (packed) {
+    next_count[i] = next | (done << VM_CLIP_PACK_SHIFT);
+  } else {
+    next_count[i] = next;
+    done_count[i] = done;
+  }
+}
+
+__kernel void clip_find(__global const VmFragMeta* meta, __global const VmLine* lines, uint grid,
+                        __global const uint* states, uint sc, uint resume, uint packed,
+                        __global const uint* cand_offset,
+                        __global const uint* cand_count, __global const uint* cand,
+                        __global const VmEdge* edges, __global uint* split_at,
+                        __global uint* next_count, __global uint* done_count,
+                        __global uint* status) {
   uint i = get_global_id(0);
-  if (i >= nq) return;
+  if (i >= grid) return;
+  const uint nq = clip_queue_length(states + sc * VM_CLIP_WORDS, resume);
+  if (i >= nq) {
+    split_at[i] = VM_NONE;
+    clip_counts(next_count, done_count, i, packed, 0, 0);
+    return;
+  }
   VmFragMeta m = meta[i];
   if (m.nlines == 0) { /* a root fragment outside its region (frag_init) */
     split_at[i] = VM_NONE;
-    next_count[i] = 0;
-    done_count[i] = 0;
+    clip_counts(next_count, done_count, i, packed, 0, 0);
     return;
   }
   __global const VmLine* L = lines + (size_t)i * VM_MAXL;
@@ -158,31 +186,59 @@ __kernel void clip_find(__global const VmFragMeta* meta, __global const VmLine* 
       uint nn = split_side(L, m.nlines, sgn, -1, cut, 0, 0);
       if (np > VM_MAXL || nn > VM_MAXL) atomic_or(status, VM_STATUS_LINES_OVERFLOW);
       split_at[i] = k;
-      next_count[i] = 2;
-      done_count[i] = 0;
+      clip_counts(next_count, done_count, i, packed, 2, 0);
       return;
     }
   }
   split_at[i] = VM_NONE;
-  next_count[i] = 0;
-  done_count[i] = 1;
+  clip_counts(next_count, done_count, i, packed, 0, 1);
 }
 
-__kernel void clip_apply(__global const VmFragMeta* meta, __global const VmLine* lines, uint nq,
+/* Writes the round's children and finished fragments if both fit (the next round's grid
+ * next_grid, the finished list's done_cap) and no child needs more than VM_MAXL lines; else the
+ * round has no effect and the rounds stop,
+ * the queue as it was. The state is in two copies: this round's (copy sc) and the next round's,
+ * written by work-item 0 only; every item reads only this round's, so none sees a half-written
+ * one. */
+__kernel void clip_apply(__global const VmFragMeta* meta, __global const VmLine* lines, uint grid,
+                         __global uint* states, uint sc, uint resume, uint packed,
+                         __global const uint* totals, uint next_grid, uint done_cap,
                          __global const uint* cand_offset, __global const uint* cand,
                          __global const VmEdge* edges, __global const uint* split_at,
                          __global const uint* next_offset, __global const uint* done_offset,
-                         uint done_base, __global VmFragMeta* next_meta,
-                         __global VmLine* next_lines, __global VmFragMeta* done_meta,
-                         __global VmLine* done_lines) {
+                         __global VmFragMeta* next_meta, __global VmLine* next_lines,
+                         __global VmFragMeta* done_meta, __global VmLine* done_lines) {
   uint i = get_global_id(0);
-  if (i >= nq) return;
+  if (i >= grid) return;
+  __global const uint* state = states + sc * VM_CLIP_WORDS;
+  __global uint* next_state = states + (sc ^ 1u) * VM_CLIP_WORDS;
+  const uint nq = clip_queue_length(state, resume);
+  const uint tn = totals[VM_TOTAL_NEXT], pmask = (1u << VM_CLIP_PACK_SHIFT) - 1u;
+  const uint nn = packed ? tn & pmask : tn;
+  const uint dn = packed ? tn >> VM_CLIP_PACK_SHIFT : totals[VM_TOTAL_DONE];
+  const uint done_base = state[VM_CLIP_DONE];
+  const uint stopped = resume ? 0u : state[VM_CLIP_STOP];
+  const uint stop = stopped ? stopped
+                    : totals[VM_TOTAL_STATUS] & VM_STATUS_LINES_OVERFLOW ? VM_CLIP_STOP_LINES
+                    : nn > next_grid                   ? VM_CLIP_STOP_QUEUE
+                    : (ulong)done_base + dn > done_cap ? VM_CLIP_STOP_DONE
+                                                       : 0u;
+  if (i == 0) {
+    const int ran = !stopped;
+    next_state[VM_CLIP_NQ] = stop ? state[VM_CLIP_NQ] : nn;
+    next_state[VM_CLIP_DONE] = stop ? done_base : done_base + dn;
+    next_state[VM_CLIP_STOP] = stop;
+    next_state[VM_CLIP_ROUNDS] = state[VM_CLIP_ROUNDS] + (!stop && nq > 0);
+    next_state[VM_CLIP_NEXT] = ran ? nn : state[VM_CLIP_NEXT];
+    next_state[VM_CLIP_NDONE] = ran ? dn : state[VM_CLIP_NDONE];
+  }
+  if (stop || i >= nq) return;
   VmFragMeta m = meta[i];
   __global const VmLine* L = lines + (size_t)i * VM_MAXL;
   uint k = split_at[i];
   if (m.nlines == 0) return;
   if (k == VM_NONE) {
-    uint d = done_base + done_offset[i];
+    uint d = done_base + (packed ? next_offset[i] >> VM_CLIP_PACK_SHIFT : done_offset[i]);
     done_meta[d] = m;
     for (uint j = 0; j < m.nlines; ++j) done_lines[(size_t)d * VM_MAXL + j] = L[j];
     return;
@@ -190,7 +246,7 @@ __kernel void clip_apply(__global const VmFragMeta* meta, __global const VmLine*
   VmEdge E = edges[cand[cand_offset[m.tri] + k]];
   int sgn[VM_MAXL];
   cuts(L, m.nlines, E, sgn);
-  uint o = next_offset[i];
+  uint o = packed ? next_offset[i] & pmask : next_offset[i];
   Line3 LE = edge_line(E);
   VmLine cut = vm_line(LE), rev = vm_line(line_reversed(LE));
   VmFragMeta c = m;

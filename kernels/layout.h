@@ -112,6 +112,27 @@ typedef struct {
 #define VM_STATUS_HASH_FULL 2u
 #define VM_STATUS_PAIRS_OVERFLOW 4u
 
+/* The clip rounds' queue state on the device (clip.cl), so that several rounds run per read-back:
+ * two copies of VM_CLIP_WORDS words; round r reads copy r % 2 and its clip_apply writes the other.
+ * STOP: 0 while running, else the VM_CLIP_STOP_* reason the rounds stopped at (the queue is left
+ * as it was, for the host to grow the lists and go on); NEXT and DONE: the last round's counts,
+ * or those that did not fit. */
+#define VM_CLIP_NQ 0     /* fragments in the queue */
+#define VM_CLIP_DONE 1   /* finished fragments so far (the finished list's length) */
+#define VM_CLIP_STOP 2   /* 0, or why the rounds stopped */
+#define VM_CLIP_ROUNDS 3 /* rounds that ran on a non-empty queue, since the host set the state */
+#define VM_CLIP_NEXT 4   /* the last round's children */
+#define VM_CLIP_NDONE 5  /* the last round's finished fragments */
+#define VM_CLIP_WORDS 8
+#define VM_CLIP_STOP_QUEUE 1u /* the children did not fit the next round's grid */
+#define VM_CLIP_STOP_DONE 2u  /* the finished fragments did not fit the finished list */
+/* A round over at most VM_CLIP_PACK_MAX items scans its counts once, packed as children +
+ * (finished << VM_CLIP_PACK_SHIFT): at most 2 * 32767 children and 32767 finished, so neither
+ * prefix sum leaves its half of the word. */
+#define VM_CLIP_PACK_SHIFT 16
+#define VM_CLIP_PACK_MAX 32767u
+#define VM_CLIP_STOP_LINES 3u /* a child needs more than VM_MAXL lines (VM_STATUS_LINES_OVERFLOW) */
+
 /* Crossing pairs a screen triangle keeps in its inline scratch slots in the first traversal
  * (crossings.cl cross_pairs); a triangle with more traverses again into exact space. */
 #define VM_PAIRS_INLINE 4
@@ -137,6 +158,10 @@ static_assert(VM_SCAN_BLOCK == VM_SCAN_WG * VM_SCAN_PER_ITEM &&
                   (VM_SCAN_WG & (VM_SCAN_WG - 1)) == 0,
               "scan blocks of a power-of-two work-group");
 static_assert(VM_PAIRS_INLINE >= 1, "inline pair slots");
+static_assert(VM_CLIP_NDONE < VM_CLIP_WORDS, "clip state words");
+static_assert(2 * VM_CLIP_PACK_MAX < (1u << VM_CLIP_PACK_SHIFT) &&
+                  VM_CLIP_PACK_MAX < (1u << (32 - VM_CLIP_PACK_SHIFT)),
+              "packed clip counts fit their halves");
 #endif
 
 #endif

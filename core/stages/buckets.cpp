@@ -28,7 +28,7 @@ std::vector<cl_int4> plan_buckets(ClRuntime& rt, const SceneBuffers& sb, Frame& 
     rt.launch(Stage::Transform, "clip_cells", sb.ntri, sb.idx, sb.ntri, fr.clip, sb.tri_mesh,
               sb.tri_local, fr.mesh_cull, W, H, fr.ortho, fr.full, cells, h, fr.boxes, fr.depth_ex);
     fr.depth_ex_done = true;
-    rt.read(h, 0, hist.size() * 4, hist.data());
+    rt.read(Stage::Transform, h, 0, hist.size() * 4, hist.data());
   }
   // What every bucket holds besides its own work: the scene, the clip-space vertices, the
   // per-input-triangle counts, offsets and boxes (all allocated by now).

@@ -4,6 +4,25 @@
 
 namespace vismap::stages {
 
+namespace {
+
+// Rounds run per read-back after the first. The queue length lives on the device (VM_CLIP_*
+// state, clip.cl), so a batch of rounds needs no host decision in between; a round after the
+// queue has emptied costs its launches (find, the scans, apply: 6-10) over a grid of items that
+// leave at once. Measured queues (1024^2): the bunny shrinks from 7,650 after round 1 to 0 in 11
+// more rounds, the teapot in 17, the Cornell box with the armadillo in 53 (growing 492 -> 1,420
+// in rounds 8-16). Four rounds per read wastes at most three rounds' launches a frame and saves
+// three reads in four: on the issue-17 GPU model a read (17 us) is three launches (5.5 us), so a
+// longer batch would pay more in idle rounds than it saves; on PoCL a read is ~50 us.
+constexpr uint32_t kRoundsPerRead = 4;
+
+struct Queue {
+  cl::Buffer meta, lines;
+  uint32_t cap = 0;
+};
+
+}  // namespace
+
 ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& region,
                           cl_int clip_region, const Candidates& cand, const ClipEdges& ce,
                           cl::Buffer& totals, const Deadline& deadline, const RegionBudget& budget,
@@ -18,56 +37,128 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
   uint32_t nq = S, done_cap = std::max<uint32_t>(S + S / 4, budget.limited() ? 16 : 1024);
   if (!budget.allows(before + (uint64_t(S) + done_cap) * per_fragment))
     return ClipStatus::OverBudget;
-  cl::Buffer qmeta = rt.alloc(size_t(S) * sizeof(VmFragMeta), "fragment queue");
-  cl::Buffer qlines = rt.alloc(size_t(S) * L * sizeof(VmLine), "fragment lines");
-  rt.launch(kStage, "frag_init", S, s.tris, S, region, clip_region, qmeta, qlines);
+  auto alloc_queue = [&](uint32_t cap) {
+    cap = std::max<uint32_t>(cap, 1);
+    return Queue{rt.alloc(size_t(cap) * sizeof(VmFragMeta), "fragment queue"),
+                 rt.alloc(size_t(cap) * L * sizeof(VmLine), "fragment lines"), cap};
+  };
+  // The queue in two buffers: round r reads q[live] and writes q[live ^ 1].
+  Queue q[2] = {alloc_queue(S), Queue{}};
+  uint32_t live = 0;
+  // Two copies of the device-side queue state: round r reads state copy sc, writes sc ^ 1.
+  cl::Buffer state = rt.alloc(2 * VM_CLIP_WORDS * 4, "clip queue state");
+  uint32_t sc = 0;
+  rt.launch(kStage, "frag_init", S, s.tris, S, region, clip_region, q[0].meta, q[0].lines, state);
   out.meta = rt.alloc(size_t(done_cap) * sizeof(VmFragMeta), "finished fragments");
   out.lines = rt.alloc(size_t(done_cap) * L * sizeof(VmLine), "finished fragment lines");
   out.count = 0;
   out.rounds = 0;
+  auto grow_done = [&](uint32_t need) {  // grow the finished list, keeping what it holds
+    const uint32_t cap = std::max<uint32_t>(done_cap + done_cap / 2, need);
+    cl::Buffer m2 = rt.alloc(size_t(cap) * sizeof(VmFragMeta), "finished fragments");
+    cl::Buffer l2 = rt.alloc(size_t(cap) * L * sizeof(VmLine), "finished fragment lines");
+    rt.copy(kStage, out.meta, m2, size_t(out.count) * sizeof(VmFragMeta));
+    rt.copy(kStage, out.lines, l2, size_t(out.count) * L * sizeof(VmLine));
+    out.meta = m2;
+    out.lines = l2;
+    done_cap = cap;
+  };
+  cl::Buffer split_at, ncount, dcount, noff, doff;
+  uint32_t scratch = 0;
+  // A round over `grid` items of q[qi], in two halves: find (the cuts, the scans of the counts:
+  // one, packed, for a grid of at most VM_CLIP_PACK_MAX; returns whether packed)
+  // and apply, which writes the children to q[qi ^ 1] if they fit next_grid (else the rounds
+  // stop, clip.cl). resume: run even though the state says stopped (the host made room).
+  auto find = [&](uint32_t qi, uint32_t grid, cl_uint resume) {
+    // Under a budget: this round's, as it needs; else reused while it is at most 4x the grid
+    // (the first round's, sized for every screen triangle, is not kept for the small ones).
+    if (grid > scratch || budget.limited() || grid < scratch / 4) {
+      split_at = rt.alloc(size_t(grid) * 4, "split edges");
+      ncount = rt.alloc(size_t(grid) * 4, "queue counts");
+      dcount = rt.alloc(size_t(grid) * 4, "done counts");
+      noff = rt.alloc(size_t(grid) * 4, "queue offsets");
+      doff = rt.alloc(size_t(grid) * 4, "done offsets");
+      scratch = grid;
+    }
+    const cl_uint packed = grid <= VM_CLIP_PACK_MAX;
+    rt.launch(kStage, "clip_find", grid, q[qi].meta, q[qi].lines, grid, state, sc, resume, packed,
+              cand.offset, cand.count, cand.list, ce.edges, split_at, ncount, dcount, totals);
+    rt.scan_to(kStage, ncount, noff, grid, totals, VM_TOTAL_NEXT);
+    if (!packed) rt.scan_to(kStage, dcount, doff, grid, totals, VM_TOTAL_DONE);
+    return packed;
+  };
+  auto apply = [&](uint32_t qi, uint32_t grid, uint32_t next_grid, cl_uint resume,
+                   cl_uint packed) {
+    rt.launch(kStage, "clip_apply", grid, q[qi].meta, q[qi].lines, grid, state, sc, resume, packed,
+              totals, next_grid, done_cap, cand.offset, cand.list, ce.edges, split_at, noff, doff,
+              q[qi ^ 1].meta, q[qi ^ 1].lines, out.meta, out.lines);
+    sc ^= 1;
+  };
+  auto check_status = [](const uint32_t* tot) {
+    if (tot[VM_TOTAL_STATUS] & VM_STATUS_HASH_FULL) throw DeviceError("edge hash table full");
+    return (tot[VM_TOTAL_STATUS] & VM_STATUS_LINES_OVERFLOW) == 0;
+  };
+  bool resume = false;  // the rounds stopped for room, which the next (exact) round makes
+  // A batch's grid is `growth` times the queue it starts from: 2, doubled (up to 16) each time
+  // the children outgrew it (a folded surface's queue can grow 1.5x a round).
+  uint32_t growth = 2;
   while (nq > 0) {
     deadline.check(kStage);
-    ++out.rounds;
-    cl::Buffer split_at = rt.alloc(size_t(nq) * 4, "split edges");
-    cl::Buffer ncount = rt.alloc(size_t(nq) * 4, "queue counts");
-    cl::Buffer dcount = rt.alloc(size_t(nq) * 4, "done counts");
-    cl::Buffer noff = rt.alloc(size_t(nq) * 4, "queue offsets");
-    cl::Buffer doff = rt.alloc(size_t(nq) * 4, "done offsets");
-    rt.launch(kStage, "clip_find", nq, qmeta, qlines, nq, cand.offset, cand.count, cand.list,
-              ce.edges, split_at, ncount, dcount, totals);
-    rt.scan_to(kStage, ncount, noff, nq, totals, VM_TOTAL_NEXT);
-    rt.scan_to(kStage, dcount, doff, nq, totals, VM_TOTAL_DONE);
-    uint32_t tot[VM_TOTAL_SLOTS];
-    rt.read(totals, 0, sizeof tot, tot);
-    if (tot[VM_TOTAL_STATUS] & VM_STATUS_LINES_OVERFLOW) return ClipStatus::LinesOverflow;
-    if (tot[VM_TOTAL_STATUS] & VM_STATUS_HASH_FULL) throw DeviceError("edge hash table full");
-    const uint32_t nn = tot[VM_TOTAL_NEXT], dn = tot[VM_TOTAL_DONE];
-    const uint32_t cap = uint64_t(out.count) + dn > done_cap
-                             ? std::max<uint32_t>(done_cap + done_cap / 2, out.count + dn)
-                             : 0;
-    // Held at once: the finished list (old and new while it grows), this round's queue and its
-    // five words per item, and the next round's queue.
-    const uint64_t held = before + (uint64_t(done_cap) + cap + nq + nn) * per_fragment + 20ull * nq;
-    if (!budget.allows(held)) return ClipStatus::OverBudget;
-    if (cap) {  // grow the finished list, keeping what it holds
-      cl::Buffer m2 = rt.alloc(size_t(cap) * sizeof(VmFragMeta), "finished fragments");
-      cl::Buffer l2 = rt.alloc(size_t(cap) * L * sizeof(VmLine), "finished fragment lines");
-      if (out.count) {
-        rt.queue().enqueueCopyBuffer(out.meta, m2, 0, 0, size_t(out.count) * sizeof(VmFragMeta));
-        rt.queue().enqueueCopyBuffer(out.lines, l2, 0, 0, size_t(out.count) * L * sizeof(VmLine));
+    // An exact round (the first, every round under a budget, after a stop) reads its counts
+    // before placing its children and sizes the next queue from them; otherwise a batch runs
+    // kRoundsPerRead rounds over a grid of `growth` times the queue it starts from (the queue
+    // shrinks on the bench scenes after the first round; it may grow up to the grid), read back
+    // once.
+    const uint32_t room = std::min(q[0].cap, q[1].cap);
+    if (out.rounds == 0 || budget.limited() || resume || room < nq) {
+      const cl_uint packed = find(live, nq, resume);
+      uint32_t tot[VM_TOTAL_SLOTS];
+      rt.read(kStage, totals, 0, sizeof tot, tot);
+      if (!check_status(tot)) return ClipStatus::LinesOverflow;
+      const uint32_t pmask = (1u << VM_CLIP_PACK_SHIFT) - 1;
+      const uint32_t nn = packed ? tot[VM_TOTAL_NEXT] & pmask : tot[VM_TOTAL_NEXT];
+      const uint32_t dn = packed ? tot[VM_TOTAL_NEXT] >> VM_CLIP_PACK_SHIFT : tot[VM_TOTAL_DONE];
+      const bool grow = uint64_t(out.count) + dn > done_cap;
+      const uint32_t cap = grow ? std::max<uint32_t>(done_cap + done_cap / 2, out.count + dn) : 0;
+      // Held at once: the finished list (old and new while it grows), this round's queue and
+      // its five words per item, and the next round's queue.
+      const uint64_t held =
+          before + (uint64_t(done_cap) + cap + nq + nn) * per_fragment + 20ull * nq;
+      if (!budget.allows(held)) return ClipStatus::OverBudget;
+      if (grow) grow_done(out.count + dn);
+      Queue& next = q[live ^ 1];
+      // Under a budget the next queue is what it needs; otherwise room for a batch to grow.
+      if (budget.limited() || next.cap < nn)
+        next = alloc_queue(budget.limited() ? nn : uint32_t(std::min<uint64_t>(growth * uint64_t(nn), UINT32_MAX)));
+      apply(live, nq, next.cap, resume, packed);  // cannot stop: the host made room for this round
+      out.count += dn;
+      ++out.rounds;
+      nq = nn;
+      live ^= 1;
+      resume = false;
+      // The queue just read is free: resized to room for a batch (the root queue, one slot per
+      // screen triangle, is mostly far too big for the rounds after the first).
+      Queue& spare = q[live ^ 1];
+      const uint64_t want = growth * uint64_t(nn);
+      if (!budget.limited() && (spare.cap < want || spare.cap > 4 * want))
+        spare = alloc_queue(uint32_t(std::min<uint64_t>(want, UINT32_MAX)));
+    } else {
+      const uint32_t grid = uint32_t(std::min<uint64_t>(growth * uint64_t(nq), room));
+      for (uint32_t r = 0; r < kRoundsPerRead; ++r) {
+        const cl_uint packed = find(live ^ (r & 1), grid, 0);
+        apply(live ^ (r & 1), grid, grid, 0, packed);
       }
-      out.meta = m2;
-      out.lines = l2;
-      done_cap = cap;
+      uint32_t tot[VM_TOTAL_SLOTS], st[VM_CLIP_WORDS];
+      rt.read_async(kStage, totals, 0, sizeof tot, tot);
+      rt.read(kStage, state, size_t(sc) * VM_CLIP_WORDS * 4, sizeof st, st);
+      if (!check_status(tot)) return ClipStatus::LinesOverflow;
+      live ^= (st[VM_CLIP_ROUNDS] - out.rounds) & 1;
+      out.rounds = st[VM_CLIP_ROUNDS];
+      out.count = st[VM_CLIP_DONE];
+      nq = st[VM_CLIP_NQ];
+      resume = st[VM_CLIP_STOP] != 0;
+      if (st[VM_CLIP_STOP] == VM_CLIP_STOP_QUEUE) growth = std::min<uint32_t>(growth * 2, 16);
     }
-    cl::Buffer nmeta = rt.alloc(std::max<size_t>(nn, 1) * sizeof(VmFragMeta), "fragment queue");
-    cl::Buffer nlines = rt.alloc(std::max<size_t>(nn, 1) * L * sizeof(VmLine), "fragment lines");
-    rt.launch(kStage, "clip_apply", nq, qmeta, qlines, nq, cand.offset, cand.list, ce.edges,
-              split_at, noff, doff, out.count, nmeta, nlines, out.meta, out.lines);
-    out.count += dn;
-    nq = nn;
-    qmeta = nmeta;
-    qlines = nlines;
     if (after_round) after_round(out.rounds);
   }
   // What occlusion and emit add: two words per fragment, and at most a copy of each.

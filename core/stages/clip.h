@@ -1,7 +1,8 @@
 // Stage clip (kernels/clip.cl, SVGPU §3.2 as a GPU Reyes work queue): every screen triangle's root
 // fragment (clipped to its bucket), then rounds in which each fragment finds the first candidate
 // edge that really cuts it and splits in two or finishes; a scan of the per-item counts places
-// the children. One small read per round brings the queue lengths and the status.
+// the children. The queue length stays on the device, so after the first round four rounds run
+// per small read-back of the queue state and the status (docs/ARCHITECTURE.md "Clip").
 #pragma once
 
 #include <cstdint>

@@ -25,7 +25,7 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
     // The pair count and the overflow flag in one read.
     rt.scan_to(kStage, cx.pcount, cx.poffset, S, totals, VM_TOTAL_PAIRS);
     uint32_t tot[VM_TOTAL_SLOTS];
-    rt.read(totals, 0, sizeof tot, tot);
+    rt.read(kStage, totals, 0, sizeof tot, tot);
     cx.pairs = tot[VM_TOTAL_PAIRS];
     const uint32_t status = tot[VM_TOTAL_STATUS];
     const size_t P1 = std::max<size_t>(cx.pairs, 1);
@@ -49,14 +49,23 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
   cx.in_count = rt.alloc(size_t(S) * 4, "incoming pair counts");
   cx.in_offset = rt.alloc(size_t(S) * 4, "incoming pair offsets");
   cl::Buffer in_cursor = rt.alloc(size_t(S) * 4, "incoming pair cursors");
+  cx.in_list = rt.alloc(std::max<size_t>(P, 1) * 4, "incoming pairs");
+  cx.entry_count = rt.alloc(size_t(S) * 4, "crossing entry counts");
+  cx.entry_offset = rt.alloc(size_t(S) * 4, "crossing entry offsets");
+  if (P == 0) {
+    // Every entry comes from a pair (its own lines and partner edges, incoming pairs, the lines
+    // of two partners): with none, every count and offset is 0, known without the scans and
+    // their two reads (the bunny: 10 launches and 2 reads of its frame).
+    rt.fill_u32(cx.entry_count, 0, S, kStage);
+    rt.fill_u32(cx.entry_offset, 0, S, kStage);
+    cx.entries = 0;
+    return budget.allows_more(rt, 0);
+  }
   rt.fill_u32(cx.in_count, 0, S, kStage);
   rt.fill_u32(in_cursor, 0, S, kStage);
   rt.launch(kStage, "cross_in_count", P, P, cx.pair_o, cx.in_count);
   rt.scan(kStage, cx.in_count, cx.in_offset, S);
-  cx.in_list = rt.alloc(std::max<size_t>(P, 1) * 4, "incoming pairs");
   rt.launch(kStage, "cross_in_fill", P, P, cx.pair_o, cx.in_offset, in_cursor, cx.in_list);
-  cx.entry_count = rt.alloc(size_t(S) * 4, "crossing entry counts");
-  cx.entry_offset = rt.alloc(size_t(S) * 4, "crossing entry offsets");
   rt.launch(kStage, "cross_in_sort", S, S, cx.in_count, cx.in_offset, cx.in_list);
   rt.launch(kStage, "cross_entry_count", S, S, s.tris, cx.pcount, cx.poffset, cx.in_count,
             cx.in_offset, cx.in_list, cx.pair_t, cx.pair_o, cx.pair_rel, cx.pair_line,
@@ -68,6 +77,7 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
 
 void emit_crossings(ClRuntime& rt, const ScreenSet& s, const Crossings& cx, ClipEdges& ce) {
   const uint32_t S = s.count;
+  if (cx.entries == 0) return;  // nothing to write
   rt.launch(kStage, "cross_entry_fill", S, S, s.tris, cx.pcount, cx.poffset, cx.in_count,
             cx.in_offset, cx.in_list, cx.pair_t, cx.pair_o, cx.pair_rel, cx.pair_line,
             cx.entry_offset, ce.silhouettes, ce.edges, ce.partner);

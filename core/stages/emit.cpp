@@ -5,7 +5,6 @@ namespace vismap::stages {
 void read_visible(ClRuntime& rt, const Fragments& fr, const Visibility& vis, const ScreenSet& s,
                   bool want_tris, bool want_bary, cl::Buffer& totals, Emitted& out) {
   const uint32_t V = vis.count, L = rt.maxl(), S = s.count;
-  auto& q = rt.queue();
   VisibleFragments& vf = out.fragments;
   vf.maxl = L;
   vf.meta.resize(V);
@@ -17,11 +16,11 @@ void read_visible(ClRuntime& rt, const Fragments& fr, const Visibility& vis, con
     cl::Buffer os = rt.alloc(size_t(V) * sizeof(cl_uint2), "visible sources");
     rt.launch(Stage::Emit, "emit_visible", fr.count, fr.meta, fr.lines, fr.count, vis.visible,
               vis.offset, s.tris, om, ol, os);
-    q.enqueueReadBuffer(om, CL_FALSE, 0, size_t(V) * sizeof(VmFragMeta), vf.meta.data());
-    q.enqueueReadBuffer(ol, CL_FALSE, 0, size_t(V) * L * sizeof(VmLine), vf.lines.data());
-    q.enqueueReadBuffer(os, CL_FALSE, 0, size_t(V) * sizeof(cl_uint2), src.data());
+    rt.read_async(Stage::Emit, om, 0, size_t(V) * sizeof(VmFragMeta), vf.meta.data());
+    rt.read_async(Stage::Emit, ol, 0, size_t(V) * L * sizeof(VmLine), vf.lines.data());
+    rt.read_async(Stage::Emit, os, 0, size_t(V) * sizeof(cl_uint2), src.data());
   }
-  rt.read(totals, 0, sizeof out.totals, out.totals);  // in order: the reads above are done too
+  rt.read(Stage::Emit, totals, 0, sizeof out.totals, out.totals);  // in order: the reads above are done too
   vf.mesh.resize(V);
   vf.triangle.resize(V);
   for (uint32_t i = 0; i < V; ++i) {
@@ -30,11 +29,11 @@ void read_visible(ClRuntime& rt, const Fragments& fr, const Visibility& vis, con
   }
   if (want_tris || want_bary) {
     out.tris.resize(S);
-    q.enqueueReadBuffer(s.tris, CL_FALSE, 0, size_t(S) * sizeof(VmScreenTri), out.tris.data());
+    rt.read_async(Stage::Emit, s.tris, 0, size_t(S) * sizeof(VmScreenTri), out.tris.data());
   }
   if (want_bary) {
     out.bary.resize(size_t(S) * 9);
-    q.enqueueReadBuffer(s.bary, CL_FALSE, 0, out.bary.size() * sizeof(float), out.bary.data());
+    rt.read_async(Stage::Emit, s.bary, 0, out.bary.size() * sizeof(float), out.bary.data());
   }
 }
 

@@ -19,13 +19,13 @@ Visibility decide_visibility(ClRuntime& rt, const Fragments& fr, const ScreenSet
   // Thin fragments and deep tournaments, counted by occlude, in one read.
   static_assert(VM_TOTAL_DEEP == VM_TOTAL_THIN + 1, "read together");
   uint32_t counts[2];
-  rt.read(totals, VM_TOTAL_THIN * 4, sizeof counts, counts);
+  rt.read(kStage, totals, VM_TOTAL_THIN * 4, sizeof counts, counts);
   v.thin = counts[0];
   if (v.thin > 0) {  // cells thinner than the fine sample grid: decided at exact rational points
     rt.launch(kStage, "occlude_thin", nd, fr.meta, fr.lines, nd, s.tris, tb.bb, tb.grid,
               lv.tile_leaf, lv.offset, lv.class_start, lv.list, ce.edges, ce.silhouettes,
               cx.entry_offset, cx.entry_count, ce.partner, v.visible, totals);
-    rt.read(totals, VM_TOTAL_DEEP * 4, 4, &counts[1]);
+    rt.read(kStage, totals, VM_TOTAL_DEEP * 4, 4, &counts[1]);
   }
   v.deep = counts[1];
   if (v.deep > 0) {
