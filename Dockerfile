@@ -17,10 +17,10 @@ RUN cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DVISMAP_BUILD_TESTS=OFF -DVI
 
 FROM debian:12-slim
 # The shared libraries of vismap and vismapd (ldd: libOpenCL, libtinygltf, libstb, zlib, meshoptimizer
-# and zstd (compact and delta frames); vismap
+# and zstd (compact and delta frames), cairo (PDF, EPS and PNG output); vismap
 # also GMP and MPFR for `vismap check`).
 RUN apt-get update -qq \
- && apt-get install -y -qq --no-install-recommends ocl-icd-libopencl1 pocl-opencl-icd libtinygltf2d libstb0 zlib1g libgmpxx4ldbl libmpfr6 libgmp10 libmeshoptimizer2d libzstd1 \
+ && apt-get install -y -qq --no-install-recommends ocl-icd-libopencl1 pocl-opencl-icd libtinygltf2d libstb0 zlib1g libgmpxx4ldbl libmpfr6 libgmp10 libmeshoptimizer2d libzstd1 libcairo2 \
  && rm -rf /var/lib/apt/lists/* \
  && mkdir -p /etc/OpenCL/vendors \
  && echo libnvidia-opencl.so.1 > /etc/OpenCL/vendors/nvidia.icd \

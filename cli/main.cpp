@@ -2,6 +2,7 @@
 // `vismap devices`.
 #include <unistd.h>
 
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -21,6 +22,7 @@
 #include "core/error.h"
 #include "core/lines.h"
 #include "core/output.h"
+#include "core/output_cairo.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 
@@ -30,13 +32,14 @@ using namespace vismap;
 using namespace vismap::cli;
 
 const char* kRenderUsage =
-    "  vismap render SCENE -o OUT [--format svg|bin|compact] [--fill shade|id]\n"
+    "  vismap render SCENE -o OUT [--format svg|pdf|eps|png|bin|compact] [--fill shade|id]\n"
     "                [--quantum Q] [--compression zstd|deflate] [--width W --height H]\n"
     "                [--eye X,Y,Z --target X,Y,Z --up X,Y,Z] [--fov-y DEG | --ortho HEIGHT]\n"
     "                [--near N --far F] [--device NAME] [--memory-budget BYTES]\n"
     "                [--time-limit SECONDS] [--stats]\n"
     "                [--style fill|lines|fill+lines] [--crease-angle DEG] [--line-width PX]\n"
-    "                [--line-color KIND=#RRGGBB] [--simplify PX] [--hidden] [--merge]   (lines: svg, bin)\n";
+    "                [--line-color KIND=#RRGGBB] [--simplify PX] [--hidden] [--merge]\n"
+    "                format: --format, else OUT's extension (.svg .pdf .eps .png .bin .vmc)\n";
 const char* kCheckUsage =
     "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
     "                [--memory-budget BYTES]\n"
@@ -79,7 +82,7 @@ bool asks_help(int argc, char** argv) {
 }
 
 struct RenderArgs {
-  std::string scene, out, format = "svg", fill = "shade";
+  std::string scene, out, format, fill = "shade";  // format: "" until resolved
   ViewArgs view;
   bool stats = false;
   uint64_t memory_budget = 0;
@@ -90,6 +93,18 @@ struct RenderArgs {
   LineOptions lines;
   SvgStyle svg;
 };
+
+// The format OUT's extension names (case aside): .svg .pdf .eps .png .bin, .vmc for compact.
+std::string format_of(const std::string& out) {
+  std::string ext = std::filesystem::path(out).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  for (const char* f : {"svg", "pdf", "eps", "png", "bin"})
+    if (ext == std::string(".") + f) return f;
+  if (ext == ".vmc") return "compact";
+  throw UsageError("-o " + out + ": " +
+                   (ext.empty() ? std::string("no extension") : "unknown extension '" + ext + "'") +
+                   " (.svg .pdf .eps .png .bin .vmc, or give --format)");
+}
 
 // "KIND=#RRGGBB" for --line-color.
 void parse_line_color(const std::string& v, SvgStyle& svg) {
@@ -172,13 +187,16 @@ RenderArgs parse_render(int argc, char** argv) {
   }
   if (a.scene.empty()) throw UsageError("render: missing SCENE");
   if (a.out.empty()) throw UsageError("render: missing -o OUT");
-  if (a.format != "svg" && a.format != "bin" && a.format != "compact")
-    throw UsageError("--format: expected svg, bin or compact");
+  if (a.format.empty())
+    a.format = format_of(a.out);
+  else if (a.format != "svg" && a.format != "pdf" && a.format != "eps" && a.format != "png" &&
+           a.format != "bin" && a.format != "compact")
+    throw UsageError("--format: expected svg, pdf, eps, png, bin or compact");
   if (a.fill != "shade" && a.fill != "id") throw UsageError("--fill: expected shade or id");
   if (a.style != "fill" && a.style != "lines" && a.style != "fill+lines")
     throw UsageError("--style: expected fill, lines or fill+lines");
   if (a.style != "fill" && a.format == "compact")
-    throw UsageError("--style " + a.style + ": lines are written to svg and bin, not compact");
+    throw UsageError("--style " + a.style + ": lines are written to svg, pdf, eps, png and bin, not compact");
   a.svg.fill = a.style != "lines";
   if (a.svg.merge && (a.format != "svg" || a.style == "lines"))
     throw UsageError("--merge: joins the fills of an svg (--format svg, --style fill or fill+lines)");
@@ -237,7 +255,14 @@ int cmd_render(int argc, char** argv) {
     co.compression = a.compression == "deflate" ? Compression::Deflate : Compression::Zstd;
     bytes = write_compact(map, scene, cam, co, &cs);
   } else {
-    bytes = write_svg(map, scene, cam, a.fill == "id" ? Fill::Id : Fill::Shade, a.svg);
+    const Fill fill = a.fill == "id" ? Fill::Id : Fill::Shade;
+    if (a.format == "svg")
+      bytes = write_svg(map, scene, cam, fill, a.svg);
+    else
+      bytes = write_cairo(map, scene, cam, fill, a.svg,
+                          a.format == "pdf"   ? CairoFormat::Pdf
+                          : a.format == "eps" ? CairoFormat::Eps
+                                              : CairoFormat::Png);
   }
   write_atomically(a.out, bytes);
   auto t_end = Clock::now();

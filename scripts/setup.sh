@@ -8,7 +8,7 @@ PACKAGES=(
   ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers pocl-opencl-icd clinfo
   libtinygltf-dev libopenmesh-dev libcgal-dev libgmp-dev libmpfr-dev
   libboost-dev nlohmann-json3-dev googletest libgtest-dev zlib1g-dev
-  libmeshoptimizer-dev libzstd-dev
+  libmeshoptimizer-dev libzstd-dev libcairo2-dev
   librsvg2-bin libxml2-utils python3
   time
   python3-websockets python3-jsonschema python3-numpy python3-zstandard

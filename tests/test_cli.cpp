@@ -129,7 +129,7 @@ TEST_F(Cli, BadInputFailsCleanly) {
 
   CliRun cam = run("render " + bunny + " -o " + out.string() + " --eye 0,0,0 --target 0,0,0", dir);
   EXPECT_NE(cam.status, 0);
-  CliRun usage = run("render " + bunny + " -o " + out.string() + " --format pdf", dir);
+  CliRun usage = run("render " + bunny + " -o " + out.string() + " --format tiff", dir);
   EXPECT_EQ(usage.status, 2);
   EXPECT_FALSE(fs::exists(out));
   EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator{}),
@@ -160,6 +160,52 @@ TEST_F(Cli, LineDrawing) {
     EXPECT_EQ(u.status, 2) << bad << ": " << u.err;
     EXPECT_FALSE(fs::exists(out)) << bad;
   }
+}
+
+// The format follows -o's extension unless --format says otherwise; an extension no writer
+// writes is a usage error (exit 2) that names it and writes nothing.
+TEST_F(Cli, FormatFollowsTheExtension) {
+  struct Case {
+    const char* name;
+    const char* flags;
+    std::string magic;
+  };
+  const std::string view = " --width 128 --height 128 ";
+  for (const Case& c : {Case{"a.pdf", "", "%PDF-1."}, Case{"a.eps", "", "%!PS-Adobe-3.0 EPSF-3.0"},
+                        Case{"a.PNG", "", "\x89PNG\r\n\x1a\n"}, Case{"a.svg", "", "<svg"},
+                        Case{"a.pdf", "--style fill+lines --hidden", "%PDF-1."},
+                        Case{"a.eps", "--style lines", "%!PS-Adobe"},
+                        Case{"a.png", "--style lines --fill id", "\x89PNG"},
+                        Case{"a.png", "--format svg", "<svg"},
+                        Case{"a.out", "--format pdf", "%PDF-1."}}) {
+    const fs::path out = dir / c.name;
+    CliRun r = run("render " + bunny + " -o " + out.string() + view + c.flags, dir);
+    ASSERT_EQ(r.status, 0) << c.name << " " << c.flags << ": " << r.err;
+    EXPECT_EQ(slurp(out).rfind(c.magic, 0), 0u) << c.name << " " << c.flags;
+    fs::remove(out);
+  }
+  // .bin and .vmc are the binary and compact frames, as --format bin and compact write them.
+  const fs::path bin = dir / "a.bin", vmc = dir / "a.vmc", vmc2 = dir / "b.vmc";
+  ASSERT_EQ(run("render " + bunny + " -o " + bin.string() + view, dir).status, 0);
+  EXPECT_EQ(vismap::read_bin(slurp(bin)).width, 128u);
+  ASSERT_EQ(run("render " + bunny + " -o " + vmc.string() + view, dir).status, 0);
+  ASSERT_EQ(run("render " + bunny + " -o " + vmc2.string() + view + "--format compact", dir).status,
+            0);
+  EXPECT_EQ(slurp(vmc), slurp(vmc2));
+  fs::remove(bin), fs::remove(vmc), fs::remove(vmc2);
+
+  for (const char* bad : {"x.tiff", "x", "x.svg.gz"}) {
+    const fs::path out = dir / bad;
+    CliRun u = run("render " + bunny + " -o " + out.string() + view, dir);
+    EXPECT_EQ(u.status, 2) << bad << ": " << u.err;
+    const std::string ext = out.extension().string();
+    EXPECT_NE(u.err.find(ext.empty() ? "no extension" : "'" + ext + "'"), std::string::npos)
+        << u.err;
+    EXPECT_FALSE(fs::exists(out)) << bad;
+  }
+  CliRun lines_bin = run("render " + bunny + " -o " + bin.string() + " --style lines", dir);
+  EXPECT_EQ(lines_bin.status, 2) << lines_bin.err;
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator{}), 1);  // stderr
 }
 
 // --time-limit: a frame past it fails with one line naming the scene and the stage (exit 1,
