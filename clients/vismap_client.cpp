@@ -224,7 +224,7 @@ int main(int argc, char** argv) {
     double render_ms_sum = 0, decode_ms_sum = 0;
     uint64_t bytes_sum = 0, triangles_sum = 0;
     json triangles = json::array();  // per frame (bin, compact, delta; null where not decoded)
-    json decode_ms = json::array();  // per frame
+    json decode_ms = json::array(), frame_bytes = json::array();  // per frame
     const uint64_t wire0 = c.wire_bytes_received();
     auto t0 = std::chrono::steady_clock::now();
     for (int i = 0; i < frames; ++i) {
@@ -243,6 +243,7 @@ int main(int argc, char** argv) {
       latency.push_back(
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ts).count());
       bytes_sum += payload.data.size();
+      frame_bytes.push_back(payload.data.size());
       render_ms_sum += header.value("render_ms", 0.0);
       auto td = std::chrono::steady_clock::now();
       json count = nullptr;
@@ -301,7 +302,8 @@ int main(int argc, char** argv) {
     r["wire_bytes_per_frame"] = wire / frames;
     r["protocol"] = welcome.value("version", 1);
     r["permessage_deflate"] = c.deflate_negotiated();
-    if (format != "svg") {  // per frame
+    per["bytes"] = frame_bytes;  // per frame
+    if (format != "svg") {
       per["triangles"] = triangles;
       per["decode_ms"] = decode_ms;
     }

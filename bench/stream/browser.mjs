@@ -5,6 +5,7 @@
 // ?timing=1), takes a screenshot of the last frame per mode and compares the compact and delta
 // screenshots with svg mode's. Prints one JSON object on stdout; progress on stderr.
 //   node bench/stream/browser.mjs --port P --plan PLAN.json --out DIR [--modes svg,compact,delta]
+//                                 [--query draw=2d]   (more of the viewer's URL parameters)
 // PLAN.json: [{scene, library, width, height, cameras: [camera fields, ...]}, ...].
 // Exits 77 without chromium or playwright-core (npm install --no-save playwright-core@1).
 import { createRequire } from 'node:module';
@@ -73,7 +74,7 @@ async function runMode(browser, s, mode) {
   const r = { scene: s.scene, mode, frames: s.cameras.length, ok: 0, timings: [], errors };
   try {
     await page.goto(`http://127.0.0.1:${args.port}/?scene=${encodeURIComponent(s.library)}` +
-                    `&format=${mode}&viewport=${s.width}x${s.height}&timing=1`);
+                    `&format=${mode}&viewport=${s.width}x${s.height}&timing=1${args.query ? '&' + args.query : ''}`);
     // The viewer shows the framing camera's frame first; the cameras follow one at a time.
     await page.waitForFunction(() => window.vismapViewer && window.vismapViewer.timings.length > 0,
                                null, { timeout: frameTimeoutMs });
@@ -90,6 +91,7 @@ async function runMode(browser, s, mode) {
     r.screenshot = path.join(args.out, `${s.scene}_${mode}.png`);
     fs.writeFileSync(r.screenshot, shot);
     r.stats = await page.$eval('#stats', (e) => e.textContent);
+    if (mode !== 'svg') r.draw = await page.$eval('#view canvas', (c) => c.dataset.draw);
   } catch (e) {
     errors.push(String(e.message || e).split('\n')[0]);
   }

@@ -161,7 +161,7 @@ def orbit(bounds, frames, step_deg, elevation_deg=20, distance_diag=1.7, fov_y_d
 
 def row(scene, fmt, client, frames):
     return {"scene": scene, "format": fmt, "client": client, "codec": CODEC[client] if fmt in ("compact", "delta") else "",
-            "status": "FAIL", "frames": frames, "received": 0, "decoded": 0, "bytes_mean": None,
+            "status": "FAIL", "frames": frames, "received": 0, "decoded": 0, "bytes_mean": None, "keyframe_bytes": None,
             "decode_ms_median": None, "draw_ms_median": None, "paths_ms_median": None, "keyframe_decode_ms": None,
             "keyframe_draw_ms": None, "triangles_mean": None, "wall_s": None, "note": ""}
 
@@ -169,6 +169,13 @@ def row(scene, fmt, client, frames):
 def after_keyframe(fmt, values):
     """Delta medians are over the frames after the first (the keyframe)."""
     return values[1:] if fmt == "delta" and len(values) > 1 else values
+
+
+def bytes_of(fmt, sizes):
+    """(mean bytes per frame, the keyframe's bytes): delta's mean is over the frames after it."""
+    if not sizes:
+        return None, None
+    return statistics.fmean(after_keyframe(fmt, sizes)), sizes[0] if fmt == "delta" else None
 
 
 def run_cpp(a, url, scene, lib_name, fmt, cams, tmp):
@@ -187,7 +194,7 @@ def run_cpp(a, url, scene, lib_name, fmt, cams, tmp):
     j = json.loads(p.stdout.strip().splitlines()[-1])
     per = j["by_format"][fmt]
     r["received"] = j["frames"]
-    r["bytes_mean"] = per["bytes_per_frame"]
+    r["bytes_mean"], r["keyframe_bytes"] = bytes_of(fmt, per["bytes"])
     tri = per.get("triangles")
     if fmt == "svg":
         r["decoded"] = r["received"]  # not parsed: received whole is all the C++ client checks
@@ -244,7 +251,7 @@ def run_python(a, url, scene, lib_name, fmt, cams):
         r["wall_s"] = time.perf_counter() - t0
         return r, None
     r["wall_s"] = time.perf_counter() - t0
-    r["bytes_mean"] = statistics.fmean(sizes)
+    r["bytes_mean"], r["keyframe_bytes"] = bytes_of(fmt, sizes)
     if fmt == "svg":
         r["note"] = "svg not parsed"
     else:
@@ -268,7 +275,7 @@ def run_browser(a, port, scene, lib_name, cams, shots, tmp):
         return list(rows.values()), [], {}
     t0 = time.perf_counter()
     p = subprocess.run([node, os.path.join(HERE, "browser.mjs"), "--port", str(port), "--plan", plan, "--out", shots,
-                        "--frame-timeout", str(a.timeout)], capture_output=True, text=True)
+                        "--frame-timeout", str(a.timeout)] + (["--query", a.viewer_query] if a.viewer_query else []), capture_output=True, text=True)
     wall = time.perf_counter() - t0
     sys.stderr.write(p.stderr)
     try:
@@ -290,7 +297,7 @@ def run_browser(a, port, scene, lib_name, cams, shots, tmp):
         good = [e for e in t if not e.get("error")]
         r["received"], r["decoded"] = len(t), len(good)
         if good:
-            r["bytes_mean"] = statistics.fmean(e["bytes"] for e in good)
+            r["bytes_mean"], r["keyframe_bytes"] = bytes_of(run["mode"], [e["bytes"] for e in good])
             key = [e for e in good if e.get("keyframe")]
             rest = [e for e in good if not e.get("keyframe")] if run["mode"] == "delta" else good
             r["decode_ms_median"] = median([e["decode_ms"] for e in rest])
@@ -301,6 +308,8 @@ def run_browser(a, port, scene, lib_name, cams, shots, tmp):
             if run["mode"] != "svg":
                 r["triangles_mean"] = statistics.fmean(e["triangles"] for e in good)
         r["note"] = "; ".join(run["errors"])[:300]
+        if run.get("draw"):
+            r["codec"] += f", {run['draw']}"
         if run["mode"] == "svg":
             r["note"] = ("decode = innerHTML parse; draw = to the 2nd animation frame " + r["note"]).strip()
         r["status"] = "OK" if r["received"] == r["frames"] == r["decoded"] and not run["errors"] else "FAIL"
@@ -309,7 +318,7 @@ def run_browser(a, port, scene, lib_name, cams, shots, tmp):
 
 # ---- outputs ------------------------------------------------------------------------------
 
-COLUMNS = ["scene", "format", "client", "codec", "status", "frames", "received", "decoded", "bytes_mean",
+COLUMNS = ["scene", "format", "client", "codec", "status", "frames", "received", "decoded", "bytes_mean", "keyframe_bytes",
            "decode_ms_median", "draw_ms_median", "paths_ms_median", "keyframe_decode_ms", "keyframe_draw_ms", "triangles_mean",
            "wall_s", "note"]
 
@@ -351,7 +360,7 @@ def write_outputs(out, a, rows, checks, env):
           "the decoder's promise, inflate included, and around drawCompact on the 2D canvas ended by reading "
           "one pixel back with getImageData, which makes the canvas finish rasterizing; svg mode: decode is "
           "the innerHTML assignment, draw the time to the second requestAnimationFrame; paths: the part of the "
-          "canvas draw that builds the Path2Ds in script, the rest is Skia's fill, stroke and raster). Delta: medians over "
+          "canvas draw that builds the Path2Ds in script, the rest is Skia's fill, stroke and raster). Delta: bytes and medians over "
           "the frames after the keyframe (frame 0), the keyframe's own in the CSV. C++ and Python take zstd, "
           "the browser raw deflate (what it inflates natively).", "",
           "| scene | format | client | codec | status | frames decoded | bytes/frame | decode ms | draw ms | triangles | note |",
@@ -382,6 +391,7 @@ def main():
     ap.add_argument("--clients", default="cpp,python,browser")
     ap.add_argument("--www", default=os.path.join(ROOT, "server", "www"),
                     help="the web viewer's folder (another version of server/www, to compare)")
+    ap.add_argument("--viewer-query", default="", help="more URL parameters for the viewer, e.g. draw=2d")
     ap.add_argument("--timeout", type=float, default=300, help="seconds a client waits for one message")
     ap.add_argument("--out", default=os.path.join(ROOT, "bench", "results",
                                                   datetime.date.today().isoformat() + "-stream-clients"))
@@ -399,7 +409,7 @@ def main():
            "node": sh("node --version"), "python": sys.version.split()[0], "numpy": __import__("numpy").__version__,
            "build_type": sh(f"grep '^CMAKE_BUILD_TYPE' {a.build}/CMakeCache.txt | cut -d= -f2"),
            "loadavg_start": " ".join(open("/proc/loadavg").read().split()[:3]),
-           "frames": a.frames, "step_deg": a.step_deg, "viewport": f"{a.width}x{a.height}", "www": a.www}
+           "frames": a.frames, "step_deg": a.step_deg, "viewport": f"{a.width}x{a.height}", "www": a.www, "viewer_query": a.viewer_query}
     os.makedirs(a.shots, exist_ok=True)
     rows, checks = [], []
     t_start = time.perf_counter()
