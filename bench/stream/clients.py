@@ -89,6 +89,9 @@ def make_library(lib, names):
             shutil.copytree(os.path.join(data, "cornell_box"), os.path.join(lib, "data", "cornell_box"),
                             dirs_exist_ok=True)
             out[n] = "data/scenes/" + os.path.basename(src)
+        elif src.endswith(".obj"):  # its folder: the .mtl it names (the Cornell box's colours)
+            shutil.copytree(os.path.dirname(src), os.path.join(lib, n), dirs_exist_ok=True)
+            out[n] = n + "/" + os.path.basename(src)
         else:
             os.makedirs(os.path.join(lib, n), exist_ok=True)
             shutil.copy(src, os.path.join(lib, n))
