@@ -1,6 +1,8 @@
 // vismap-client: connects to vismapd, uploads a scene, orbits the camera for N frames, decodes
-// bin and compact frames, saves the frames and reports fps, latency, bytes and triangles. Its
-// last stdout line is one JSON object. Speaks protocol version 1, and 2 for compact frames.
+// bin, compact and delta frames, saves the frames and reports fps, latency, bytes and triangles.
+// Its last stdout line is one JSON object. Speaks protocol version 1, and 2 for compact and delta
+// frames. --cameras FILE replaces the orbit with given cameras (bench/stream/clients.py gives all
+// three clients the same ones).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -25,10 +27,12 @@ static const char* kUsage =
     "                     [--format svg|bin|compact|delta] [--out DIR] [--width W] [--height H]\n"
     "                     [--attributes] [--fill shade|id] [--quantum Q]\n"
     "                     [--compression zstd|deflate] [--permessage-deflate]\n"
-    "                     [--token-file FILE] [--timeout S] [--retries N]\n"
+    "                     [--token-file FILE] [--timeout S] [--retries N] [--cameras FILE]\n"
     "  compact, delta (and --quantum, --compression) negotiate protocol version 2; bin,\n"
     "  compact and delta frames are decoded (read_bin, read_compact, DeltaDecoder: a delta\n"
     "  frame that does not apply asks the server for a keyframe) and their triangles counted.\n"
+    "  --cameras FILE: a JSON array of camera messages' fields (eye, target, up, fov_y_deg, ...),\n"
+    "  one frame each, instead of the orbit (--frames is then the array's length).\n"
     "       vismap-client --health http://HOST:PORT/health   (exit 0 when the server answers 200 "
     "ok;\n"
     "                                                         a container HEALTHCHECK without "
@@ -96,11 +100,13 @@ static double percentile(std::vector<double> v, double p) {
 }
 
 int main(int argc, char** argv) {
-  std::string url, scene, library, format = "svg", out, token_file, health_url, fill, compression;
+  std::string url, scene, library, format = "svg", out, token_file, health_url, fill, compression,
+      cameras_file;
   int frames = 36, retries = 0;
   uint32_t width = 1024, height = 1024, quantum = 0;
   bool attributes = false, deflate = false;
   double timeout = 60;
+  json cameras;  // --cameras: one camera message's fields per frame
   try {
     for (int i = 1; i < argc; ++i) {
       std::string a = argv[i];
@@ -140,6 +146,8 @@ int main(int argc, char** argv) {
         quantum = static_cast<uint32_t>(std::stoul(val()));
       else if (a == "--compression")
         compression = val();
+      else if (a == "--cameras")
+        cameras_file = val();
       else if (a == "--permessage-deflate")
         deflate = true;
       else if (a == "--help" || a == "-h") {
@@ -149,6 +157,13 @@ int main(int argc, char** argv) {
         throw std::runtime_error("unknown flag " + a);
     }
     if (!health_url.empty()) return health(health_url, std::min(timeout, 10.0));
+    if (!cameras_file.empty()) {
+      json list = json::parse(slurp(cameras_file));
+      if (!list.is_array() || list.empty())
+        throw std::runtime_error(cameras_file + ": not a non-empty JSON array of cameras");
+      cameras = std::move(list);
+      frames = static_cast<int>(cameras.size());
+    }
     if (url.empty() || (scene.empty() == library.empty()) || frames < 1 ||
         (format != "svg" && format != "bin" && format != "compact" && format != "delta") ||
         (!fill.empty() && fill != "shade" && fill != "id") ||
@@ -208,6 +223,8 @@ int main(int argc, char** argv) {
     uint64_t keyframes = 0, resyncs = 0;
     double render_ms_sum = 0, decode_ms_sum = 0;
     uint64_t bytes_sum = 0, triangles_sum = 0;
+    json triangles = json::array();  // per frame (bin, compact, delta; null where not decoded)
+    json decode_ms = json::array(), frame_bytes = json::array();  // per frame
     const uint64_t wire0 = c.wire_bytes_received();
     auto t0 = std::chrono::steady_clock::now();
     for (int i = 0; i < frames; ++i) {
@@ -215,7 +232,10 @@ int main(int argc, char** argv) {
       std::array<double, 3> e{target[0] + dx * std::cos(a) + dz * std::sin(a), eye[1],
                               target[2] - dx * std::sin(a) + dz * std::cos(a)};
       auto ts = std::chrono::steady_clock::now();
-      c.send_text(json{{"type", "camera"}, {"seq", i}, {"eye", e}}.dump());
+      json camera = cameras.is_array() ? cameras.at(i) : json{{"eye", e}};
+      camera["type"] = "camera";
+      camera["seq"] = i;
+      c.send_text(camera.dump());
       json header = next_json(c, timeout);
       if (header.value("type", "") != "frame")
         throw std::runtime_error("expected frame, got " + header.dump());
@@ -223,24 +243,30 @@ int main(int argc, char** argv) {
       latency.push_back(
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ts).count());
       bytes_sum += payload.data.size();
+      frame_bytes.push_back(payload.data.size());
       render_ms_sum += header.value("render_ms", 0.0);
       auto td = std::chrono::steady_clock::now();
+      json count = nullptr;
       if (format == "bin")
-        triangles_sum += vismap::read_bin(payload.data).triangle_count();
+        count = vismap::read_bin(payload.data).triangle_count();
       else if (format == "compact")
-        triangles_sum += vismap::read_compact(payload.data).triangle_count();
+        count = vismap::read_compact(payload.data).triangle_count();
       else if (format == "delta") {
         try {
           const vismap::DeltaFrame d = delta.decode(payload.data);
-          triangles_sum += d.triangle_count();
+          count = d.triangle_count();
           keyframes += d.keyframe;
         } catch (const vismap::DeltaOutOfSync&) {  // lost state: the next frame stands alone
           ++resyncs;
           c.send_text(json{{"type", "keyframe"}}.dump());
         }
       }
-      decode_ms_sum +=
+      const double frame_decode_ms =
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - td).count();
+      decode_ms_sum += frame_decode_ms;
+      decode_ms.push_back(frame_decode_ms);
+      if (count.is_number()) triangles_sum += count.get<uint64_t>();
+      triangles.push_back(count);
       if (!out.empty()) {
         char name[64];
         std::snprintf(name, sizeof name, "frame_%04d.%s", i,
@@ -276,6 +302,11 @@ int main(int argc, char** argv) {
     r["wire_bytes_per_frame"] = wire / frames;
     r["protocol"] = welcome.value("version", 1);
     r["permessage_deflate"] = c.deflate_negotiated();
+    per["bytes"] = frame_bytes;  // per frame
+    if (format != "svg") {
+      per["triangles"] = triangles;
+      per["decode_ms"] = decode_ms;
+    }
     if (format == "delta") {
       per["keyframes"] = keyframes;
       per["resyncs"] = resyncs;  // frames that did not apply (then a keyframe was asked for)

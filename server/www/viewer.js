@@ -9,7 +9,19 @@
 //            previous frame; a frame that does not apply asks the server for a keyframe), drawn
 //            as compact frames are.
 // Drag orbits the camera, the wheel zooms. ?scene=NAME opens a library scene, ?format=svg|compact|delta
-// picks the mode (the selector switches it live: a new session, the same scene and camera).
+// picks the mode (the selector switches it live: a new session, the same scene and camera),
+// ?viewport=WxH the frame size (default: the view's size).
+// Every frame shown is timed in the page (performance.now()): decode (compact, delta: the
+// decoder's promise, inflate included; svg: the innerHTML assignment, which parses the SVG into
+// the DOM) and draw (canvas: drawCompact; svg: until the second animation frame after the
+// insertion, so the paint is in it, and up to one frame interval of waiting). With ?timing=1 the
+// canvas draw ends by reading one pixel back (getImageData), which makes the 2D canvas finish
+// rasterizing what was recorded; without it the draw is the calls only. The last 1000 frames'
+// times are in window.vismapViewer.timings ({seq, format, bytes, keyframe, triangles, decode_ms, draw_ms,
+// paths_ms: of the draw, building the Path2Ds; the rest is the canvas's fill, stroke and raster}, or
+// {seq, format, error} for a frame that did not decode);
+// window.vismapViewer.camera(fields) sends a camera with these fields (a bench drives the
+// viewer with it: bench/stream/clients.py) and returns its seq.
 (() => {
   const view = document.getElementById('view');
   const stats = document.getElementById('stats');
@@ -24,6 +36,16 @@
   let compact = null;  // the module compact.js (decodeCompact, triangleColor), imported on first use
   let deltaModule = null, delta = null;  // delta.js, and this session's DeltaDecoder
   let frameNo = 0, shownNo = 0;  // a decode that ends after a newer frame's is not drawn
+  const timingFinish = params.get('timing') === '1';
+  const vp = /^(\d+)x(\d+)$/.exec(params.get('viewport') || '');
+  const timings = [];
+  let pathsMs = null;  // of the last drawCompact: building the paths (the rest is canvas work)
+  const record = (h, triangles, decodeMs, drawMs, paths = null) => {
+    timings.push({ seq: h.seq, format: h.format, bytes: h.bytes, keyframe: !!h.keyframe, triangles,
+                   decode_ms: decodeMs, draw_ms: drawMs, paths_ms: paths });
+    if (timings.length > 1000) timings.shift();
+  };
+  const afterPaint = () => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)));
   const send = (m) => ws && ws.readyState === 1 && ws.send(JSON.stringify(m));
 
   function connect() {
@@ -33,8 +55,9 @@
     ws = new WebSocket((location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/');
     ws.binaryType = 'arraybuffer';
     ws.onopen = () => {
-      const hello = { type: 'hello', version: format === 'svg' ? 1 : 2, format,
-                      viewport: { width: view.clientWidth | 0 || 800, height: view.clientHeight | 0 || 600 } };
+      const viewport = vp ? { width: +vp[1], height: +vp[2] }
+        : { width: view.clientWidth | 0 || 800, height: view.clientHeight | 0 || 600 };
+      const hello = { type: 'hello', version: format === 'svg' ? 1 : 2, format, viewport };
       if (format !== 'svg') hello.compression = 'deflate';  // browsers inflate it natively
       if (params.get('token')) hello.token = params.get('token');
       send(hello);
@@ -49,8 +72,7 @@
       const h = pendingHeader; pendingHeader = null;
       if (h.format === 'compact') return showCompact(h, e.data);
       if (h.format === 'delta') return showDelta(h, e.data);
-      view.innerHTML = e.data;
-      return shown(h);
+      return showSvg(h, e.data);
     }
     const m = JSON.parse(e.data);
     if (m.type === 'welcome') {
@@ -88,16 +110,37 @@
       (t ? `latency ${(now - t).toFixed(0)} ms  ` : '') + `${(h.bytes / 1024).toFixed(0)} KiB  ${count}`;
   }
 
+  async function showSvg(h, text) {
+    const no = ++frameNo;
+    const t0 = performance.now();
+    view.innerHTML = text;
+    const t1 = performance.now();
+    shownNo = no;
+    shown(h);
+    await afterPaint();
+    record(h, null, t1 - t0, performance.now() - t1);
+  }
+
+  // Draws a decoded frame and records its times (t0: the decode's start).
+  function drawTimed(h, f, t0) {
+    const t1 = performance.now();
+    drawCompact(f);
+    if (timingFinish) view.querySelector('canvas').getContext('2d').getImageData(0, 0, 1, 1);
+    record(h, f.indices.length / 3, t1 - t0, performance.now() - t1, pathsMs);
+  }
+
   async function showCompact(h, bytes) {
     const no = ++frameNo;
     try {
       if (!compact) compact = await import('./compact.js');
+      const t0 = performance.now();
       const f = await compact.decodeCompact(bytes);
       if (no < shownNo) return;
       shownNo = no;
-      drawCompact(f);
+      drawTimed(h, f, t0);
       shown(h);
     } catch (err) {
+      timings.push({ seq: h.seq, format: h.format, error: String(err.message || err) });
       stats.textContent = `compact frame: ${err.message || err}`;
     }
   }
@@ -109,12 +152,14 @@
       if (!compact) compact = await import('./compact.js');
       if (!deltaModule) deltaModule = await import('./delta.js');
       if (!delta) delta = new deltaModule.DeltaDecoder();
+      const t0 = performance.now();
       const f = await delta.decode(bytes);
       if (no < shownNo) return;
       shownNo = no;
-      drawCompact(f);  // the same arrays as a compact frame's, shades included
+      drawTimed(h, f, t0);  // the same arrays as a compact frame's, shades included
       shown(h);
     } catch (err) {
+      timings.push({ seq: h.seq, format: h.format, error: String(err.message || err) });
       if (deltaModule && err instanceof deltaModule.DeltaOutOfSync) {
         send({ type: 'keyframe' });  // this frame did not apply: the next one stands alone
         sendCamera();
@@ -128,49 +173,71 @@
   // shade, or the id colour without shades): a path's fill has no seams inside, and the edges
   // that two triangles share are stroked 1 px in the fill colour, as the SVG writer does, so
   // background does not show through where abutting fills of different colours each cover part
-  // of a pixel. Silhouette edges are not stroked (outlines are not fattened).
+  // of a pixel. Silhouette edges are not stroked (outlines are not fattened). The strokes are all
+  // drawn first and the fills over them, so a stroke shows only where the fills leave a pixel
+  // partly uncovered: stroked after its fill, group by group, the 1 px stroke of a sub-pixel
+  // sliver (dark, at a grazing angle, along a fold of the armadillo) stayed on top of its
+  // neighbours as a dark line the SVG does not show (bench/stream/clients.py's screenshots of
+  // cornell_armadillo; delta against svg 0.37% of object pixels differ, 0.30% now). An edge is shared
+  // when it is used twice or more, in either direction: counted on each vertex's list of
+  // corners that follow it (typed arrays, prefix sums; a Map of edges took ~60% of the draw's
+  // script time for a 1920x1080 bunny frame, bench/stream/clients.py).
   function drawCompact(f) {
+    const t0 = performance.now();
     let canvas = view.querySelector('canvas');
     if (!canvas) { view.innerHTML = ''; canvas = document.createElement('canvas'); view.appendChild(canvas); }
     if (canvas.width !== f.width || canvas.height !== f.height) { canvas.width = f.width; canvas.height = f.height; }
     const ctx = canvas.getContext('2d');
     ctx.clearRect(0, 0, f.width, f.height);
     const q = f.quantum, xy = f.xy, ix = f.indices, n = ix.length / 3, nv = xy.length / 2;
-    const edges = new Map();  // undirected edge -> use count
-    const key = (a, b) => (a < b ? a * nv + b : b * nv + a);
+    // next[first[a] ... first[a + 1] - 1]: the vertices b of the edges a -> b, one per use.
+    const first = new Int32Array(nv + 1), next = new Int32Array(ix.length);
+    for (let i = 0; i < ix.length; ++i) ++first[ix[i] + 1];
+    for (let a = 0; a < nv; ++a) first[a + 1] += first[a];
+    const fill = first.slice(0, nv);
     for (let i = 0; i < ix.length; i += 3)
-      for (let k = 0; k < 3; ++k) {
-        const e = key(ix[i + k], ix[i + (k + 1) % 3]);
-        edges.set(e, (edges.get(e) || 0) + 1);
-      }
+      for (let k = 0; k < 3; ++k) next[fill[ix[i + k]]++] = ix[i + (k + 1) % 3];
+    const uses = (a, b) => {
+      let u = 0;
+      for (let j = first[a], e = first[a + 1]; j < e; ++j) u += next[j] === b;
+      for (let j = first[b], e = first[b + 1]; j < e; ++j) u += next[j] === a;
+      return u;
+    };
     const colors = compact.triangleColors(f);  // 3 sRGB bytes per triangle
     const groups = new Map();  // packed colour -> {fill: Path2D, stroke: Path2D, style}
+    let g = -1, p = null;
     for (let t = 0; t < n; ++t) {
-      const g = (colors[3 * t] << 16) | (colors[3 * t + 1] << 8) | colors[3 * t + 2];
-      let p = groups.get(g);
-      if (!p) {
-        const style = `rgb(${colors[3 * t]},${colors[3 * t + 1]},${colors[3 * t + 2]})`;
-        p = { fill: new Path2D(), stroke: new Path2D(), style };
-        groups.set(g, p);
+      const c = (colors[3 * t] << 16) | (colors[3 * t + 1] << 8) | colors[3 * t + 2];
+      if (c !== g) {
+        g = c;
+        p = groups.get(c);
+        if (!p) {
+          const style = `rgb(${colors[3 * t]},${colors[3 * t + 1]},${colors[3 * t + 2]})`;
+          p = { fill: new Path2D(), stroke: new Path2D(), style };
+          groups.set(c, p);
+        }
       }
-      const v = [ix[3 * t], ix[3 * t + 1], ix[3 * t + 2]];
-      p.fill.moveTo(xy[2 * v[0]] / q, xy[2 * v[0] + 1] / q);
-      p.fill.lineTo(xy[2 * v[1]] / q, xy[2 * v[1] + 1] / q);
-      p.fill.lineTo(xy[2 * v[2]] / q, xy[2 * v[2] + 1] / q);
+      const v0 = ix[3 * t], v1 = ix[3 * t + 1], v2 = ix[3 * t + 2];
+      const x0 = xy[2 * v0] / q, y0 = xy[2 * v0 + 1] / q, x1 = xy[2 * v1] / q, y1 = xy[2 * v1 + 1] / q;
+      const x2 = xy[2 * v2] / q, y2 = xy[2 * v2 + 1] / q;
+      p.fill.moveTo(x0, y0);
+      p.fill.lineTo(x1, y1);
+      p.fill.lineTo(x2, y2);
       p.fill.closePath();
-      for (let k = 0; k < 3; ++k) {
-        const a = v[k], b = v[(k + 1) % 3];
-        if (edges.get(key(a, b)) < 2) continue;  // a silhouette edge
-        p.stroke.moveTo(xy[2 * a] / q, xy[2 * a + 1] / q);
-        p.stroke.lineTo(xy[2 * b] / q, xy[2 * b + 1] / q);
-      }
+      if (uses(v0, v1) >= 2) { p.stroke.moveTo(x0, y0); p.stroke.lineTo(x1, y1); }
+      if (uses(v1, v2) >= 2) { p.stroke.moveTo(x1, y1); p.stroke.lineTo(x2, y2); }
+      if (uses(v2, v0) >= 2) { p.stroke.moveTo(x2, y2); p.stroke.lineTo(x0, y0); }
     }
+    pathsMs = performance.now() - t0;
     ctx.lineWidth = 1;
     ctx.lineJoin = 'bevel';
-    for (const p of groups.values()) {
-      ctx.fillStyle = ctx.strokeStyle = p.style;
-      ctx.fill(p.fill);
+    for (const p of groups.values()) {  // every stroke under every fill: see above
+      ctx.strokeStyle = p.style;
       ctx.stroke(p.stroke);
+    }
+    for (const p of groups.values()) {
+      ctx.fillStyle = p.style;
+      ctx.fill(p.fill);
     }
     canvas.dataset.frames = String(shownNo);  // for tests: frames drawn so far
   }
@@ -184,6 +251,15 @@
     if (sentAt.size > 100) sentAt.delete(sentAt.keys().next().value);
     send({ type: 'camera', seq, eye, target: t });  // the server renders only the latest
   }
+
+  window.vismapViewer = {
+    timings,
+    camera(fields) {
+      sentAt.set(++seq, performance.now());
+      send(Object.assign({}, fields, { type: 'camera', seq }));
+      return seq;
+    },
+  };
 
   function loadScene(message, bytes) {
     lastScene = { message, bytes };
