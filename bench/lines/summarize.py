@@ -32,6 +32,10 @@ def main():
             wall = f"DNF (> {r['wall_s']} s)" if r["status"] == "DNF" else r["status"]
             out.append(f"| {r['scene']} | {label} | {wall} | | | | | |")
             continue
+        if r["chains"] == "0":
+            out.append(f"| {r['scene']} | {label} | {float(r['wall_s']):.2f} (empty drawing) | "
+                       f"{int(r['svg_bytes']):,} | 0 | | | |")
+            continue
         runs = f" (median of {r['runs']})" if r["runs"] not in ("", "1") else ""
         out.append(f"| {r['scene']} | {label} | {float(r['wall_s']):.2f}{runs} | {int(r['svg_bytes']):,} | "
                    f"{r['chains']} | {fmt(r['changes_covered'])} | {fmt(r['changes_covered_apart'])} | "
@@ -41,7 +45,9 @@ def main():
         f.write("Whole process wall time; the check fractions from `vismap check --lines "
                 "--lines-from` (docs/LINES.md). Environment: env.txt.\n\n")
         f.write("\n".join(out) + "\n")
-    if not shutil.which("convert"):
+    # Debian's ImageMagick by its path: another "convert" may come first on PATH.
+    convert = "/usr/bin/convert" if os.path.exists("/usr/bin/convert") else shutil.which("convert")
+    if not convert:
         print("summarize: no ImageMagick convert, no side-by-side pictures", file=sys.stderr)
         return
     for scene in dict.fromkeys(r["scene"] for r in rows):
@@ -49,12 +55,13 @@ def main():
         for tool, label in TOOLS:
             png = os.path.join(work, f"{scene}.{tool}.png")
             cell = os.path.join(work, f"{scene}.{tool}.cell.png")
-            args = [png] if os.path.exists(png) else ["-size", "512x512", "xc:white"]
-            subprocess.run(["convert", *args, "-resize", "384x384", "-gravity", "south", "-background",
-                            "white", "-splice", "0x22", "-pointsize", "15", "-annotate", "+0+2",
-                            label if os.path.exists(png) else label + ": DNF", cell], check=True)
+            ok = os.path.exists(png) and any(r["scene"] == scene and r["tool"] == tool and r["chains"] not in ("", "0") for r in rows)
+            args = [png] if ok else ["-size", "512x512", "xc:white"]
+            subprocess.run([convert, *args, "-resize", "384x384", "-gravity", "south", "-background",
+                            "white", "-splice", "0x22", "-font", "DejaVu-Sans", "-pointsize", "15", "-annotate", "+0+2",
+                            label if ok else label + ": none", cell], check=True)
             panels.append(cell)
-        subprocess.run(["convert", *panels, "-bordercolor", "#cccccc", "-border", "1", "+append",
+        subprocess.run([convert, *panels, "-bordercolor", "#cccccc", "-border", "1", "+append",
                         "-colors", "16", os.path.join(res, f"{scene}.png")], check=True)
 
 
