@@ -9,6 +9,7 @@
 #include "cli/args.h"
 #include "core/lines.h"
 #include "core/reference/scene_check.h"
+#include "core/svg_lines.h"
 
 namespace vismap::cli {
 
@@ -21,6 +22,7 @@ struct CheckArgs {
   check::Tolerances tol;
   bool lines = false;
   std::string lines_image;  // a PPM of where the drawing and the raster agree (--lines-image)
+  std::string lines_from;   // score this SVG drawing instead of ours (--lines-from; another tool's)
   LineOptions line_opts;
 };
 
@@ -45,6 +47,10 @@ CheckArgs parse_check(int argc, char** argv) {
       a.lines = true;
     else if (f == "--lines-image")
       a.lines_image = value();
+    else if (f == "--lines-from") {
+      a.lines_from = value();
+      a.lines = true;
+    }
     else if (f == "--crease-angle") {
       a.line_opts.crease_angle_deg = parse_number(f, value());
       if (!(a.line_opts.crease_angle_deg >= 0 && a.line_opts.crease_angle_deg <= 180))
@@ -92,12 +98,18 @@ int cmd_check(int argc, char** argv) {
   std::vector<std::string> bad = check::over_tolerance(f, a.tol);
   if (a.lines) {
     // The drawing `vismap render --style lines` makes, against the id raster of the same view.
-    RenderOptions ro;
-    ro.keep_screen_triangles = true;
-    ro.memory_budget = a.opts.memory_budget;
-    ScreenTriangles screen;
-    const PlanarMap map = renderer.render(scene, cam, ro, nullptr, &screen);
-    const LineSet lines = extract_lines(map, screen, scene, cam, a.line_opts);
+    // With --lines-from, another tool's drawing read from SVG (core/svg_lines.h) instead.
+    LineSet lines;
+    if (!a.lines_from.empty()) {
+      lines = read_svg_lines_file(a.lines_from, cam.width, cam.height);
+    } else {
+      RenderOptions ro;
+      ro.keep_screen_triangles = true;
+      ro.memory_budget = a.opts.memory_budget;
+      ScreenTriangles screen;
+      const PlanarMap map = renderer.render(scene, cam, ro, nullptr, &screen);
+      lines = extract_lines(map, screen, scene, cam, a.line_opts);
+    }
     std::vector<uint32_t> ids;
     renderer.raster_ids(scene, cam, &ids);
     std::vector<uint8_t> img;
@@ -121,6 +133,7 @@ int cmd_check(int argc, char** argv) {
       write_atomically(a.lines_image, ppm);
     }
     nlohmann::ordered_json l;
+    if (!a.lines_from.empty()) l["from"] = a.lines_from;
     l["chains"] = lines.chain_count();
     for (size_t k = 0; k < kLineKinds; ++k)
       l[std::string(line_kind_name(LineKind(k))) + "_edges"] = lines.edges[k];

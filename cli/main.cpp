@@ -43,7 +43,8 @@ const char* kRenderUsage =
 const char* kCheckUsage =
     "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
     "                [--memory-budget BYTES]\n"
-    "                [--lines [--crease-angle DEG] [--lines-image OUT.ppm]]\n"
+    "                [--lines [--crease-angle DEG] [--lines-image OUT.ppm]\n"
+    "                 [--lines-from DRAWING.svg]]   (another tool's SVG drawing, scored alike)\n"
     "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 "
     "if over tolerance\n";
 const char* kDecodeUsage =
