@@ -755,8 +755,11 @@ TEST(Bin, MalformedFramesThrow) {
       expect_error(b, InputErrorKind::ParseError, "version " + std::to_string(v));
     }
     b = good;
-    set_u32(b, 16, 2);
+    set_u32(b, 16, 4);  // bit 1 is the line section (FORMAT.md "Lines"); bit 2 is unknown
     expect_error(b, InputErrorKind::ParseError, "unknown flag");
+    b = good;
+    set_u32(b, 16, 2 | (m.bary.empty() ? 0 : 1));  // a line section the frame does not have
+    expect_error(b, InputErrorKind::Truncated, "line section");
     b = good;
     set_u32(b, 16, m.bary.empty() ? 1 : 0);  // flag says attributes when there are none, or v.v.
     expect_error(b, m.bary.empty() ? InputErrorKind::Truncated : InputErrorKind::ParseError,

@@ -206,6 +206,26 @@ TEST_F(ServerV2Test, BadCompactCombinationsAreRefused) {
 TEST_F(ServerV2Test, LineStylesInSvgAndBinFrames) {
   start();
   const std::string grid = grid_obj(12);
+  std::string svg_frame, bin_frame;
+  uint64_t svg_chains = 0;
+  {
+    WsClient c;
+    hello2(c, "svg", {{"style", "fill+lines"}, {"hidden", true}});
+    upload(c, "grid.obj", grid);
+    ASSERT_EQ(next(c, 60)["type"], "scene_ready");
+    auto [h, p] = frame(c, 0, 0.0);
+    svg_chains = h["line_chains"].get<uint64_t>();
+    svg_frame = p.data;
+  }
+  {
+    WsClient c;
+    hello2(c, "bin", {{"style", "lines"}, {"hidden", true}});
+    upload(c, "grid.obj", grid);
+    ASSERT_EQ(next(c, 60)["type"], "scene_ready");
+    auto [h, p] = frame(c, 0, 0.0);
+    bin_frame = p.data;
+  }
+  // The same render here (after the sessions: as the compact test, one renderer at a time).
   vismap::Scene scene = vismap::load_scene_from_memory("grid.obj", grid);
   vismap::Camera cam;
   render_like_the_server(scene, 0.0, cam);
@@ -218,30 +238,17 @@ TEST_F(ServerV2Test, LineStylesInSvgAndBinFrames) {
   lo.hidden = true;
   const vismap::LineSet lines = vismap::extract_lines(map, screen, scene, cam, lo);
   ASSERT_GT(lines.chain_count(), 0u);
-  {
-    WsClient c;
-    hello2(c, "svg", {{"style", "fill+lines"}, {"hidden", true}});
-    upload(c, "grid.obj", grid);
-    ASSERT_EQ(next(c, 60)["type"], "scene_ready");
-    auto [h, p] = frame(c, 0, 0.0);
-    EXPECT_EQ(h["line_chains"], lines.chain_count());
-    vismap::SvgStyle st;
-    st.lines = &lines;
-    EXPECT_TRUE(p.data == vismap::write_svg(map, scene, cam, vismap::Fill::Shade, st));
-    EXPECT_NE(p.data.find("<g class=\"lines\""), std::string::npos);
-  }
-  {
-    WsClient c;
-    hello2(c, "bin", {{"style", "lines"}, {"hidden", true}});
-    upload(c, "grid.obj", grid);
-    ASSERT_EQ(next(c, 60)["type"], "scene_ready");
-    auto [h, p] = frame(c, 0, 0.0);
-    const vismap::BinFrame f = vismap::read_bin(p.data);
-    EXPECT_TRUE(f.has_lines);
-    EXPECT_EQ(f.triangle_count(), 0u);
-    EXPECT_EQ(f.lines.off, lines.off);
-    EXPECT_EQ(f.lines.kind, lines.kind);
-  }
+  EXPECT_EQ(svg_chains, lines.chain_count());
+  vismap::SvgStyle st;
+  st.lines = &lines;
+  EXPECT_TRUE(svg_frame == vismap::write_svg(map, scene, cam, vismap::Fill::Shade, st));
+  EXPECT_NE(svg_frame.find("<g class=\"lines\""), std::string::npos);
+  const vismap::BinFrame f = vismap::read_bin(bin_frame);
+  EXPECT_TRUE(f.has_lines);
+  EXPECT_EQ(f.triangle_count(), 0u);
+  EXPECT_EQ(f.lines.off, lines.off);
+  EXPECT_EQ(f.lines.kind, lines.kind);
+
   WsClient c;
   c.connect(url());
   const std::pair<const char*, const char*> bad[] = {
