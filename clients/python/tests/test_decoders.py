@@ -172,6 +172,16 @@ def test_bunny(vismap, tmp, timing):
     assert b.mesh.tolist() == ref["mesh"] and b.triangle_id.tolist() == ref["triangle_id"]
     assert np.abs(b.xy.astype(np.float64) - np.array(ref["xy"])).max() <= 5.01e-7
     assert b.xy.dtype == np.float32 and b.flags & 1 == (len(b.bary) > 0)
+    # With its line section (vismap render --style fill+lines --hidden): the same triangles, and
+    # chains of every kind the bunny has, hidden ones among them.
+    path = render(vismap, tmp, "bunny_lines.bin", "--format", "bin", "--width", "640", "--height", "480",
+                  "--style", "fill+lines", "--hidden")
+    L = vc.read_bin(read(path))
+    assert L.flags & 2 and L.triangle_count == b.triangle_count and len(L.chain_end) > 10
+    kinds = {vc.bin.LINE_KINDS[k & 0xFF] for k in L.chain_info.tolist()}
+    assert "contour" in kinds, kinds
+    assert any(k & (1 << 9) for k in L.chain_info.tolist())  # hidden parts
+    assert int(L.chain_end[-1]) * 2 == len(L.line_points)
 
 
 def _timed(fn):
@@ -309,7 +319,13 @@ def test_bin_malformed():
         except ValueError:
             pass
     nan = np.float32(np.nan).tobytes()
-    for what, data in [("flags", b"VMAP" + struct.pack("<5I", 1, 64, 48, 3, t) + body),
+    lines = struct.pack("<2I", 1, 2) + struct.pack("<2I", 2, 0) + np.zeros(4, np.float32).tobytes()
+    g = vc.read_bin(b"VMAP" + struct.pack("<5I", 1, 64, 48, 3, t) + body + lines)
+    assert g.chain_end.tolist() == [2] and len(g.line_points) == 4
+    bad_kind = struct.pack("<2I", 1, 2) + struct.pack("<2I", 2, 7) + np.zeros(4, np.float32).tobytes()
+    for what, data in [("flags", b"VMAP" + struct.pack("<5I", 1, 64, 48, 7, t) + body),
+                       ("missing lines", b"VMAP" + struct.pack("<5I", 1, 64, 48, 3, t) + body),
+                       ("line kind", b"VMAP" + struct.pack("<5I", 1, 64, 48, 3, t) + body + bad_kind),
                        ("version", b"VMAP" + struct.pack("<5I", 2, 64, 48, 1, t) + body),
                        ("trailing", hdr + body + b"\0\0\0\0"),
                        ("nan position", hdr + nan + body[4:]),

@@ -8,6 +8,8 @@ MAGIC = b"VMAP"
 VERSION = 1
 HEADER_BYTES = 24
 ATTRIBUTES = 1  # flags bit 0: barycentrics and 1/w present
+LINES = 2       # flags bit 1: the line section (FORMAT.md "Lines")
+LINE_KINDS = ("contour", "boundary", "crease", "intersection", "border")
 
 
 def _empty_f32():
@@ -27,6 +29,11 @@ class BinFrame:
     triangle_id: np.ndarray  # uint32 per triangle: global source triangle id
     bary: np.ndarray = field(default_factory=_empty_f32)   # float32, 9 per triangle if flags & 1
     inv_w: np.ndarray = field(default_factory=_empty_f32)  # float32, 3 per triangle if flags & 1
+    # flags & 2, the line section: chain c is points[chain_end[c-1]:chain_end[c]] (x, y float32
+    # pairs); chain_info: bits 0-7 the kind (LINE_KINDS), bit 8 closed, bit 9 hidden.
+    chain_end: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint32))
+    chain_info: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint32))
+    line_points: np.ndarray = field(default_factory=_empty_f32)
 
     @property
     def triangle_count(self):
@@ -52,7 +59,7 @@ def read_bin(data) -> BinFrame:
     version, width, height, flags, t = struct.unpack_from("<5I", data, 4)
     if version != VERSION:
         _fail("header", f"version {version} (this reader knows {VERSION})")
-    if flags & ~ATTRIBUTES:
+    if flags & ~(ATTRIBUTES | LINES):
         _fail("header", "unknown flag bits")
     sections = [("positions", "<f4", 6), ("mesh", "<u4", 1), ("triangle_id", "<u4", 1)]
     if flags & ATTRIBUTES:
@@ -64,6 +71,17 @@ def read_bin(data) -> BinFrame:
             _fail(name, f"truncated: {len(data)} bytes, {t} triangles need {offset + n} to its end")
         arrays[name] = np.frombuffer(data, dtype, per * t, offset)
         offset += n
+    if flags & LINES:
+        if len(data) < offset + 8:
+            _fail("lines", f"truncated: {len(data)} bytes, the line section's counts end at {offset + 8}")
+        c, n = struct.unpack_from("<2I", data, offset)
+        end = offset + 8 + 8 * c + 8 * n
+        if len(data) < end:
+            _fail("lines", f"truncated: {len(data)} bytes, the line section ends at {end}")
+        arrays["chain_end"] = np.frombuffer(data, "<u4", c, offset + 8)
+        arrays["chain_info"] = np.frombuffer(data, "<u4", c, offset + 8 + 4 * c)
+        arrays["line_points"] = np.frombuffer(data, "<f4", 2 * n, offset + 8 + 8 * c)
+        offset = end
     if len(data) != offset:
         _fail("frame", f"{len(data) - offset} trailing bytes after {t} triangles")
     f = BinFrame(version, width, height, flags, arrays["positions"], arrays["mesh"], arrays["triangle_id"])
@@ -78,4 +96,17 @@ def read_bin(data) -> BinFrame:
         ok = np.isfinite(f.inv_w) & (f.inv_w > 0)
         if not ok.all():
             _fail(f"triangle {_first_bad(ok, 3)}", "1/w not positive and finite")
+    if flags & LINES:
+        f.chain_end, f.chain_info, f.line_points = arrays["chain_end"], arrays["chain_info"], arrays["line_points"]
+        ends = f.chain_end.astype(np.int64)
+        starts = np.concatenate(([0], ends[:-1]))
+        if len(ends) and (np.any(ends <= starts) or ends[-1] != len(f.line_points) // 2):
+            _fail("lines", "chain ends not increasing or not ending at the point count")
+        if not len(ends) and len(f.line_points):
+            _fail("lines", "points without chains")
+        info = f.chain_info
+        if np.any((info & 0xFF) >= len(LINE_KINDS)) or np.any(info & ~np.uint32(0x3FF)):
+            _fail("lines", "bad chain info word")
+        if not np.isfinite(f.line_points).all():
+            _fail("lines", "non-finite point")
     return f
