@@ -182,7 +182,7 @@ class Classifier {
     }
     // One surface ends at this edge in front of the other, or both meet here at one depth.
     const double mx = (a[0] + b[0]) / 2, my = (a[1] + b[1]) / 2;
-    const double q1 = nearness(m1, t1, s1, mx, my), q2 = nearness(m2, t2, s2, mx, my);
+    const double q1 = nearness(s1, mx, my), q2 = nearness(s2, mx, my);
     if (std::abs(q1 - q2) <= kSameDepth * std::max(std::abs(q1), std::abs(q2))) {
       kind = m1 != m2 ? LineKind::Border : LineKind::Intersection;
       if (e1 >= 0)
@@ -414,9 +414,8 @@ class Classifier {
     return (f1 > 0) != (f2 > 0);
   }
 
-  // The nearness of source (m, t) at (x, y) pixels, from its screen triangle s's depth plane.
-  double nearness(uint32_t m, uint32_t t, uint32_t s, double x, double y) const {
-    (void)m, (void)t;
+  // The nearness at (x, y) pixels on screen triangle s's depth plane.
+  double nearness(uint32_t s, double x, double y) const {
     const double g = st_.grid_scale;
     const int32_t* v = &st_.xy[6 * size_t(s)];
     const double* q = &st_.depth[3 * size_t(s)];

@@ -345,6 +345,19 @@ double lambert_shade(const Scene& scene, const Camera& cam, uint32_t mesh, uint3
   return kAmbient + (1.0 - kAmbient) * std::min(ndl, 1.0);
 }
 
+uint32_t fill_color(const PlanarMap& map, const Scene& scene, const Camera& camera, bool shade,
+                    const std::vector<uint64_t>& base, size_t f, const char* writer) {
+  const uint32_t mesh = map.mesh[f], tri = map.triangle[f];
+  if (shade) return shade_color(scene, camera, mesh, tri);
+  const uint64_t id = global_triangle_id(map, scene, base, f) + 1;
+  if (id > 0xFFFFFF)
+    throw InputError(InputErrorKind::TooLarge, writer, scene.meshes[mesh].name, "triangle",
+                     int64_t(tri),
+                     "global triangle id " + std::to_string(id - 1) +
+                         " does not fit a 24-bit --fill id colour");
+  return uint32_t(id);
+}
+
 uint32_t shade_color(const Scene& scene, const Camera& cam, uint32_t mesh, uint32_t tri) {
   const double k = lambert_shade(scene, cam, mesh, tri);
   uint32_t rgb = 0;
@@ -386,18 +399,7 @@ FillPlan plan_fills(const PlanarMap& map, const Scene& scene, const Camera& came
     for (; j < nf && map.mesh[order[j]] == mesh && map.triangle[order[j]] == tri; ++j)
       any = any || q.off[order[j] + 1] > q.off[order[j]];
     if (any) {
-      uint32_t color;
-      if (shade) {
-        color = shade_color(scene, camera, mesh, tri);
-      } else {
-        const uint64_t id = global_triangle_id(map, scene, base, order[i]) + 1;
-        if (id > 0xFFFFFF)
-          throw InputError(InputErrorKind::TooLarge, writer, scene.meshes[mesh].name, "triangle",
-                           int64_t(tri),
-                           "global triangle id " + std::to_string(id - 1) +
-                               " does not fit a 24-bit --fill id colour");
-        color = uint32_t(id);
-      }
+      const uint32_t color = fill_color(map, scene, camera, shade, base, order[i], writer);
       plan.paths.push_back({mesh, tri, color, i, j});
     }
     i = j;

@@ -74,5 +74,9 @@ void chain_points(const LineSet& lines, size_t c, std::vector<Q>& out);
 
 // Lambert shade times the mesh colour, as sRGB #RRGGBB.
 uint32_t shade_color(const Scene& scene, const Camera& cam, uint32_t mesh, uint32_t tri);
+// Fragment f's fill: the shade colour of its source, or (shade false) its global id + 1;
+// InputError TooLarge (naming `writer`) when the id does not fit 24 bits.
+uint32_t fill_color(const PlanarMap& map, const Scene& scene, const Camera& camera, bool shade,
+                    const std::vector<uint64_t>& base, size_t f, const char* writer);
 
 }  // namespace vismap::detail

@@ -235,19 +235,9 @@ void write_merged(std::string& out, const PlanarMap& map, const Scene& scene, co
       const uint32_t f = P.fragment[p], m = map.mesh[f], t = map.triangle[f];
       const uint64_t key = uint64_t(m) << 32 | t;
       auto it = by_source.find(key);
-      if (it == by_source.end()) {
-        uint32_t c;
-        if (shade) {
-          c = detail::shade_color(scene, camera, m, t);
-        } else {
-          const uint64_t id = detail::global_triangle_id(map, scene, base, f) + 1;
-          if (id > 0xFFFFFF)
-            throw InputError(InputErrorKind::TooLarge, "svg", scene.meshes[m].name, "triangle",
-                             int64_t(t), "global triangle id does not fit a 24-bit --fill id colour");
-          c = uint32_t(id);
-        }
-        it = by_source.emplace(key, c).first;
-      }
+      if (it == by_source.end())
+        it = by_source.emplace(key, detail::fill_color(map, scene, camera, shade, base, f, "svg"))
+                 .first;
       color[p] = it->second;
     }
   }
