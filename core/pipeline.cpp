@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #if defined(__GLIBC__)
@@ -28,6 +29,7 @@
 #include "core/stages/occlusion.h"
 #include "core/stages/raster.h"
 #include "core/stages/silhouettes.h"
+#include "core/stages/tessellate.h"
 #include "core/stages/transform.h"
 
 namespace vismap {
@@ -93,6 +95,7 @@ struct Renderer::Impl {
   size_t key_tris = 0;
   const float* key_pos = nullptr;
   stages::SceneBuffers sb;
+  stages::LoopPlans loop_plans;  // per Loop control mesh, built on first use
 
   void upload(const Scene& scene, RenderStats& st);
   PlanarMap run(const Scene& scene, const Camera& cam, const RenderOptions& opts, RenderStats& st,
@@ -107,8 +110,15 @@ struct Renderer::Impl {
 };
 
 void Renderer::Impl::upload(const Scene& scene, RenderStats& st) {
+  if (scene.has_surfaces())
+    throw InputError(InputErrorKind::BadScene, scene.source, "", "", -1,
+                     "curved surfaces must be diced first (Renderer::tessellate)");
+  // A diced scene is new every frame and may reuse a freed one's addresses: always uploaded.
+  bool diced = false;
+  for (const Mesh& m : scene.meshes) diced = diced || !m.uv.empty();
   const float* first = scene.meshes.empty() ? nullptr : scene.meshes[0].positions.data();
-  if (scene_key == &scene && key_tris == scene.triangle_count() && key_pos == first) return;
+  if (!diced && scene_key == &scene && key_tris == scene.triangle_count() && key_pos == first)
+    return;
   auto t0 = Clock::now();
   std::vector<float> p;
   std::vector<uint32_t> ix, tm, tl;
@@ -338,6 +348,39 @@ RasterStats Renderer::raster_ids(const Scene& scene, const Camera& camera,
     RenderStats ust;
     impl_->upload(scene, ust);
     return stages::raster_ids(impl_->rt, impl_->sb, scene, camera, ids);
+  } catch (const cl::Error& e) {
+    throw DeviceError(std::string("OpenCL error in ") + e.what() + " (" + std::to_string(e.err()) +
+                      ") on " + impl_->rt.info().name);
+  }
+}
+
+Scene Renderer::tessellate(const Scene& scene, const Camera& camera,
+                           const TessellateOptions& opts, TessellateStats* stats) {
+  TessellateStats local;
+  TessellateStats& st = stats ? *stats : local;
+  st = TessellateStats{};
+  auto t0 = Clock::now();
+  try {
+    camera.validate();
+    if (!(opts.tolerance_px > 0) || !std::isfinite(opts.tolerance_px))
+      throw InputError(InputErrorKind::BadScene, scene.source, "", "", -1,
+                       "tessellation tolerance must be a positive number of pixels");
+    Scene out;
+    out.camera = scene.camera;
+    out.dropped_degenerate = scene.dropped_degenerate;
+    out.source = scene.source;
+    out.meshes.reserve(scene.meshes.size());
+    for (const Mesh& m : scene.meshes) {
+      if (!m.patches.empty())
+        out.meshes.push_back(stages::dice_patches(impl_->rt, m, camera, opts, st));
+      else if (m.subdivision)
+        out.meshes.push_back(
+            stages::dice_subdivision(impl_->rt, m, camera, opts, impl_->loop_plans, st));
+      else
+        out.meshes.push_back(m);
+    }
+    st.ms = ms_since(t0);
+    return out;
   } catch (const cl::Error& e) {
     throw DeviceError(std::string("OpenCL error in ") + e.what() + " (" + std::to_string(e.err()) +
                       ") on " + impl_->rt.info().name);

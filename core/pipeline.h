@@ -12,6 +12,7 @@
 #include "core/device.h"
 #include "core/planar_map.h"
 #include "core/scene.h"
+#include "core/tessellate.h"
 
 namespace vismap {
 
@@ -98,6 +99,12 @@ class Renderer {
   Renderer& operator=(const Renderer&) = delete;
 
   const DeviceInfo& device() const;
+  // Every curved surface of `scene` (Bezier patches, Loop subdivision) diced for `camera` on
+  // this device into an ordinary mesh in the same slot (Mesh::uv, face_ids: the source patch or
+  // control triangle); other meshes copied. render() takes the result; it refuses a scene with
+  // undiced surfaces (InputError BadScene).
+  Scene tessellate(const Scene& scene, const Camera& camera, const TessellateOptions& opts = {},
+                   TessellateStats* stats = nullptr);
   PlanarMap render(const Scene& scene, const Camera& camera, const RenderOptions& opts = {},
                    RenderStats* stats = nullptr, ScreenTriangles* screen = nullptr);
   // One sample per pixel centre (row-major, y down): the global input triangle index

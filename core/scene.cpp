@@ -11,6 +11,12 @@ size_t Scene::triangle_count() const {
   return n;
 }
 
+bool Scene::has_surfaces() const {
+  for (const Mesh& m : meshes)
+    if (m.is_surface()) return true;
+  return false;
+}
+
 std::vector<uint64_t> Scene::triangle_id_base() const {
   std::vector<uint64_t> base(meshes.size());
   uint64_t b = 0;
@@ -23,22 +29,27 @@ std::vector<uint64_t> Scene::triangle_id_base() const {
 
 Bounds scene_bounds(const Scene& s) {
   // Only vertices that triangles use: stray unused vertices must not move the framing.
+  // A Bezier patch lies in the hull of its control points, and so does a Loop surface in its
+  // control mesh's: their boxes bound the diced surfaces for every tolerance.
   Bounds b;
+  auto add = [&b](const float* p) {
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) return;
+    for (int k = 0; k < 3; ++k) {
+      if (b.empty) {
+        b.lo[k] = b.hi[k] = p[k];
+      } else {
+        b.lo[k] = std::min(b.lo[k], double(p[k]));
+        b.hi[k] = std::max(b.hi[k], double(p[k]));
+      }
+    }
+    b.empty = false;
+  };
   for (const Mesh& m : s.meshes) {
+    for (size_t i = 0; i + 3 <= m.patches.size(); i += 3) add(&m.patches[i]);
     const size_t nv = m.vertex_count();
     for (uint32_t i : m.indices) {
       if (i >= nv) continue;  // the loader reports bad indices; bounds just skip them
-      const float* p = &m.positions[3 * size_t(i)];
-      if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
-      for (int k = 0; k < 3; ++k) {
-        if (b.empty) {
-          b.lo[k] = b.hi[k] = p[k];
-        } else {
-          b.lo[k] = std::min(b.lo[k], double(p[k]));
-          b.hi[k] = std::max(b.hi[k], double(p[k]));
-        }
-      }
-      b.empty = false;
+      add(&m.positions[3 * size_t(i)]);
     }
   }
   return b;

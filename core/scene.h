@@ -23,6 +23,22 @@ struct Mesh {
   std::array<float, 3> color{0.8f, 0.8f, 0.8f};  // linear RGB base color in [0,1]
   bool soup = false;  // true when vertices are not shared (match edges by position)
 
+  // Curved surfaces (issue 18, docs/SURFACES.md), diced per frame by Renderer::tessellate into an
+  // ordinary triangle mesh in the same slot (core/tessellate.h); render() refuses them undiced.
+  // Bicubic Bezier patches: 16 control points per patch, 48 floats, world space; point (i, j) of
+  // patch p at patches[48 p + 3 (4 i + j) + c], i along v and j along u, so that
+  // S(u, v) = sum_ij B_i(v) B_j(u) P_ij. positions/indices stay empty; source_triangles = patches.
+  std::vector<float> patches;
+  // positions/indices are the control mesh of a Loop subdivision surface (triangles).
+  bool subdivision = false;
+  // A diced mesh: (u, v) per vertex in its source patch, or in its control triangle (the
+  // barycentrics of corners 1 and 2) for a subdivision surface; face_ids name the patch or the
+  // control triangle. Empty for ordinary meshes.
+  std::vector<float> uv;
+
+  size_t patch_count() const { return patches.size() / 48; }
+  bool is_surface() const { return !patches.empty() || subdivision; }
+
   size_t vertex_count() const { return positions.size() / 3; }
   size_t triangle_count() const { return indices.size() / 3; }
 };
@@ -34,6 +50,7 @@ struct Scene {
   std::string source;               // path it was loaded from
 
   size_t triangle_count() const;
+  bool has_surfaces() const;  // any mesh is_surface(): Renderer::tessellate before render
   // Global id of mesh m's first source triangle: sum of source_triangles of meshes before it.
   std::vector<uint64_t> triangle_id_base() const;
 };

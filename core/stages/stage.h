@@ -19,8 +19,9 @@ enum class Stage : uint8_t {
   Emit,         // visible fragments to the host, the planar map
   Raster,       // the z-buffer id raster (the floor to beat; not part of a frame)
   Test,         // launches made by tests of single kernels
+  Tessellate,   // curved surfaces diced for the camera (before a frame; TessellateStats)
 };
-constexpr size_t kStageCount = 10;
+constexpr size_t kStageCount = 11;
 // The stages a frame reports in RenderStats, in order.
 constexpr Stage kFrameStages[] = {Stage::Transform, Stage::Silhouettes, Stage::Bin,
                                   Stage::Crossings, Stage::Candidates,  Stage::Clip,
@@ -29,7 +30,7 @@ constexpr Stage kFrameStages[] = {Stage::Transform, Stage::Silhouettes, Stage::B
 constexpr const char* stage_name(Stage s) {
   constexpr const char* names[kStageCount] = {"transform",  "silhouettes", "bin",       "crossings",
                                               "candidates", "clip",        "occlusion", "emit",
-                                              "raster",     "test"};
+                                              "raster",     "test",        "tessellate"};
   return names[static_cast<size_t>(s)];
 }
 

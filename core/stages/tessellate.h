@@ -1,0 +1,30 @@
+// Stage tessellate: curved surfaces diced for the camera before a frame (core/tessellate.h).
+// Bezier patches (core/stages/tess_patches.cpp, kernels/patches.cl): bound, split in rounds of
+// the scan-and-compact queue, dice with edge rates taken from each edge's own data so that
+// neighbours agree bit for bit. Loop subdivision (core/stages/tess_loop.cpp, kernels/loop.cl):
+// stencil tables built once per control mesh on the host, applied on the device per frame.
+#pragma once
+
+#include <map>
+#include <memory>
+
+#include "core/camera.h"
+#include "core/cl_runtime.h"
+#include "core/scene.h"
+#include "core/tessellate.h"
+
+namespace vismap::stages {
+
+// One patch mesh diced: positions, indices, uv (per vertex), face_ids (the patch of each
+// triangle), source_triangles = patch count; name, color and flags copied.
+Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam, const TessellateOptions& o,
+                  TessellateStats& st);
+
+// What a Loop control mesh needs every frame (topology, stencils), built once per mesh.
+struct LoopPlan;
+using LoopPlans = std::map<const Mesh*, std::shared_ptr<LoopPlan>>;
+// One Loop subdivision surface diced: face_ids the control triangle, uv its barycentrics.
+Mesh dice_subdivision(ClRuntime& rt, const Mesh& mesh, const Camera& cam,
+                      const TessellateOptions& o, LoopPlans& plans, TessellateStats& st);
+
+}  // namespace vismap::stages
