@@ -31,9 +31,10 @@ struct Mesh {
   std::vector<float> patches;
   // positions/indices are the control mesh of a Loop subdivision surface (triangles).
   bool subdivision = false;
-  // A diced mesh: (u, v) per vertex in its source patch, or in its control triangle (the
-  // barycentrics of corners 1 and 2) for a subdivision surface; face_ids name the patch or the
-  // control triangle. Empty for ordinary meshes.
+  // A diced mesh: (u, v) per triangle corner (6 floats per triangle, in the order of indices)
+  // in its source patch, or in its control triangle (the barycentrics of corners 1 and 2) for a
+  // subdivision surface; per corner because a vertex on a shared edge has a (u, v) in each of
+  // its sources. face_ids name the patch or the control triangle. Empty for ordinary meshes.
   std::vector<float> uv;
 
   size_t patch_count() const { return patches.size() / 48; }

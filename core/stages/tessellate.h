@@ -15,7 +15,7 @@
 
 namespace vismap::stages {
 
-// One patch mesh diced: positions, indices, uv (per vertex), face_ids (the patch of each
+// One patch mesh diced: positions, indices (vertices shared, across patches too), uv (per corner), face_ids (the patch of each
 // triangle), source_triangles = patch count; name, color and flags copied.
 Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam, const TessellateOptions& o,
                   TessellateStats& st);
