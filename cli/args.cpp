@@ -82,13 +82,25 @@ bool parse_view_flag(const std::string& f, const std::function<std::string()>& v
     a.far_plane = parse_number(f, value());
   else if (f == "--device")
     a.device = value();
-  else
+  else if (f == "--tolerance") {
+    a.tolerance_px = parse_number(f, value());
+    if (!(a.tolerance_px >= 1e-3 && a.tolerance_px <= 1000))
+      throw UsageError("--tolerance: expected 0.001 ... 1000 pixels");
+  } else
     return false;
   return true;
 }
 
 void validate_view(const ViewArgs& a) {
   if (a.fov_y && a.ortho) throw UsageError("--fov-y and --ortho exclude each other");
+}
+
+Scene dice_for_view(Renderer& renderer, Scene scene, const Camera& cam, const ViewArgs& a,
+                    TessellateStats* st) {
+  if (!scene.has_surfaces()) return scene;
+  TessellateOptions o;
+  o.tolerance_px = float(a.tolerance_px);
+  return renderer.tessellate(scene, cam, o, st);
 }
 
 Camera make_camera(const Scene& scene, const ViewArgs& a) {

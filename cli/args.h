@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/camera.h"
+#include "core/pipeline.h"
 #include "core/scene.h"
 
 namespace vismap::cli {
@@ -23,12 +24,13 @@ uint32_t parse_pixels(const std::string& flag, const std::string& s);
 // A byte count: an integer with an optional K, M or G suffix (powers of 1024), e.g. 512M, 1G.
 uint64_t parse_bytes(const std::string& flag, const std::string& s);
 
-// --width --height --eye --target --up --fov-y --ortho --near --far --device
+// --width --height --eye --target --up --fov-y --ortho --near --far --device --tolerance
 struct ViewArgs {
   std::optional<uint32_t> width, height;
   std::optional<Vec3> eye, target, up;
   std::optional<double> fov_y, ortho, near_plane, far_plane;
   std::string device;
+  double tolerance_px = 0.2;  // curved surfaces: TessellateOptions::tolerance_px
 };
 
 // If `flag` is one of the view flags, consumes its value through `value` and returns true.
@@ -38,6 +40,10 @@ void validate_view(const ViewArgs& v);  // throws UsageError
 
 // The camera: the scene's own (or a framing one), then the flags on top.
 Camera make_camera(const Scene& scene, const ViewArgs& a);
+
+// The scene with its curved surfaces diced for `cam` (the scene itself when it has none).
+Scene dice_for_view(Renderer& renderer, Scene scene, const Camera& cam, const ViewArgs& a,
+                    TessellateStats* st = nullptr);
 
 // Writes through a temporary file in the same folder and renames it: no half-written output.
 void write_atomically(const std::string& path, const std::string& bytes);

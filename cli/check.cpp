@@ -83,6 +83,7 @@ int cmd_check(int argc, char** argv) {
   Scene scene = load_scene(a.scene);
   Camera cam = make_camera(scene, a.view);
   Renderer renderer(a.view.device);
+  scene = dice_for_view(renderer, std::move(scene), cam, a.view);
   check::ReversedScene rev;
   if (a.reverse) {
     rev = check::reverse_order(scene);

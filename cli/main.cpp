@@ -36,7 +36,7 @@ const char* kRenderUsage =
     "                [--quantum Q] [--compression zstd|deflate] [--width W --height H]\n"
     "                [--eye X,Y,Z --target X,Y,Z --up X,Y,Z] [--fov-y DEG | --ortho HEIGHT]\n"
     "                [--near N --far F] [--device NAME] [--memory-budget BYTES]\n"
-    "                [--time-limit SECONDS] [--stats]\n"
+    "                [--time-limit SECONDS] [--stats] [--tolerance PX]\n"
     "                [--style fill|lines|fill+lines] [--crease-angle DEG] [--line-width PX]\n"
     "                [--line-color KIND=#RRGGBB] [--simplify PX] [--hidden] [--merge]\n"
     "                format: --format, else OUT's extension (.svg .pdf .eps .png .bin .vmc)\n";
@@ -53,7 +53,9 @@ const char* kDecodeUsage =
     "                a summary line on stdout\n";
 const char* kDevicesUsage = "  vismap devices\n";
 const char* kNotes =
-    "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb or a .json scene file.\n"
+    "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb, Bezier patches .bpt .patches, pbrt .pbrt\n"
+    "       (loopsubdiv), or a .json scene file.\n"
+    "--tolerance PX: curved surfaces are diced within PX pixels of the surface (default 0.2).\n"
     "--device (or $VISMAP_DEVICE): 'P:D' from `vismap devices`, or part of a device/platform "
     "name.\n";
 
@@ -215,6 +217,8 @@ int cmd_render(int argc, char** argv) {
   auto t_load = Clock::now();
   Camera cam = make_camera(scene, a.view);
   Renderer renderer(a.view.device);
+  TessellateStats ts;
+  scene = dice_for_view(renderer, std::move(scene), cam, a.view, &ts);
   RenderOptions opts;
   opts.attributes = a.format == "bin";
   opts.memory_budget = a.memory_budget;
@@ -289,6 +293,14 @@ int cmd_render(int argc, char** argv) {
     std::fprintf(stderr,
                  "%-12s %10.2f   (sum of stage times; pipeline wall %.2f ms, upload %.2f ms)\n",
                  "kernels", sum, st.pipeline_ms, st.upload_ms);
+    if (ts.triangles)
+      std::fprintf(stderr,
+                   "tessellate: %.2f ms, %u launches, %u reads, %u split rounds, %llu pieces "
+                   "(%llu culled), %llu triangles, Loop level %u\n",
+                   ts.ms, ts.launches, ts.host_syncs, ts.split_rounds,
+                   static_cast<unsigned long long>(ts.pieces),
+                   static_cast<unsigned long long>(ts.culled),
+                   static_cast<unsigned long long>(ts.triangles), ts.subdivision_level);
     std::fprintf(stderr,
                  "input triangles %llu (dropped degenerate %llu), screen triangles %llu, "
                  "silhouette edges %llu\n",

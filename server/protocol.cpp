@@ -150,6 +150,11 @@ Hello parse_hello(const json& j, uint32_t max_viewport) {
         bad("'crease_angle' must be a number of degrees from 0 to 180");
       h.crease_angle_deg = v->get<double>();
     }
+    if (const json* v = field(j, "tolerance")) {
+      if (!v->is_number() || !(v->get<double>() >= 1e-3 && v->get<double>() <= 1000))
+        bad("'tolerance' must be a number of pixels from 0.001 to 1000");
+      h.tolerance_px = v->get<double>();
+    }
     if (h.style != "fill" && h.format != Format::Svg && h.format != Format::Bin)
       bad("'style': lines are drawn in svg and bin frames, not " +
           std::string(format_spec(h.format).name));

@@ -100,6 +100,8 @@ struct Hello {
   std::string style = "fill";
   bool hidden = false;
   double crease_angle_deg = 45.0;
+  // Curved surfaces (version 2, any format): diced within this many pixels (TessellateOptions).
+  double tolerance_px = 0.2;
 };
 
 // Scene upload header. Exactly one source: `library` (a file in the server's library), `data`

@@ -502,6 +502,11 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       if (!keep_near_far) cam.near_plane = cam.far_plane = 0;
       fit_near_far(cam, *job.scene);
       cam.validate();
+      if (job.scene->has_surfaces()) {  // diced for this view; the frame keeps the diced scene
+        TessellateOptions to;
+        to.tolerance_px = float(h.tolerance_px);
+        job.scene = std::make_shared<const Scene>(renderer->tessellate(*job.scene, cam, to));
+      }
       RenderOptions opts;
       opts.attributes = h.attributes && format_spec(h.format).carries_attributes;
       opts.memory_budget = srv_.cfg.limits.render_memory_bytes;
