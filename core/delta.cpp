@@ -778,7 +778,6 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     return slot_of[gv];
   };
   // The Lambert factor of --fill shade (DELTA.md), from the triangle's world vertices.
-  const bool ortho = f.camera.projection == Camera::Projection::Orthographic;
   auto shade_of = [&](uint32_t id) {
     double p[3][3];
     for (int k = 0; k < 3; ++k)
@@ -786,8 +785,7 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
     double e1[3], e2[3], n[3], l[3];
     for (int c = 0; c < 3; ++c) {
       e1[c] = p[1][c] - p[0][c], e2[c] = p[2][c] - p[0][c];
-      l[c] = ortho ? f.camera.eye[c] - f.camera.target[c]
-                   : f.camera.eye[c] - (p[0][c] + p[1][c] + p[2][c]) / 3.0;
+      l[c] = f.camera.eye[c] - f.camera.target[c];  // the headlight (DELTA.md "Shade")
     }
     n[0] = e1[1] * e2[2] - e1[2] * e2[1];
     n[1] = e1[2] * e2[0] - e1[0] * e2[2];

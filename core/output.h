@@ -14,7 +14,7 @@ namespace vismap {
 enum class Fill { Shade, Id };
 
 // SVG: viewBox in pixels; the fragments of one source triangle in one <path>. Shade fills with a
-// Lambert shade of the source triangle's normal (light at the eye) times the mesh color; Id fills
+// Lambert shade of the source triangle's normal (headlight along the view) times the mesh color; Id fills
 // with #RRGGBB = global source triangle id + 1 (Scene::triangle_id_base + face id) and
 // shape-rendering="crispEdges".
 std::string write_svg(const PlanarMap& map, const Scene& scene, const Camera& camera, Fill fill);

@@ -21,8 +21,8 @@ inline uint64_t global_triangle_id(const PlanarMap& map, const Scene& scene,
   return base[m] + scene.meshes[m].face_ids[map.triangle[f]];
 }
 
-// Lambert shade of a source triangle, two-sided, light at the eye (or along the view for
-// orthographic cameras), plus ambient: the factor on the mesh colour, in [0.12, 1]. Throws
+// Lambert shade of a source triangle, two-sided, a headlight along the view direction
+// (eye - target, both projections: coplanar faces get one shade), plus ambient: the factor on the mesh colour, in [0.12, 1]. Throws
 // InputError when a vertex index is out of range.
 double lambert_shade(const Scene& scene, const Camera& cam, uint32_t mesh, uint32_t tri);
 

@@ -332,16 +332,14 @@ double lambert_shade(const Scene& scene, const Camera& cam, uint32_t mesh, uint3
   const Vec3 e2{p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
   const Vec3 n{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
                e1[0] * e2[1] - e1[1] * e2[0]};
-  Vec3 l;
-  if (cam.projection == Camera::Projection::Orthographic) {
-    l = {cam.eye[0] - cam.target[0], cam.eye[1] - cam.target[1], cam.eye[2] - cam.target[2]};
-  } else {
-    for (int c = 0; c < 3; ++c) l[c] = cam.eye[c] - (p[0][c] + p[1][c] + p[2][c]) / 3.0;
-  }
+  // A headlight along the view direction, for both projections: a plane gets one shade
+  // whatever its triangulation (a light at the eye shaded each triangle of a wall by its own
+  // centroid, issue 20).
+  const Vec3 l{cam.eye[0] - cam.target[0], cam.eye[1] - cam.target[1], cam.eye[2] - cam.target[2]};
   const double nn = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
   const double ll = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
   double ndl = std::abs(n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) / (nn * ll);
-  if (!std::isfinite(ndl)) ndl = 1.0;  // degenerate triangle or light at its centroid
+  if (!std::isfinite(ndl)) ndl = 1.0;  // degenerate triangle
   return kAmbient + (1.0 - kAmbient) * std::min(ndl, 1.0);
 }
 

@@ -244,10 +244,8 @@ class Output {
     const p2x = P[c], p2y = P[c + 1], p2z = P[c + 2];
     const e1x = p1x - p0x, e1y = p1y - p0y, e1z = p1z - p0z;
     const e2x = p2x - p0x, e2y = p2y - p0y, e2z = p2z - p0z;
-    const { eye, target, ortho } = this.c;
-    const lx = ortho ? eye[0] - target[0] : eye[0] - (p0x + p1x + p2x) / 3.0;
-    const ly = ortho ? eye[1] - target[1] : eye[1] - (p0y + p1y + p2y) / 3.0;
-    const lz = ortho ? eye[2] - target[2] : eye[2] - (p0z + p1z + p2z) / 3.0;
+    const { eye, target } = this.c;
+    const lx = eye[0] - target[0], ly = eye[1] - target[1], lz = eye[2] - target[2];
     const n0 = e1y * e2z - e1z * e2y;
     const n1 = e1z * e2x - e1x * e2z;
     const n2 = e1x * e2y - e1y * e2x;

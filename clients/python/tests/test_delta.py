@@ -166,9 +166,13 @@ def test_rounding():
     g = np.array([0.5, -0.5, 1.5, -1.5, 2.5, -2.5, 0.49999999999999994, -0.49999999999999994, 1e9 - 0.5, -7.0])
     assert delta.llround(g).tolist() == [1, -1, 2, -2, 3, -3, 0, 0, 1e9, -7]
     assert [delta.div_round(q, 4) for q in (-6, -2, 2, 6, -5, 5)] == [-1, 0, 1, 2, -1, 1]  # floor(q/4 + 1/2)
-    # A degenerate source (no normal) and a light at its centroid: the factor is not finite, k = 1.
+    # A degenerate source (no normal) and a camera with eye = target (no view direction): the
+    # factor is not finite, k = 1; a face seen head-on is 255 and one at 60 degrees 0.12 + 0.44.
     p = np.array([[[0, 0, 0], [1, 0, 0], [2, 0, 0]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]]], np.float64)
-    assert delta.shades(p, np.array([1 / 3, 1 / 3, 0.0]), np.zeros(3), False).tolist() == [255, 255]
+    assert delta.shades(p, np.zeros(3), np.zeros(3), False).tolist() == [255, 255]
+    eye = np.array([0.0, np.sin(np.pi / 3), np.cos(np.pi / 3)]) * 5.0
+    assert delta.shades(p[1:], np.array([0.0, 0.0, 3.0]), np.zeros(3), False).tolist() == [255]
+    assert delta.shades(p[1:], eye, np.zeros(3), False).tolist() == [int(np.floor((0.12 + 0.88 * 0.5) * 255 + 0.5))]
 
 
 def test_out_of_sync():

@@ -103,10 +103,8 @@ def shades(p, eye, target, ortho):
     k = 0.12 + 0.88 min(1, |n.l| / (|n| |l|)) (1 where that is not finite), as uint8."""
     e1 = p[:, 1] - p[:, 0]
     e2 = p[:, 2] - p[:, 0]
-    if ortho:
-        l = np.broadcast_to(np.asarray(eye, np.float64) - np.asarray(target, np.float64), e1.shape)
-    else:
-        l = np.asarray(eye, np.float64) - (p[:, 0] + p[:, 1] + p[:, 2]) / 3.0
+    # the headlight along the view, for both projections (ortho kept for the callers)
+    l = np.broadcast_to(np.asarray(eye, np.float64) - np.asarray(target, np.float64), e1.shape)
     n0 = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
     n1 = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
     n2 = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
