@@ -1,0 +1,67 @@
+// Implicit surfaces (issue 19, docs/IMPLICIT.md): a closed-form f(x, y, z) in MPR's s-expression
+// syntax, compiled to a tape (Keeter 2020): a flat list of clauses in evaluation order, each
+// naming earlier clauses, with shared subexpressions merged. The solid is f < 0.
+//
+// This file is the host side: the parser, the tape, and reference evaluators (plain and interval
+// arithmetic) with MPR's tape shortening. The device evaluates the same tape (kernels/).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace vismap::implicit {
+
+enum class Op : uint8_t {
+  Const, X, Y, Z,                            // leaves
+  Add, Sub, Mul, Div, Min, Max, Pow,         // binary
+  Neg, Square, Sqrt, Abs, Exp, Log, Sin, Cos, Tan, Asin, Acos, Atan,  // unary
+};
+const char* op_name(Op op);
+bool is_binary(Op op);
+
+// One clause: its operands are earlier clauses (a, b < this clause's index); Const holds value.
+struct Clause {
+  Op op = Op::Const;
+  uint32_t a = 0, b = 0;
+  double value = 0;
+};
+
+struct Tape {
+  std::vector<Clause> clauses;  // evaluation order; the last one is f
+  uint32_t tree_ops = 0;        // operations in the source tree before merging (for reports)
+  size_t size() const { return clauses.size(); }
+  uint32_t root() const { return uint32_t(clauses.size() - 1); }
+  // Clauses that are min or max: the ones tape shortening can drop a branch of.
+  size_t choice_count() const;
+};
+
+// Parses an expression: numbers, x y z, (+ - * / min max a b ...), (sqrt square abs exp log sin
+// cos tan asin acos atan a), (pow a b), (- a) negates. n-ary + * min max fold into balanced trees
+// of binary clauses; (- a b c) is a - b - c. Shared subexpressions are merged (commutative
+// operands ordered). Errors: InputError ParseError naming `file`, line and column.
+Tape parse(const std::string& text, const std::string& file);
+Tape load(const std::string& path);  // reads the file, then parse(); FileNotFound if it cannot
+
+// Plain evaluation (doubles). sqrt of a negative argument is 0 (rounding in sqrt(a^2 + b^2 - r^2)
+// style expressions must not make holes); log of 0 is -inf; the rest as IEEE.
+double eval(const Tape& t, double x, double y, double z);
+
+struct Interval {
+  double lo = 0, hi = 0;
+};
+// Interval evaluation over a box: the result contains f over the whole box (each operation's
+// bounds rounded outward by one ulp, so rounding never shrinks them; division by an interval
+// that holds 0, and any NaN, give [-inf, inf]). When `choices` is given, it receives for every
+// clause: 0 both operands may win (or not a min/max), 1 only a can, 2 only b can.
+Interval eval_interval(const Tape& t, Interval x, Interval y, Interval z,
+                       std::vector<uint8_t>* choices = nullptr);
+
+// MPR's tape shortening: given the choices of eval_interval over a box, the tape with every
+// decided min/max replaced by its winning operand and the clauses no longer used dropped. Over
+// that box it computes f exactly as the full tape does (the same operations on the same values).
+// `kept` (optional) receives, for each clause of the result, its index in `t`.
+Tape shorten(const Tape& t, const std::vector<uint8_t>& choices,
+             std::vector<uint32_t>* kept = nullptr);
+
+}  // namespace vismap::implicit
