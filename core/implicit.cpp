@@ -470,4 +470,66 @@ Tape shorten(const Tape& t, const std::vector<uint8_t>& choices, std::vector<uin
   return out;
 }
 
+SlotTape allocate_slots(const Tape& t) {
+  const size_t n = t.size();
+  std::vector<size_t> last(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    const Clause& c = t.clauses[i];
+    if (c.op >= Op::Add) last[c.a] = i;
+    if (is_binary(c.op)) last[c.b] = i;
+  }
+  last[n - 1] = n;  // the root is never freed
+  SlotTape out;
+  out.code.reserve(4 * n);
+  std::vector<uint32_t> slot(n, 0), free_slots;
+  for (size_t i = 0; i < n; ++i) {
+    const Clause& c = t.clauses[i];
+    if (c.op >= Op::Add && last[c.a] == i) free_slots.push_back(slot[c.a]);
+    if (is_binary(c.op) && c.b != c.a && last[c.b] == i) free_slots.push_back(slot[c.b]);
+    if (free_slots.empty()) {
+      slot[i] = out.slots++;
+    } else {
+      slot[i] = free_slots.back();
+      free_slots.pop_back();
+    }
+    uint32_t a = 0, b = 0;
+    if (c.op == Op::Const) {
+      const float f = float(c.value);
+      std::memcpy(&a, &f, 4);
+    } else if (c.op >= Op::Add) {
+      a = slot[c.a];
+      if (is_binary(c.op)) b = slot[c.b];
+    }
+    out.code.insert(out.code.end(), {uint32_t(c.op), slot[i], a, b});
+  }
+  out.root_slot = slot[n - 1];
+  return out;
+}
+
+double eval_slots(const SlotTape& t, double x, double y, double z) {
+  std::vector<double> s(std::max<uint32_t>(t.slots, 1));
+  for (size_t k = 0; k < t.size(); ++k) {
+    const uint32_t* c = &t.code[4 * k];
+    const Op op = Op(c[0]);
+    double v;
+    if (c[0] == kCopy) {
+      v = s[c[2]];
+    } else if (op == Op::Const) {
+      float f;
+      std::memcpy(&f, &c[2], 4);
+      v = f;
+    } else if (op == Op::X) {
+      v = x;
+    } else if (op == Op::Y) {
+      v = y;
+    } else if (op == Op::Z) {
+      v = z;
+    } else {
+      v = apply(op, s[c[2]], is_binary(op) ? s[c[3]] : 0);
+    }
+    s[c[1]] = v;
+  }
+  return s[t.root_slot];
+}
+
 }  // namespace vismap::implicit

@@ -64,4 +64,19 @@ Interval eval_interval(const Tape& t, Interval x, Interval y, Interval z,
 Tape shorten(const Tape& t, const std::vector<uint8_t>& choices,
              std::vector<uint32_t>* kept = nullptr);
 
+// The tape on slots, as the device runs it (kernels/layout.h VmIClause: op, out, a, b; Const keeps
+// its value's float bits in a): each clause's value goes to a slot freed by a value no longer
+// needed (operands are read before out is written), so a region needs `slots` values of
+// scratch, not one per clause. The device's shortened tapes keep the slots and add
+// VM_IOP_COPY (out = a) for decided min/max.
+struct SlotTape {
+  std::vector<uint32_t> code;  // 4 words per clause
+  uint32_t slots = 0, root_slot = 0;
+  size_t size() const { return code.size() / 4; }
+};
+constexpr uint32_t kCopy = 23;  // VM_IOP_COPY
+SlotTape allocate_slots(const Tape& t);
+// The slot tape evaluated on the host in doubles (constants as the float the device holds).
+double eval_slots(const SlotTape& t, double x, double y, double z);
+
 }  // namespace vismap::implicit

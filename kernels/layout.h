@@ -142,7 +142,52 @@ typedef struct {
 #define VM_SCAN_PER_ITEM 8
 #define VM_SCAN_BLOCK (VM_SCAN_WG * VM_SCAN_PER_ITEM)
 
+/* Implicit surfaces (issue 19, implicit.cl): a tape clause on slots. op is implicit::Op's value
+ * (core/implicit.h; VM_IOP_COPY added by shortening: out = a); Const keeps its float's bits in a.
+ * Operands are read before out is written, so out may reuse an operand's slot. */
+#define VM_IOP_CONST 0
+#define VM_IOP_X 1
+#define VM_IOP_Y 2
+#define VM_IOP_Z 3
+#define VM_IOP_ADD 4
+#define VM_IOP_SUB 5
+#define VM_IOP_MUL 6
+#define VM_IOP_DIV 7
+#define VM_IOP_MIN 8
+#define VM_IOP_MAX 9
+#define VM_IOP_POW 10
+#define VM_IOP_NEG 11
+#define VM_IOP_SQUARE 12
+#define VM_IOP_SQRT 13
+#define VM_IOP_ABS 14
+#define VM_IOP_EXP 15
+#define VM_IOP_LOG 16
+#define VM_IOP_SIN 17
+#define VM_IOP_COS 18
+#define VM_IOP_TAN 19
+#define VM_IOP_ASIN 20
+#define VM_IOP_ACOS 21
+#define VM_IOP_ATAN 22
+#define VM_IOP_COPY 23
+typedef struct {
+  vm_u32 op, out, a, b;
+} VmIClause;
+/* A region of the implicit queue: the box [lo, lo + size] (z unused in 2D) and its tape, a slice
+ * of the round's tape pool. */
+typedef struct {
+  float lo[3];
+  float size;
+  vm_u32 tape_off, tape_len;
+  vm_u32 pad[2];
+} VmIRegion;
+/* implicit_intervals' totals: regions found full (f < 0 over the box) and empty (f > 0). */
+#define VM_ITOTAL_FULL 0
+#define VM_ITOTAL_EMPTY 1
+#define VM_ITOTAL_SLOTS 2
+
 #ifndef __OPENCL_VERSION__
+static_assert(sizeof(VmIClause) == 16, "VmIClause layout");
+static_assert(sizeof(VmIRegion) == 32 && offsetof(VmIRegion, tape_off) == 16, "VmIRegion layout");
 static_assert(sizeof(VmScreenTri) == 64, "VmScreenTri layout");
 static_assert(offsetof(VmScreenTri, q) == 32, "VmScreenTri.q offset");
 static_assert(sizeof(VmEdge) == 32, "VmEdge layout");

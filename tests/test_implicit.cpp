@@ -216,3 +216,134 @@ TEST(Implicit, BadInputNamesLineAndColumn) {
     EXPECT_EQ(e.kind(), InputErrorKind::FileNotFound);
   }
 }
+
+// ---- The device's region queue (core/stages/implicit.h, kernels/implicit.cl) ----
+
+#include "core/cl_runtime.h"
+#include "core/stages/implicit.h"
+
+namespace {
+
+ClRuntime& implicit_runtime() {
+  static ClRuntime rt("");
+  static bool built = (rt.build(8), true);
+  (void)built;
+  return rt;
+}
+
+// The leaf with its tape as a SlotTape (for the host's evaluation of the device's tape).
+implicit::SlotTape leaf_tape(const implicit::SlotTape& full, const stages::ImplicitQueue& q, size_t i) {
+  implicit::SlotTape t;
+  t.slots = full.slots;
+  t.root_slot = full.root_slot;
+  const VmIRegion& L = q.leaves[i];
+  t.code.assign(q.pool.begin() + 4 * size_t(L.tape_off),
+                q.pool.begin() + 4 * size_t(L.tape_off + L.tape_len));
+  return t;
+}
+
+}  // namespace
+
+TEST(Implicit, SlotTapeEvaluatesAsTheTape) {
+  const Tape t = load(data_path("implicit/mpr_architecture.sexp"));
+  const SlotTape s = allocate_slots(t);
+  std::printf("architecture: %zu clauses on %u slots\n", s.size(), s.slots);
+  EXPECT_LT(s.slots, t.size() / 4);  // slots are reused
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-20, 20);
+  for (int i = 0; i < 500; ++i) {
+    // Constants become floats on the device: the difference stays at float rounding.
+    const double x = u(rng), y = u(rng) * 0.5 + 4, z = u(rng) * 0.3 + 5;
+    EXPECT_NEAR(eval_slots(s, x, y, z), eval(t, x, y, z), 1e-4);
+  }
+}
+
+TEST(Implicit, DeviceQueueClassifiesAndShortensLikeTheHost) {
+  ClRuntime& rt = implicit_runtime();
+  const Tape t = load(data_path("implicit/mpr_architecture.sexp"));
+  const SlotTape s = allocate_slots(t);
+  const float lo[3] = {-19.f, -19.f, -19.f};
+  const float size = 38.f;
+  const stages::ImplicitQueue q = stages::run_implicit_queue(rt, s, lo, size, 3, {4, 4, 4});
+  ASSERT_EQ(q.rounds.size(), 4u);
+  for (const auto& r : q.rounds) {
+    std::printf("round: %llu regions, %llu full, %llu empty, %llu ambiguous, %llu clauses\n",
+                (unsigned long long)r.regions, (unsigned long long)r.full,
+                (unsigned long long)r.empty, (unsigned long long)r.ambiguous,
+                (unsigned long long)r.clauses);
+    EXPECT_EQ(r.full + r.empty + r.ambiguous, r.regions);
+  }
+  ASSERT_GT(q.leaves.size(), 1000u);
+  EXPECT_EQ(q.leaves.size(), q.rounds.back().ambiguous);
+  // Every leaf: the box is a 1/64 cube of the root; its shortened tape gives, on the host in
+  // doubles, exactly the full slot tape's value at points inside it (the dropped branches could
+  // not win there), and the value's sign never contradicts a classification.
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  size_t sum_len = 0, checked = 0;
+  for (size_t i = 0; i < q.leaves.size(); i += 7) {
+    const VmIRegion& L = q.leaves[i];
+    EXPECT_FLOAT_EQ(L.size, size / 64.f);
+    const SlotTape lt = leaf_tape(s, q, i);
+    sum_len += lt.size();
+    for (int k = 0; k < 4; ++k) {
+      const double x = L.lo[0] + L.size * u(rng), y = L.lo[1] + L.size * u(rng),
+                   z = L.lo[2] + L.size * u(rng);
+      EXPECT_EQ(eval_slots(lt, x, y, z), eval_slots(s, x, y, z)) << "leaf " << i;
+      ++checked;
+    }
+  }
+  std::printf("leaves: %zu, mean tape %.1f of %zu clauses (%zu points checked)\n", q.leaves.size(),
+              double(sum_len) / ((q.leaves.size() + 6) / 7), s.size(), checked);
+  // The leaves' tapes on the device at their centres agree with the host's float evaluation of
+  // the full tape to float rounding.
+  std::vector<float> xyz;
+  for (const VmIRegion& L : q.leaves)
+    for (int k = 0; k < 3; ++k) xyz.push_back(L.lo[k] + 0.5f * L.size);
+  const std::vector<float> v = stages::eval_leaf_points(rt, s, q, xyz, 1);
+  for (size_t i = 0; i < q.leaves.size(); i += 13) {
+    const double want = eval_slots(s, xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+    EXPECT_NEAR(v[i], want, 1e-3 * std::max(1.0, std::abs(want))) << "leaf " << i;
+  }
+}
+
+TEST(Implicit, DeviceQueueOnKnownShapes) {
+  ClRuntime& rt = implicit_runtime();
+  // A unit sphere in a box of side 4 split 8 ways per axis twice: leaves only where the sphere
+  // passes, and full regions only inside it.
+  const SlotTape s = allocate_slots(parse("(- (sqrt (+ (square x) (square y) (square z))) 1)", "sphere"));
+  const float lo[3] = {-2.f, -2.f, -2.f};
+  const stages::ImplicitQueue q = stages::run_implicit_queue(rt, s, lo, 4.f, 3, {8, 8});
+  ASSERT_EQ(q.rounds.size(), 3u);
+  EXPECT_EQ(q.rounds[0].ambiguous, 1u);
+  for (const VmIRegion& L : q.leaves) {
+    const double cx = L.lo[0] + L.size / 2, cy = L.lo[1] + L.size / 2, cz = L.lo[2] + L.size / 2;
+    const double r = std::sqrt(cx * cx + cy * cy + cz * cz);
+    EXPECT_LT(std::abs(r - 1), L.size);  // the surface passes within the leaf's diagonal
+  }
+  // Leaves: a shell of cells of side 1/16 around the unit sphere (area 4 pi): on the order of
+  // 4 pi * 16^2 = 3,217 cells, more with the shell's thickness.
+  EXPECT_GT(q.leaves.size(), 2000u);
+  EXPECT_LT(q.leaves.size(), 20000u);
+  // 2D: a disc, split 4 ways twice in x and y only.
+  const SlotTape d = allocate_slots(parse("(- (+ (square x) (square y)) 1)", "disc"));
+  const stages::ImplicitQueue q2 = stages::run_implicit_queue(rt, d, lo, 4.f, 2, {4, 4});
+  EXPECT_EQ(q2.rounds[1].regions, 16u);
+  for (const VmIRegion& L : q2.leaves) EXPECT_EQ(L.lo[2], -2.f);
+  // Division by an interval holding 0 and sqrt at 0: ambiguous, not NaN, never dropped.
+  const SlotTape w = allocate_slots(parse("(- (/ 1 (sqrt (+ (square x) (square y) (square z)))) 2)", "pole"));
+  const stages::ImplicitQueue q3 = stages::run_implicit_queue(rt, w, lo, 4.f, 3, {2, 2});
+  EXPECT_GT(q3.leaves.size(), 0u);
+  bool has_origin = false;
+  for (const VmIRegion& L : q3.leaves)
+    has_origin |= L.lo[0] <= 0 && L.lo[0] + L.size >= 0 && L.lo[1] <= 0 && L.lo[1] + L.size >= 0 &&
+                  L.lo[2] <= 0 && L.lo[2] + L.size >= 0;
+  EXPECT_TRUE(has_origin);
+  // A memory cap that a round passes is an error naming the round, not a silent drop.
+  try {
+    stages::run_implicit_queue(rt, s, lo, 4.f, 3, {8, 8, 8}, 1 << 20);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.kind(), InputErrorKind::TooLarge);
+  }
+}

@@ -20,8 +20,9 @@ enum class Stage : uint8_t {
   Raster,       // the z-buffer id raster (the floor to beat; not part of a frame)
   Test,         // launches made by tests of single kernels
   Tessellate,   // curved surfaces diced for the camera (before a frame; TessellateStats)
+  Implicit,     // implicit surfaces: the interval region queue with tape shortening
 };
-constexpr size_t kStageCount = 11;
+constexpr size_t kStageCount = 12;
 // The stages a frame reports in RenderStats, in order.
 constexpr Stage kFrameStages[] = {Stage::Transform, Stage::Silhouettes, Stage::Bin,
                                   Stage::Crossings, Stage::Candidates,  Stage::Clip,
@@ -30,7 +31,8 @@ constexpr Stage kFrameStages[] = {Stage::Transform, Stage::Silhouettes, Stage::B
 constexpr const char* stage_name(Stage s) {
   constexpr const char* names[kStageCount] = {"transform",  "silhouettes", "bin",       "crossings",
                                               "candidates", "clip",        "occlusion", "emit",
-                                              "raster",     "test",        "tessellate"};
+                                              "raster",     "test",        "tessellate",
+                                              "implicit"};
   return names[static_cast<size_t>(s)];
 }
 

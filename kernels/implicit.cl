@@ -1,0 +1,284 @@
+/* Implicit surfaces (issue 19; host: core/stages/implicit.cpp, docs/IMPLICIT.md): MPR's region
+ * queue. Each round evaluates every region's tape in interval arithmetic over its box, classifies
+ * it (full, empty, or ambiguous), shortens the tape of an ambiguous region to the clauses that can
+ * still choose its value (decided min/max become copies of their winner), and splits it into
+ * children that inherit the shortened tape. Slots live in a scratch buffer sized from the region
+ * count and the tape's slot count: no fixed limit.
+ *
+ * Rounding: float, with every bound of an inexact operation moved outward by VM_IULPS ulps, which
+ * covers OpenCL 1.2's full-profile error bounds (+ - * exact-rounded, / 2.5 ulp, sqrt 3 ulp, exp
+ * log 3 ulp, sin cos tan 4 ulp, asin acos atan 4 ulp, pow 16 ulp: pow gets 20). */
+
+#define VM_IULPS 5.0f
+#define VM_IINF INFINITY
+
+/* Outward by k ulps: |v| * k * 2^-23 is at least k ulps of v, and the subtraction's rounding
+ * gives back at most half of one; the absolute 1e-30f keeps zero bounds moving too. */
+inline float vm_down(float v, float k) { return v - (fabs(v) * (k * 1.1920929e-7f) + 1e-30f); }
+inline float vm_up(float v, float k) { return v + (fabs(v) * (k * 1.1920929e-7f) + 1e-30f); }
+
+inline float2 vm_widen(float lo, float hi, float k) {
+  if (isnan(lo) || isnan(hi)) return (float2)(-VM_IINF, VM_IINF);
+  return (float2)(vm_down(lo, k), vm_up(hi, k));
+}
+inline float2 vm_hull4(float a, float b, float c, float d, float k) {
+  if (isnan(a) || isnan(b) || isnan(c) || isnan(d)) return (float2)(-VM_IINF, VM_IINF);
+  return vm_widen(fmin(fmin(a, b), fmin(c, d)), fmax(fmax(a, b), fmax(c, d)), k);
+}
+
+/* sin over [lo, hi] (+ shift for cos): the endpoints, and +-1 where a peak or trough is inside. */
+inline float2 vm_isin(float lo, float hi, float shift) {
+  const float two_pi = 6.2831853f;
+  if (!(hi - lo < 6.0f)) return (float2)(-1.0f, 1.0f);
+  lo += shift;
+  hi += shift;
+  float a = sin(lo), b = sin(hi);
+  float2 r = vm_widen(fmin(a, b), fmax(a, b), VM_IULPS);
+  const float m = 1e-5f * fmax(1.0f, fmax(fabs(lo), fabs(hi)));
+  if (ceil((lo - m - 1.5707964f) / two_pi) <= floor((hi + m - 1.5707964f) / two_pi)) r.y = 1.0f;
+  if (ceil((lo - m + 1.5707964f) / two_pi) <= floor((hi + m + 1.5707964f) / two_pi)) r.x = -1.0f;
+  r.x = fmax(r.x, -1.0f);
+  r.y = fmin(r.y, 1.0f);
+  return r;
+}
+
+inline float vm_ipow_int(float a, float n) { return pown(a, (int)n); }
+
+/* One clause in intervals; *choice: 1 only a can win a min/max, 2 only b, 0 both (or n/a). */
+inline float2 vm_iop(uint op, float2 a, float2 b, uchar* choice) {
+  const float k = VM_IULPS;
+  switch (op) {
+    case VM_IOP_ADD: return vm_widen(a.x + b.x, a.y + b.y, k);
+    case VM_IOP_SUB: return vm_widen(a.x - b.y, a.y - b.x, k);
+    case VM_IOP_MUL: return vm_hull4(a.x * b.x, a.x * b.y, a.y * b.x, a.y * b.y, k);
+    case VM_IOP_DIV:
+      if (b.x <= 0.0f && b.y >= 0.0f) return (float2)(-VM_IINF, VM_IINF);
+      return vm_hull4(a.x / b.x, a.x / b.y, a.y / b.x, a.y / b.y, k);
+    case VM_IOP_MIN:
+      if (a.y <= b.x) *choice = 1;
+      else if (b.y <= a.x) *choice = 2;
+      return (float2)(fmin(a.x, b.x), fmin(a.y, b.y));
+    case VM_IOP_MAX:
+      if (a.x >= b.y) *choice = 1;
+      else if (b.x >= a.y) *choice = 2;
+      return (float2)(fmax(a.x, b.x), fmax(a.y, b.y));
+    case VM_IOP_POW: {
+      if (b.x == b.y && b.x == floor(b.x) && fabs(b.x) < 1e6f) {
+        const float n = b.x;
+        if (n == 0.0f) return (float2)(1.0f, 1.0f);
+        const float p = vm_ipow_int(a.x, n), q = vm_ipow_int(a.y, n);
+        if (a.x <= 0.0f && a.y >= 0.0f && n < 0.0f) return (float2)(-VM_IINF, VM_IINF);
+        if (fmod(n, 2.0f) == 0.0f && a.x < 0.0f && a.y > 0.0f)
+          return (float2)(0.0f, vm_up(fmax(p, q), 20.0f));
+        return vm_hull4(p, q, p, q, 20.0f);
+      }
+      const float alo = fmax(a.x, 0.0f), ahi = fmax(a.y, 0.0f);
+      float2 r = vm_hull4(pow(alo, b.x), pow(alo, b.y), pow(ahi, b.x), pow(ahi, b.y), 20.0f);
+      if ((alo <= 1.0f && ahi >= 1.0f) || (b.x <= 0.0f && b.y >= 0.0f))
+        r = (float2)(fmin(r.x, 1.0f), fmax(r.y, 1.0f));
+      return r;
+    }
+    case VM_IOP_NEG: return (float2)(-a.y, -a.x);
+    case VM_IOP_SQUARE:
+      if (a.x >= 0.0f) return (float2)(fmax(0.0f, vm_down(a.x * a.x, k)), vm_up(a.y * a.y, k));
+      if (a.y <= 0.0f) return (float2)(fmax(0.0f, vm_down(a.y * a.y, k)), vm_up(a.x * a.x, k));
+      return (float2)(0.0f, vm_up(fmax(a.x * a.x, a.y * a.y), k));
+    case VM_IOP_SQRT: {
+      float2 r = vm_widen(sqrt(fmax(a.x, 0.0f)), sqrt(fmax(a.y, 0.0f)), k);
+      r.x = fmax(r.x, 0.0f);
+      return r;
+    }
+    case VM_IOP_ABS:
+      if (a.x >= 0.0f) return a;
+      if (a.y <= 0.0f) return (float2)(-a.y, -a.x);
+      return (float2)(0.0f, fmax(-a.x, a.y));
+    case VM_IOP_EXP: {
+      float2 r = vm_widen(exp(a.x), exp(a.y), k);
+      r.x = fmax(r.x, 0.0f);
+      return r;
+    }
+    case VM_IOP_LOG: return vm_widen(log(fmax(a.x, 0.0f)), log(fmax(a.y, 0.0f)), k);
+    case VM_IOP_SIN: return vm_isin(a.x, a.y, 0.0f);
+    case VM_IOP_COS: return vm_isin(a.x, a.y, 1.5707964f);
+    case VM_IOP_TAN: {
+      if (!(a.y - a.x < 3.0f)) return (float2)(-VM_IINF, VM_IINF);
+      const float m = 1e-5f * fmax(1.0f, fmax(fabs(a.x), fabs(a.y)));
+      if (ceil((a.x - m - 1.5707964f) / 3.1415927f) <= floor((a.y + m - 1.5707964f) / 3.1415927f))
+        return (float2)(-VM_IINF, VM_IINF);
+      return vm_widen(tan(a.x), tan(a.y), k);
+    }
+    case VM_IOP_ASIN:
+      return vm_widen(asin(clamp(a.x, -1.0f, 1.0f)), asin(clamp(a.y, -1.0f, 1.0f)), k);
+    case VM_IOP_ACOS:
+      return vm_widen(acos(clamp(a.y, -1.0f, 1.0f)), acos(clamp(a.x, -1.0f, 1.0f)), k);
+    case VM_IOP_ATAN: return vm_widen(atan(a.x), atan(a.y), k);
+    case VM_IOP_COPY: return a;
+    default: return (float2)(-VM_IINF, VM_IINF);
+  }
+}
+
+inline bool vm_iop_binary(uint op) { return op >= VM_IOP_ADD && op <= VM_IOP_POW; }
+inline bool vm_iop_leaf(uint op) { return op <= VM_IOP_Z; }
+
+/* Per region: its tape over its box in intervals (the choices of its min/max clauses in
+ * choices[r * maxlen + k]) and the result; counts full and empty regions in totals. */
+kernel void implicit_intervals(global const VmIRegion* reg, uint n, global const VmIClause* pool,
+                               global float2* scratch, uint slots, uint root_slot,
+                               global uchar* choices, uint maxlen, global float2* result,
+                               global uint* totals) {
+  const uint r = get_global_id(0);
+  if (r >= n) return;
+  const VmIRegion R = reg[r];
+  global float2* s = scratch + (size_t)r * slots;
+  global uchar* ch = choices + (size_t)r * maxlen;
+  const float2 X = (float2)(R.lo[0], vm_up(R.lo[0] + R.size, 1.0f));
+  const float2 Y = (float2)(R.lo[1], vm_up(R.lo[1] + R.size, 1.0f));
+  const float2 Z = (float2)(R.lo[2], vm_up(R.lo[2] + R.size, 1.0f));
+  for (uint k = 0; k < R.tape_len; ++k) {
+    const VmIClause c = pool[R.tape_off + k];
+    uchar choice = 0;
+    float2 v;
+    if (c.op == VM_IOP_CONST) v = (float2)(as_float(c.a), as_float(c.a));
+    else if (c.op == VM_IOP_X) v = X;
+    else if (c.op == VM_IOP_Y) v = Y;
+    else if (c.op == VM_IOP_Z) v = Z;
+    else v = vm_iop(c.op, s[c.a], vm_iop_binary(c.op) ? s[c.b] : (float2)(0.0f, 0.0f), &choice);
+    if (isnan(v.x) || isnan(v.y)) v = (float2)(-VM_IINF, VM_IINF);
+    ch[k] = choice;
+    s[c.out] = v;
+  }
+  const float2 f = s[root_slot];
+  result[r] = f;
+  if (f.y < 0.0f) atomic_inc(&totals[VM_ITOTAL_FULL]);
+  else if (f.x > 0.0f) atomic_inc(&totals[VM_ITOTAL_EMPTY]);
+}
+
+/* The backward walk of tape shortening (MPR): a clause is kept when its slot is live below it; a
+ * decided min/max becomes a copy of its winner (dropped when winner and out share a slot). With
+ * out == 0 it only counts. */
+inline uint vm_shorten(global const VmIClause* pool, VmIRegion R, global const uchar* ch,
+                       global uchar* live, uint slots, uint root_slot, global VmIClause* out,
+                       uint count) {
+  for (uint i = 0; i < slots; ++i) live[i] = 0;
+  live[root_slot] = 1;
+  uint kept = 0;
+  for (uint k = R.tape_len; k-- > 0;) {
+    VmIClause c = pool[R.tape_off + k];
+    if (!live[c.out]) continue;
+    live[c.out] = 0;
+    const uchar choice = ch[k];
+    if ((c.op == VM_IOP_MIN || c.op == VM_IOP_MAX) && choice) {
+      const uint src = choice == 1 ? c.a : c.b;
+      live[src] = 1;
+      if (src == c.out) continue;
+      c.op = VM_IOP_COPY;
+      c.a = src;
+      c.b = 0;
+    } else if (!vm_iop_leaf(c.op)) {
+      live[c.a] = 1;
+      if (vm_iop_binary(c.op)) live[c.b] = 1;
+    }
+    if (out) out[count - 1 - kept] = c;
+    ++kept;
+  }
+  return kept;
+}
+
+inline bool vm_ambiguous(float2 f) { return !(f.y < 0.0f) && !(f.x > 0.0f); }
+
+/* counts[r]: the shortened tape's length of an ambiguous region, else 0; amb[r]: 1 if ambiguous. */
+kernel void implicit_shorten_count(global const VmIRegion* reg, uint n, global const VmIClause* pool,
+                                   global const uchar* choices, uint maxlen,
+                                   global const float2* result, global uchar* live, uint slots,
+                                   uint root_slot, global uint* counts, global uint* amb) {
+  const uint r = get_global_id(0);
+  if (r >= n) return;
+  if (!vm_ambiguous(result[r])) {
+    counts[r] = 0;
+    amb[r] = 0;
+    return;
+  }
+  counts[r] = vm_shorten(pool, reg[r], choices + (size_t)r * maxlen, live + (size_t)r * slots,
+                         slots, root_slot, 0, 0);
+  amb[r] = 1;
+}
+
+/* Writes the shortened tapes at their offsets in the next pool, and for each ambiguous region
+ * either its split^dims children (split > 1) or the region itself as a leaf (split == 1), all
+ * with the new tape. */
+kernel void implicit_shorten_fill(global const VmIRegion* reg, uint n, global const VmIClause* pool,
+                                  global const uchar* choices, uint maxlen,
+                                  global const float2* result, global uchar* live, uint slots,
+                                  uint root_slot, global const uint* counts,
+                                  global const uint* offsets, global const uint* amb_off,
+                                  global VmIClause* next_pool, global VmIRegion* next, uint split,
+                                  uint dims) {
+  const uint r = get_global_id(0);
+  if (r >= n) return;
+  const uint len = counts[r];
+  if (len == 0) return;
+  VmIRegion R = reg[r];
+  vm_shorten(pool, R, choices + (size_t)r * maxlen, live + (size_t)r * slots, slots, root_slot,
+             next_pool + offsets[r], len);
+  VmIRegion C = R;
+  C.tape_off = offsets[r];
+  C.tape_len = len;
+  const uint per = dims == 3 ? split * split * split : split * split;
+  const uint base = amb_off[r] * per;
+  C.size = R.size / (float)split;
+  for (uint i = 0; i < per; ++i) {
+    const uint ix = i % split, iy = (i / split) % split, iz = i / (split * split);
+    C.lo[0] = R.lo[0] + C.size * (float)ix;
+    C.lo[1] = R.lo[1] + C.size * (float)iy;
+    C.lo[2] = dims == 3 ? R.lo[2] + C.size * (float)iz : R.lo[2];
+    next[base + i] = C;
+  }
+}
+
+/* Plain evaluation of region r's tape at m points (xyz in pts[r * m + j]), into val. */
+kernel void implicit_points(global const VmIRegion* reg, uint n, global const VmIClause* pool,
+                            global float* scratch, uint slots, uint root_slot,
+                            global const float4* pts, uint m, global float* val) {
+  const uint g = get_global_id(0);
+  if (g >= n * m) return;
+  const uint r = g / m;
+  const VmIRegion R = reg[r];
+  const float4 p = pts[g];
+  global float* s = scratch + (size_t)g * slots;
+  for (uint k = 0; k < R.tape_len; ++k) {
+    const VmIClause c = pool[R.tape_off + k];
+    const float a = vm_iop_leaf(c.op) ? 0.0f : s[c.a];
+    const float b = vm_iop_binary(c.op) ? s[c.b] : 0.0f;
+    float v;
+    switch (c.op) {
+      case VM_IOP_CONST: v = as_float(c.a); break;
+      case VM_IOP_X: v = p.x; break;
+      case VM_IOP_Y: v = p.y; break;
+      case VM_IOP_Z: v = p.z; break;
+      case VM_IOP_ADD: v = a + b; break;
+      case VM_IOP_SUB: v = a - b; break;
+      case VM_IOP_MUL: v = a * b; break;
+      case VM_IOP_DIV: v = a / b; break;
+      case VM_IOP_MIN: v = fmin(a, b); break;
+      case VM_IOP_MAX: v = fmax(a, b); break;
+      case VM_IOP_POW:
+        v = b == floor(b) && fabs(b) < 1e6f ? vm_ipow_int(a, b) : pow(fmax(a, 0.0f), b);
+        break;
+      case VM_IOP_NEG: v = -a; break;
+      case VM_IOP_SQUARE: v = a * a; break;
+      case VM_IOP_SQRT: v = sqrt(fmax(a, 0.0f)); break;
+      case VM_IOP_ABS: v = fabs(a); break;
+      case VM_IOP_EXP: v = exp(a); break;
+      case VM_IOP_LOG: v = log(fmax(a, 0.0f)); break;
+      case VM_IOP_SIN: v = sin(a); break;
+      case VM_IOP_COS: v = cos(a); break;
+      case VM_IOP_TAN: v = tan(a); break;
+      case VM_IOP_ASIN: v = asin(clamp(a, -1.0f, 1.0f)); break;
+      case VM_IOP_ACOS: v = acos(clamp(a, -1.0f, 1.0f)); break;
+      case VM_IOP_ATAN: v = atan(a); break;
+      default: v = a; break; /* COPY */
+    }
+    s[c.out] = v;
+  }
+  val[g] = s[root_slot];
+}
