@@ -24,6 +24,8 @@
 #include "core/output.h"
 #include "core/output_cairo.h"
 #include "core/pipeline.h"
+#include "core/implicit.h"
+#include "core/implicit2d.h"
 #include "core/scene.h"
 
 namespace {
@@ -39,6 +41,7 @@ const char* kRenderUsage =
     "                [--time-limit SECONDS] [--stats] [--tolerance PX]\n"
     "                [--style fill|lines|fill+lines] [--crease-angle DEG] [--line-width PX]\n"
     "                [--line-color KIND=#RRGGBB] [--simplify PX] [--hidden] [--merge]\n"
+    "                [--bounds X0,Y0,X1,Y1]   (a 2D implicit .sexp: the window drawn)\n"
     "                format: --format, else OUT's extension (.svg .pdf .eps .png .bin .vmc)\n";
 const char* kCheckUsage =
     "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
@@ -95,7 +98,75 @@ struct RenderArgs {
   std::string style = "fill";
   LineOptions lines;
   SvgStyle svg;
+  std::optional<std::array<double, 4>> bounds;  // 2D implicit: the window X0,Y0,X1,Y1
 };
+
+// "X0,Y0,X1,Y1" for --bounds.
+std::array<double, 4> parse_bounds(const std::string& flag, const std::string& s) {
+  std::array<double, 4> b{};
+  const char* p = s.c_str();
+  for (int k = 0; k < 4; ++k) {
+    char* end = nullptr;
+    b[k] = std::strtod(p, &end);
+    if (end == p || !std::isfinite(b[k]) || (k < 3 && *end != ','))
+      throw UsageError(flag + ": expected X0,Y0,X1,Y1, got '" + s + "'");
+    p = end + (k < 3);
+  }
+  if (*p) throw UsageError(flag + ": expected X0,Y0,X1,Y1, got '" + s + "'");
+  if (!(b[2] > b[0] && b[3] > b[1])) throw UsageError(flag + ": expected X0 < X1 and Y0 < Y1");
+  return b;
+}
+
+bool is_sexp(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".sexp";
+}
+
+// An implicit expression in x and y (MPR's 2D mode): filled regions straight to SVG.
+int render_implicit_2d(const RenderArgs& a) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  const implicit::Tape tape = implicit::load(a.scene);
+  const auto t_load = Clock::now();
+  if (implicit::uses_z(tape))
+    throw InputError(InputErrorKind::BadScene, a.scene, "", "", -1,
+                     "the expression uses z: 3D implicit surfaces are not rendered yet (issue 19); "
+                     "the 2D mode draws expressions in x and y");
+  if (a.format != "svg") throw UsageError("an implicit expression renders to svg only");
+  implicit::View2D v;
+  if (a.bounds) v.x0 = (*a.bounds)[0], v.y0 = (*a.bounds)[1], v.x1 = (*a.bounds)[2], v.y1 = (*a.bounds)[3];
+  v.width = a.view.width.value_or(a.view.height.value_or(1024));
+  v.height = a.view.height.value_or(v.width);
+  Renderer renderer(a.view.device);
+  const auto t_dev = Clock::now();
+  const implicit::Regions2D r = renderer.implicit_2d(tape, v, a.view.tolerance_px);
+  const auto t_map = Clock::now();
+  const std::string svg = implicit::write_svg_2d(r, v);
+  write_atomically(a.out, svg);
+  if (a.stats) {
+    auto ms = [](auto d) { return std::chrono::duration<double, std::milli>(d).count(); };
+    size_t points = 0;
+    for (const auto& l : r.loops) points += l.size();
+    std::fprintf(stderr, "device: %s / %s\n", renderer.device().platform.c_str(),
+                 renderer.device().name.c_str());
+    std::fprintf(stderr,
+                 "implicit 2D: %zu clauses, cell %.3f px, %llu leaves, %llu full cells, %zu "
+                 "loops (%zu points), %zu regions\n",
+                 tape.size(), r.cell_px, static_cast<unsigned long long>(r.leaves),
+                 static_cast<unsigned long long>(r.full_cells), r.loops.size(), points,
+                 r.regions.size());
+    std::fprintf(stderr, "clauses evaluated per round:");
+    for (uint64_t c : r.clauses_per_round)
+      std::fprintf(stderr, " %llu", static_cast<unsigned long long>(c));
+    std::fprintf(stderr,
+                 "\nms: load+parse %.2f, device start %.2f, queue %.2f, contour %.2f, svg+write "
+                 "%.2f (a first run also builds the kernels, inside queue)\n",
+                 ms(t_load - t0), ms(t_dev - t_load), r.queue_ms, r.contour_ms,
+                 ms(Clock::now() - t_map));
+  }
+  return 0;
+}
 
 // The format OUT's extension names (case aside): .svg .pdf .eps .png .bin, .vmc for compact.
 std::string format_of(const std::string& out) {
@@ -167,6 +238,8 @@ RenderArgs parse_render(int argc, char** argv) {
         throw UsageError("--simplify: expected 0 ... 1000 pixels");
     } else if (f == "--merge")
       a.svg.merge = true;
+    else if (f == "--bounds")
+      a.bounds = parse_bounds(f, value());
     else if (f == "--hidden")
       a.lines.hidden = true;
     else if (f == "--line-color")
@@ -213,6 +286,8 @@ int cmd_render(int argc, char** argv) {
   using Clock = std::chrono::steady_clock;
   auto t0 = Clock::now();
   RenderArgs a = parse_render(argc, argv);
+  if (is_sexp(a.scene)) return render_implicit_2d(a);
+  if (a.bounds) throw UsageError("--bounds: the window of a 2D implicit expression (.sexp)");
   Scene scene = load_scene(a.scene);
   auto t_load = Clock::now();
   Camera cam = make_camera(scene, a.view);

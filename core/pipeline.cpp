@@ -387,6 +387,16 @@ Scene Renderer::tessellate(const Scene& scene, const Camera& camera,
   }
 }
 
+implicit::Regions2D Renderer::implicit_2d(const implicit::Tape& tape, const implicit::View2D& view,
+                                          double tolerance_px) {
+  try {
+    return implicit::contour_2d(impl_->rt, tape, view, tolerance_px);
+  } catch (const cl::Error& e) {
+    throw DeviceError(std::string("OpenCL error in ") + e.what() + " (" + std::to_string(e.err()) +
+                      ") on " + impl_->rt.info().name);
+  }
+}
+
 PlanarMap Renderer::render(const Scene& scene, const Camera& camera, const RenderOptions& opts,
                            RenderStats* stats, ScreenTriangles* screen) {
   RenderStats local;

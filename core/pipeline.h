@@ -12,6 +12,7 @@
 #include "core/device.h"
 #include "core/planar_map.h"
 #include "core/scene.h"
+#include "core/implicit2d.h"
 #include "core/tessellate.h"
 
 namespace vismap {
@@ -105,6 +106,9 @@ class Renderer {
   // undiced surfaces (InputError BadScene).
   Scene tessellate(const Scene& scene, const Camera& camera, const TessellateOptions& opts = {},
                    TessellateStats* stats = nullptr);
+  // An expression in x and y drawn as filled regions on this device (core/implicit2d.h).
+  implicit::Regions2D implicit_2d(const implicit::Tape& tape, const implicit::View2D& view,
+                                  double tolerance_px);
   PlanarMap render(const Scene& scene, const Camera& camera, const RenderOptions& opts = {},
                    RenderStats* stats = nullptr, ScreenTriangles* screen = nullptr);
   // One sample per pixel centre (row-major, y down): the global input triangle index

@@ -131,9 +131,13 @@ kernel void implicit_intervals(global const VmIRegion* reg, uint n, global const
   const VmIRegion R = reg[r];
   global float2* s = scratch + (size_t)r * slots;
   global uchar* ch = choices + (size_t)r * maxlen;
-  const float2 X = (float2)(R.lo[0], vm_up(R.lo[0] + R.size, 1.0f));
-  const float2 Y = (float2)(R.lo[1], vm_up(R.lo[1] + R.size, 1.0f));
-  const float2 Z = (float2)(R.lo[2], vm_up(R.lo[2] + R.size, 1.0f));
+  /* The box grown by 1/1000 of its side each way: points computed elsewhere for its corners
+   * (in doubles, or by other roundings of lo) still lie inside the box the tape was shortened
+   * over. */
+  const float g = R.size * 1e-3f;
+  const float2 X = (float2)(vm_down(R.lo[0] - g, 1.0f), vm_up(R.lo[0] + R.size + g, 1.0f));
+  const float2 Y = (float2)(vm_down(R.lo[1] - g, 1.0f), vm_up(R.lo[1] + R.size + g, 1.0f));
+  const float2 Z = (float2)(vm_down(R.lo[2] - g, 1.0f), vm_up(R.lo[2] + R.size + g, 1.0f));
   for (uint k = 0; k < R.tape_len; ++k) {
     const VmIClause c = pool[R.tape_off + k];
     uchar choice = 0;

@@ -275,3 +275,32 @@ TEST_F(Cli, ListsDevices) {
 }
 
 }  // namespace
+
+// An expression in x and y (.sexp) draws filled regions (MPR's 2D mode); one with z, a parse
+// error, a non-svg output and --bounds on a mesh are refused, writing nothing.
+TEST_F(Cli, ImplicitTwoDimensional) {
+  fs::path out = dir / "out.svg";
+  std::ofstream(dir / "discs.sexp") << "; two discs\n(min (- (+ (square (- x 0.5)) (square y)) 0.09)\n"
+                                       "     (- (+ (square (+ x 0.5)) (square y)) 0.09))\n";
+  CliRun ok = run("render " + (dir / "discs.sexp").string() + " -o " + out.string() +
+                      " --width 256 --bounds -1,-1,1,1 --stats",
+                  dir);
+  ASSERT_EQ(ok.status, 0) << ok.err;
+  const std::string svg = slurp(out);
+  EXPECT_EQ(std::count(svg.begin(), svg.end(), 'M'), 2) << svg.substr(0, 300);  // two regions
+  EXPECT_NE(ok.err.find("2 regions"), std::string::npos) << ok.err;
+  fs::remove(out);
+  std::ofstream(dir / "z.sexp") << "(+ x z)";
+  CliRun z = run("render " + (dir / "z.sexp").string() + " -o " + out.string(), dir);
+  EXPECT_EQ(z.status, 1);
+  EXPECT_NE(z.err.find("uses z"), std::string::npos) << z.err;
+  std::ofstream(dir / "bad.sexp") << "(+ x\n (sqr y))";
+  CliRun bad = run("render " + (dir / "bad.sexp").string() + " -o " + out.string(), dir);
+  EXPECT_EQ(bad.status, 1);
+  EXPECT_NE(bad.err.find("bad.sexp: line 2 column 3: unknown operation 'sqr'"), std::string::npos) << bad.err;
+  CliRun bin = run("render " + (dir / "discs.sexp").string() + " -o " + (dir / "x.bin").string(), dir);
+  EXPECT_EQ(bin.status, 2);
+  CliRun mesh = run("render " + bunny + " -o " + out.string() + " --bounds -1,-1,1,1", dir);
+  EXPECT_EQ(mesh.status, 2);
+  EXPECT_FALSE(fs::exists(out));
+}

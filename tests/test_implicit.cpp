@@ -347,3 +347,46 @@ TEST(Implicit, DeviceQueueOnKnownShapes) {
     EXPECT_EQ(e.kind(), InputErrorKind::TooLarge);
   }
 }
+
+// ---- MPR's 2D mode (core/implicit2d.h) ----
+
+#include "core/implicit2d.h"
+
+TEST(Implicit, TwoDimensionalRegionsWithKnownAnswers) {
+  ClRuntime& rt = implicit_runtime();
+  View2D v;  // [-1, 1]^2 on 512 x 512: 256 px per unit
+  v.width = v.height = 512;
+  const double tol = 0.3;
+  // A disc of radius 0.5: one region, one loop, every vertex within the tolerance of the circle.
+  Regions2D r = contour_2d(rt, parse("(- (sqrt (+ (square x) (square y))) 0.5)", "disc"), v, tol);
+  ASSERT_EQ(r.regions.size(), 1u);
+  ASSERT_EQ(r.loops.size(), 1u);
+  EXPECT_LE(r.cell_px * std::sqrt(2.0), tol + 1e-9);
+  for (const auto& p : r.loops[0]) {
+    const double x = p[0] / 256 - 1, y = 1 - p[1] / 256;
+    EXPECT_LE(std::abs(std::hypot(x, y) - 0.5) * 256, tol) << x << " " << y;
+  }
+  // An annulus: one region of two loops (the hole turns the other way).
+  r = contour_2d(rt, parse("(max (- (sqrt (+ (square x) (square y))) 0.6) (- 0.3 (sqrt (+ (square x) (square y)))))", "ring"), v, tol);
+  ASSERT_EQ(r.regions.size(), 1u);
+  EXPECT_EQ(r.regions[0].size(), 2u);
+  // Two discs apart, and a disc inside the hole of a ring: three regions in all.
+  r = contour_2d(rt, parse("(min (- (sqrt (+ (square (- x 0.5)) (square y))) 0.3) (- (sqrt (+ (square (+ x 0.5)) (square y))) 0.3))", "two"), v, tol);
+  EXPECT_EQ(r.regions.size(), 2u);
+  r = contour_2d(rt, parse("(min (max (- (sqrt (+ (square x) (square y))) 0.9) (- 0.6 (sqrt (+ (square x) (square y))))) (- (sqrt (+ (square x) (square y))) 0.3))", "nest"), v, tol);
+  EXPECT_EQ(r.regions.size(), 2u);
+  EXPECT_EQ(r.loops.size(), 3u);
+  // A solid that runs past the window closes along the window's edges: the half plane x < 0
+  // is one region, a rectangle of the window's left half.
+  r = contour_2d(rt, parse("x", "half"), v, tol);
+  ASSERT_EQ(r.regions.size(), 1u);
+  double minx = 1e9, maxx = -1e9;
+  for (const auto& p : r.loops[0]) minx = std::min(minx, p[0]), maxx = std::max(maxx, p[0]);
+  EXPECT_NEAR(maxx, 256, tol);
+  EXPECT_NEAR(minx, 0, tol);
+  // The SVG has one path per region.
+  const std::string svg = write_svg_2d(r, v);
+  EXPECT_EQ(svg.find("<path"), svg.rfind("<path"));
+  // z is refused.
+  EXPECT_THROW(contour_2d(rt, parse("(+ x z)", "z"), v, tol), InputError);
+}
