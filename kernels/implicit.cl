@@ -122,7 +122,7 @@ inline bool vm_iop_leaf(uint op) { return op <= VM_IOP_Z; }
 
 /* Per region: its tape over its box in intervals (the choices of its min/max clauses in
  * choices[r * maxlen + k]) and the result; counts full and empty regions in totals. */
-kernel void implicit_intervals(global const VmIRegion* reg, uint n, global const VmIClause* pool,
+__kernel void implicit_intervals(global const VmIRegion* reg, uint n, global const VmIClause* pool,
                                global float2* scratch, uint slots, uint root_slot,
                                global uchar* choices, uint maxlen, global float2* result,
                                global uint* totals) {
@@ -191,7 +191,7 @@ inline uint vm_shorten(global const VmIClause* pool, VmIRegion R, global const u
 inline bool vm_ambiguous(float2 f) { return !(f.y < 0.0f) && !(f.x > 0.0f); }
 
 /* counts[r]: the shortened tape's length of an ambiguous region, else 0; amb[r]: 1 if ambiguous. */
-kernel void implicit_shorten_count(global const VmIRegion* reg, uint n, global const VmIClause* pool,
+__kernel void implicit_shorten_count(global const VmIRegion* reg, uint n, global const VmIClause* pool,
                                    global const uchar* choices, uint maxlen,
                                    global const float2* result, global uchar* live, uint slots,
                                    uint root_slot, global uint* counts, global uint* amb) {
@@ -210,7 +210,7 @@ kernel void implicit_shorten_count(global const VmIRegion* reg, uint n, global c
 /* Writes the shortened tapes at their offsets in the next pool, and for each ambiguous region
  * either its split^dims children (split > 1) or the region itself as a leaf (split == 1), all
  * with the new tape. */
-kernel void implicit_shorten_fill(global const VmIRegion* reg, uint n, global const VmIClause* pool,
+__kernel void implicit_shorten_fill(global const VmIRegion* reg, uint n, global const VmIClause* pool,
                                   global const uchar* choices, uint maxlen,
                                   global const float2* result, global uchar* live, uint slots,
                                   uint root_slot, global const uint* counts,
@@ -240,7 +240,7 @@ kernel void implicit_shorten_fill(global const VmIRegion* reg, uint n, global co
 }
 
 /* Plain evaluation of region r's tape at m points (xyz in pts[r * m + j]), into val. */
-kernel void implicit_points(global const VmIRegion* reg, uint n, global const VmIClause* pool,
+__kernel void implicit_points(global const VmIRegion* reg, uint n, global const VmIClause* pool,
                             global float* scratch, uint slots, uint root_slot,
                             global const float4* pts, uint m, global float* val) {
   const uint g = get_global_id(0);
