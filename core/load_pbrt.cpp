@@ -580,7 +580,9 @@ Scene read_pbrt(const Source& src, std::string_view bytes, const LoadOptions& op
     fail(InputErrorKind::EmptyMesh, src, "", "", -1, "the scene has no trianglemesh or loopsubdiv");
   if (scene.camera) {
     try {
-      scene.camera->validate();
+      Camera c = *scene.camera;  // near and far are chosen later, from the scene bounds
+      c.near_plane = 1, c.far_plane = 2;
+      c.validate();
     } catch (const InputError& e) {
       fail(InputErrorKind::BadCamera, src, "", "Camera", -1, e.detail());
     }
