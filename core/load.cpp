@@ -268,6 +268,7 @@ uint64_t finish_mesh(Mesh& m, const Source& src) {
 Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptions& opts) {
   std::string ext = format_extension(src.file);
   if (ext == ".gltf" || ext == ".glb") return read_gltf(src, bytes, ext == ".glb", opts);
+  if (ext == ".pbrt") return read_pbrt(src, bytes, opts);
   std::vector<Mesh> meshes;
   if (ext == ".ply") {
     meshes = read_ply(src, bytes, opts);
@@ -282,7 +283,7 @@ Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptio
     meshes = read_stl(src, bytes, opts);
   } else {
     fail(InputErrorKind::UnknownFormat, src, "", "", -1,
-         "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .json)");
+         "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .pbrt .json)");
   }
   Scene s;
   s.source = src.file;
@@ -302,7 +303,7 @@ Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptio
 
 namespace {
 bool known_extension(const std::string& ext) {
-  for (const char* e : {".gltf", ".glb", ".ply", ".ply.gz", ".obj", ".off", ".stl", ".json"})
+  for (const char* e : {".gltf", ".glb", ".ply", ".ply.gz", ".obj", ".off", ".stl", ".pbrt", ".json"})
     if (ext == e) return true;
   return false;
 }
@@ -315,7 +316,7 @@ Scene load_file(const std::string& path, const LoadOptions& opts, ByteBudget& bu
   std::string ext = format_extension(path);
   if (!known_extension(ext))
     fail(InputErrorKind::UnknownFormat, src, "", "", -1,
-         "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .json)");
+         "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .pbrt .json)");
   std::string bytes = read_input_file(path, opts, budget);
   if (ext == ".json") return read_scene_file(src, bytes, opts);
   return load_mesh_bytes(src, bytes, opts);
@@ -338,7 +339,7 @@ Scene load_scene_from_memory(const std::string& name, const std::string& bytes,
   if (!known_extension(ext))
     detail::fail(
         InputErrorKind::UnknownFormat, src, "", "", -1,
-        "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .json)");
+        "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .pbrt .json)");
   if (ext == ".json") return detail::read_scene_file(src, bytes, opts);
   return detail::load_mesh_bytes(src, bytes, opts);
 }

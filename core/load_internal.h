@@ -85,6 +85,8 @@ std::vector<Mesh> read_off(const Source& src, std::string_view bytes, const Load
 std::vector<Mesh> read_stl(const Source& src, std::string_view bytes, const LoadOptions& opts);
 Scene read_gltf(const Source& src, std::string_view bytes, bool binary, const LoadOptions& opts);
 Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptions& opts);
+// pbrt-v2 scene text (core/load_pbrt.cpp): trianglemesh and loopsubdiv shapes, the camera.
+Scene read_pbrt(const Source& src, std::string_view bytes, const LoadOptions& opts);
 
 // Loads a mesh file (any format but .json) from bytes into a scene.
 Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptions& opts);

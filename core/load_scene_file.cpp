@@ -178,7 +178,7 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
     const json& e = meshes[i];
     ck.keys(e, path,
             {"file", "name", "translate", "rotate_deg", "rotate_axis_angle", "scale", "matrix",
-             "color"});
+             "color", "subdivision"});
     if (!e.contains("file") || !e["file"].is_string() || e["file"].get<std::string>().empty())
       ck.bad(path + ".file", "expected a file name");
     std::string file = e["file"].get<std::string>();
@@ -192,6 +192,8 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
       color = std::array<float, 3>{float(c[0]), float(c[1]), float(c[2])};
     }
     if (e.contains("name") && !e["name"].is_string()) ck.bad(path + ".name", "expected a string");
+    if (e.contains("subdivision") && !e["subdivision"].is_boolean())
+      ck.bad(path + ".subdivision", "expected true or false");
     std::string full = file[0] == '/' ? file : src.base_dir + file;
     auto it = loaded.find(full);
     if (it == loaded.end()) {
@@ -211,6 +213,11 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
       if (e.contains("name"))
         mesh.name = e["name"].get<std::string>() + (part.meshes.size() > 1 ? "/" + pm.name : "");
       if (color) mesh.color = *color;
+      // The mesh is a Loop control mesh (docs/SURFACES.md); false makes a loopsubdiv plain.
+      if (e.contains("subdivision")) {
+        if (!pm.patches.empty()) ck.bad(path + ".subdivision", "a patch mesh has no control mesh");
+        mesh.subdivision = e["subdivision"].get<bool>();
+      }
       for (size_t v = 0; v < mesh.positions.size(); v += 3) {
         double x = mesh.positions[v], y = mesh.positions[v + 1], z = mesh.positions[v + 2];
         for (int r = 0; r < 3; ++r) {
