@@ -56,8 +56,8 @@ const char* kDecodeUsage =
     "                a summary line on stdout\n";
 const char* kDevicesUsage = "  vismap devices\n";
 const char* kNotes =
-    "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb, Bezier patches .bpt .patches, pbrt .pbrt\n"
-    "       (loopsubdiv), or a .json scene file.\n"
+    "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb, pbrt .pbrt (trianglemesh, loopsubdiv),\n"
+    "       a .json scene file, or an implicit expression in x and y (.sexp).\n"
     "--tolerance PX: curved surfaces are diced within PX pixels of the surface (default 0.2).\n"
     "--device (or $VISMAP_DEVICE): 'P:D' from `vismap devices`, or part of a device/platform "
     "name.\n";
