@@ -31,6 +31,7 @@ struct Triangles {
   std::vector<uint32_t> source;  // global source triangle id
   std::vector<uint32_t> rgb;     // fill, 0xRRGGBB
   bool shaded = false;
+  int64_t line_chains = -1, line_points = 0;  // bin frames with a line section
 };
 
 uint8_t srgb8(double linear) {
@@ -73,6 +74,17 @@ template <class V>
 void json_array(std::string& out, const char* key, const V& v, bool last = false) {
   out += std::string("  \"") + key + "\": [";
   for (size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + std::to_string(v[i]);
+  out += last ? "]\n" : "],\n";
+}
+
+// Float32 values that read back exactly (%.9g), for the line points.
+void json_floats(std::string& out, const char* key, const std::vector<double>& v, bool last = false) {
+  out += std::string("  \"") + key + "\": [";
+  char buf[32];
+  for (size_t i = 0; i < v.size(); ++i) {
+    std::snprintf(buf, sizeof buf, "%.9g", v[i]);
+    out += (i ? ", " : "") + std::string(buf);
+  }
   out += last ? "]\n" : "],\n";
 }
 
@@ -162,10 +174,23 @@ int cmd_decode(int argc, char** argv) {
       t.xy.assign(b.xy.begin(), b.xy.end());
       t.source = b.triangle_id;
       for (uint32_t id : b.triangle_id) t.rgb.push_back((id + 1) & 0xFFFFFF);
+      if (b.has_lines) {
+        t.line_chains = b.lines.chain_count();
+        t.line_points = b.lines.xy.size() / 2;
+      }
       if (json) {
         json_array(detail, "xy", b.xy);
         json_array(detail, "mesh", b.mesh);
-        json_array(detail, "triangle_id", b.triangle_id, true);
+        json_array(detail, "triangle_id", b.triangle_id, !b.has_lines);
+        if (b.has_lines) {  // FORMAT.md "Lines": chain_end, chain_info words, the points
+          const LineSet& L = b.lines;
+          std::vector<uint32_t> info(L.chain_count());
+          for (size_t c = 0; c < info.size(); ++c)
+            info[c] = uint32_t(L.kind[c]) | uint32_t(L.closed[c]) << 8 | uint32_t(L.hidden[c]) << 9;
+          json_array(detail, "chain_end", std::vector<uint32_t>(L.off.begin() + 1, L.off.end()));
+          json_array(detail, "chain_info", info);
+          json_floats(detail, "line_xy", L.xy, true);
+        }
       }
     }
   } catch (const InputError& e) {  // name the file, keep the frame's own words
@@ -206,6 +231,9 @@ int cmd_decode(int argc, char** argv) {
       "\"quantum\": %u, \"vertices\": %zu, \"triangles\": %zu, \"bytes\": %zu",
       t.format.c_str(), t.version, t.width, t.height, t.quantum, t.vertices, t.source.size(),
       bytes.size());
+  if (t.line_chains >= 0)
+    std::printf(", \"line_chains\": %lld, \"line_points\": %lld", (long long)t.line_chains,
+                (long long)t.line_points);
   if (json)  // every array, one per line (the test vectors' expected values; no timing)
     std::printf(",\n%s}\n", detail.c_str());
   else

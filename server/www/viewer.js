@@ -1,6 +1,10 @@
 // vismap web viewer: connects to vismapd on the page's own host (proto/PROTOCOL.md) and shows the
 // live stream in one of two modes:
-//   svg      protocol version 1, each frame's SVG put into the page as it comes;
+//   svg      protocol version 1, each frame's SVG put into the page as it comes (version 2 when a
+//            lines style is chosen: the server draws the lines into the SVG);
+//   bin      protocol version 2, binary triangle lists (proto/FORMAT.md) with their line section,
+//            decoded by bin.js and drawn on a 2D canvas: the fills one light tint per mesh (the
+//            format has no shading), then the lines as the SVG writer strokes them;
 //   compact  protocol version 2, compact frames (proto/COMPACT.md) with raw deflate, decoded by
 //            compact.js (decodeCompact, the browser inflates with DecompressionStream) and
 //            drawn on a 2D canvas;
@@ -10,7 +14,10 @@
 //            as compact frames are.
 // Drag orbits the camera, the wheel zooms. ?scene=NAME opens a library scene, ?format=svg|compact|delta
 // picks the mode (the selector switches it live: a new session, the same scene and camera),
-// ?viewport=WxH the frame size (default: the view's size).
+// ?viewport=WxH the frame size (default: the view's size). The style controls (?style=fill|lines|
+// fill+lines, ?hidden=1, ?crease=DEG; docs/LINES.md) ask the server for line drawings in svg and
+// bin modes; they switch live like the format and are off in compact and delta modes, whose
+// formats carry no lines.
 // Every frame shown is timed in the page (performance.now()): decode (compact, delta: the
 // decoder's promise, inflate included; svg: the innerHTML assignment, which parses the SVG into
 // the DOM) and draw (canvas: drawCompact; svg: until the second animation frame after the
@@ -27,13 +34,22 @@
   const stats = document.getElementById('stats');
   const formatSelect = document.getElementById('format');
   const params = new URLSearchParams(location.search);
-  const FORMATS = ['svg', 'compact', 'delta'];
+  const FORMATS = ['svg', 'bin', 'compact', 'delta'];
   let format = FORMATS.includes(params.get('format')) ? params.get('format') : 'svg';
   formatSelect.value = format;
+  const styleSelect = document.getElementById('style');
+  const hiddenBox = document.getElementById('hidden');
+  const creaseInput = document.getElementById('crease');
+  if (['fill', 'lines', 'fill+lines'].includes(params.get('style'))) styleSelect.value = params.get('style');
+  hiddenBox.checked = params.get('hidden') === '1';
+  if (params.get('crease') !== null) creaseInput.value = params.get('crease');
+  const linesAllowed = () => format === 'svg' || format === 'bin';
+  const style = () => (linesAllowed() ? styleSelect.value : 'fill');
   let ws = null, pendingHeader = null, orbit = null, keepOrbit = false;
   let seq = 0, sentAt = new Map(), lastFps = [];
   let lastScene = null;  // {message, bytes}: sent again when the mode changes
   let compact = null;  // the module compact.js (decodeCompact, triangleColor), imported on first use
+  let bin = null;  // bin.js (decodeBin), imported on first use
   let deltaModule = null, delta = null;  // delta.js, and this session's DeltaDecoder
   let frameNo = 0, shownNo = 0;  // a decode that ends after a newer frame's is not drawn
   const timingFinish = params.get('timing') === '1';
@@ -57,8 +73,15 @@
     ws.onopen = () => {
       const viewport = vp ? { width: +vp[1], height: +vp[2] }
         : { width: view.clientWidth | 0 || 800, height: view.clientHeight | 0 || 600 };
-      const hello = { type: 'hello', version: format === 'svg' ? 1 : 2, format, viewport };
-      if (format !== 'svg') hello.compression = 'deflate';  // browsers inflate it natively
+      const lines = style() !== 'fill';
+      const hello = { type: 'hello', version: format === 'svg' && !lines ? 1 : 2, format, viewport };
+      if (format === 'compact' || format === 'delta') hello.compression = 'deflate';  // browsers inflate it natively
+      if (lines) {
+        hello.style = style();
+        hello.hidden = hiddenBox.checked;
+        const a = Number(creaseInput.value);
+        if (creaseInput.value !== '' && Number.isFinite(a)) hello.crease_angle = Math.min(180, Math.max(0, a));
+      }
       if (params.get('token')) hello.token = params.get('token');
       send(hello);
     };
@@ -72,6 +95,7 @@
       const h = pendingHeader; pendingHeader = null;
       if (h.format === 'compact') return showCompact(h, e.data);
       if (h.format === 'delta') return showDelta(h, e.data);
+      if (h.format === 'bin') return showBin(h, e.data);
       return showSvg(h, e.data);
     }
     const m = JSON.parse(e.data);
@@ -105,7 +129,7 @@
     lastFps.push(now); while (lastFps.length && now - lastFps[0] > 1000) lastFps.shift();
     const count = h.format === 'compact' ? `${h.out_triangles} triangles`
       : h.format === 'delta' ? `${h.whole} whole + ${h.polygons} polygons${h.keyframe ? ' (keyframe)' : ''}`
-      : `${h.fragments} fragments`;
+      : `${h.fragments} fragments` + (h.line_chains !== undefined ? `  ${h.line_chains} chains` : '');
     stats.textContent = `${lastFps.length} fps  render ${h.render_ms.toFixed(1)} ms  ` +
       (t ? `latency ${(now - t).toFixed(0)} ms  ` : '') + `${(h.bytes / 1024).toFixed(0)} KiB  ${count}`;
   }
@@ -124,7 +148,7 @@
   // Draws a decoded frame and records its times (t0: the decode's start).
   function drawTimed(h, f, t0) {
     const t1 = performance.now();
-    drawCompact(f);
+    drawCompact(f, compact.triangleColors(f));
     if (timingFinish) view.querySelector('canvas').getContext('2d').getImageData(0, 0, 1, 1);
     record(h, f.indices.length / 3, t1 - t0, performance.now() - t1, pathsMs);
   }
@@ -169,6 +193,105 @@
     }
   }
 
+  // A bin frame: the triangles welded where their corners are bit-identical (the map's neighbours
+  // share float32 vertices, FORMAT.md), so that drawCompact strokes the shared edges and no seam
+  // shows inside a fill; one light tint per mesh; then the lines over them.
+  async function showBin(h, bytes) {
+    const no = ++frameNo;
+    try {
+      if (!bin) bin = await import('./bin.js');
+      const t0 = performance.now();
+      const f = bin.decodeBin(bytes);
+      const t1 = performance.now();
+      shownNo = no;
+      const w = weld(f.positions);
+      const colors = new Uint8Array(3 * f.triangles);
+      for (let t = 0; t < f.triangles; ++t) colors.set(meshTint(f.mesh[t]), 3 * t);
+      drawCompact({ width: f.width, height: f.height, quantum: 1, xy: w.xy, indices: w.indices }, colors);
+      const canvas = view.querySelector('canvas');
+      drawLines(canvas.getContext('2d'), f.lines);
+      canvas.dataset.chains = String(f.lines ? f.lines.chainEnd.length : 0);
+      canvas.dataset.triangles = String(f.triangles);
+      if (timingFinish) canvas.getContext('2d').getImageData(0, 0, 1, 1);
+      record(h, f.triangles, t1 - t0, performance.now() - t1, pathsMs);
+      shown(h);
+    } catch (err) {
+      timings.push({ seq: h.seq, format: h.format, error: String(err.message || err) });
+      stats.textContent = `${err.message || err}`;
+    }
+  }
+
+  // A light tint per mesh (sRGB bytes), far enough from white that the page's object/background
+  // test and the eye tell it from the background, light enough that every line kind shows on it.
+  const tints = new Map();
+  function meshTint(m) {
+    let c = tints.get(m);
+    if (!c) {
+      const hue = (m * 137.508) % 360, s = 0.35, l = 0.84;  // golden-angle hues, HSL to RGB
+      const k = (n) => (n + hue / 30) % 12, a = s * Math.min(l, 1 - l);
+      const f = (n) => Math.round(255 * (l - a * Math.max(-1, Math.min(k(n) - 3, 9 - k(n), 1))));
+      c = [f(0), f(8), f(4)];
+      tints.set(m, c);
+    }
+    return c;
+  }
+
+  // Corners (6 floats per triangle) to vertices: equal bit patterns of (x, y) become one vertex
+  // (open addressing over the float32 bits; a Map of string keys is several times slower).
+  function weld(pos) {
+    const n = pos.length / 2, bits = new Uint32Array(pos.buffer, pos.byteOffset, pos.length);
+    let size = 1; while (size < 2 * n) size <<= 1;
+    const slot = new Int32Array(size).fill(-1), xy = new Float32Array(pos.length);
+    const xyb = new Uint32Array(xy.buffer), indices = new Uint32Array(n);
+    let nv = 0;
+    for (let i = 0; i < n; ++i) {
+      const bx = bits[2 * i], by = bits[2 * i + 1];
+      let hsh = (Math.imul(bx, 0x9e3779b1) ^ Math.imul(by, 0x85ebca77)) & (size - 1);
+      for (;;) {
+        const v = slot[hsh];
+        if (v < 0) {
+          slot[hsh] = nv; xy[2 * nv] = pos[2 * i]; xy[2 * nv + 1] = pos[2 * i + 1]; indices[i] = nv++;
+          break;
+        }
+        if (xyb[2 * v] === bx && xyb[2 * v + 1] === by) { indices[i] = v; break; }
+        hsh = (hsh + 1) & (size - 1);
+      }
+    }
+    return { xy: xy.subarray(0, 2 * nv), indices };
+  }
+
+  // The line section as the SVG writer draws it (core/output_svg.cpp write_lines): 1 px round
+  // strokes, the hidden parts first, dashed 4 3, then the visible ones kind by kind, in the
+  // writer's default colours.
+  const LINE_COLORS = ['#000000', '#000000', '#404040', '#b00000', '#000000'];
+  function drawLines(ctx, lines) {
+    if (!lines) return;
+    const { chainEnd, chainInfo, points } = lines;
+    ctx.lineWidth = 1;
+    ctx.lineCap = 'round';
+    ctx.lineJoin = 'round';
+    for (const hidden of [1, 0]) {
+      ctx.setLineDash(hidden ? [4, 3] : []);
+      for (let kind = 0; kind < LINE_COLORS.length; ++kind) {
+        const p = new Path2D();
+        let any = false;
+        for (let c = 0, start = 0; c < chainEnd.length; start = chainEnd[c++]) {
+          const w = chainInfo[c];
+          if ((w & 255) !== kind || ((w >> 9) & 1) !== hidden) continue;
+          any = true;
+          p.moveTo(points[2 * start], points[2 * start + 1]);
+          if (chainEnd[c] - start === 1) p.lineTo(points[2 * start], points[2 * start + 1]);  // a dot
+          for (let i = start + 1; i < chainEnd[c]; ++i) p.lineTo(points[2 * i], points[2 * i + 1]);
+          if ((w >> 8) & 1) p.closePath();
+        }
+        if (!any) continue;
+        ctx.strokeStyle = LINE_COLORS[kind];
+        ctx.stroke(p);
+      }
+    }
+    ctx.setLineDash([]);
+  }
+
   // One path per colour (compact.js's triangleColors: the SVG writer's sRGB of mesh colour x
   // shade, or the id colour without shades): a path's fill has no seams inside, and the edges
   // that two triangles share are stroked 1 px in the fill colour, as the SVG writer does, so
@@ -182,7 +305,7 @@
   // when it is used twice or more, in either direction: counted on each vertex's list of
   // corners that follow it (typed arrays, prefix sums; a Map of edges took ~60% of the draw's
   // script time for a 1920x1080 bunny frame, bench/stream/clients.py).
-  function drawCompact(f) {
+  function drawCompact(f, colors) {
     const t0 = performance.now();
     let canvas = view.querySelector('canvas');
     if (!canvas) { view.innerHTML = ''; canvas = document.createElement('canvas'); view.appendChild(canvas); }
@@ -203,7 +326,7 @@
       for (let j = first[b], e = first[b + 1]; j < e; ++j) u += next[j] === a;
       return u;
     };
-    const colors = compact.triangleColors(f);  // 3 sRGB bytes per triangle
+    // colors: 3 sRGB bytes per triangle
     const groups = new Map();  // packed colour -> {fill: Path2D, stroke: Path2D, style}
     let g = -1, p = null;
     for (let t = 0; t < n; ++t) {
@@ -284,11 +407,18 @@
     sendCamera();
   }, { passive: false });
 
-  formatSelect.onchange = () => {
-    format = formatSelect.value;
+  const styleControls = () => {
+    for (const el of [styleSelect, hiddenBox, creaseInput]) el.disabled = !linesAllowed();
+  };
+  styleControls();
+  const reconnect = () => {
     keepOrbit = true;  // the new session shows the same scene from the same camera
     connect();
   };
+  formatSelect.onchange = () => { format = formatSelect.value; styleControls(); reconnect(); };
+  styleSelect.onchange = reconnect;
+  hiddenBox.onchange = reconnect;
+  creaseInput.onchange = reconnect;
   document.getElementById('load').onclick = () => {
     const n = document.getElementById('name').value.trim();
     if (n) loadScene({ type: 'scene', library: n });

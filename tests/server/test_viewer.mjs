@@ -5,9 +5,13 @@
 //     compact.js, a 2D canvas) with the same camera; the two screenshots must agree: at most
 //     MAX_DIFFERING of the pixels that either shows as object may differ by more than
 //     PIXEL_TOLERANCE in a channel (anti-aliased outlines and the 1/16 px grid differ a little,
-//     a missing, turned or wrongly coloured bunny over much of it). Measured at 800x566: 0.12% of
-//     67,629 object pixels (mean difference 1.6 of 255); the frame of a camera turned by 180
+//     a missing, turned or wrongly coloured bunny over much of it). Measured at 800x546 (a two-row bar since the line controls): 0.03% of
+//     62,984 object pixels (mean difference 1.9 of 255; 0.12% of 67,629 at 800x566 before); the frame of a camera turned by 180
 //     degrees instead: 30%.
+//  4. line drawings: the bunny with style=lines in svg mode (protocol version 2, the server's
+//     SVG lines) and in bin mode (bin.js, the line section stroked on the canvas): the chain count
+//     decoded is the frame header's line_chains, and the screenshots agree as in 2 (a looser
+//     limit: line pixels are mostly antialiased edge); then fill+lines with the hidden parts.
 // Part 2's compact half needs server/www/compact.js; without it that half is skipped with a
 // message and the rest still runs.
 //   node tests/server/test_viewer.mjs PATH/TO/vismapd
@@ -22,6 +26,7 @@ import { fileURLToPath } from 'node:url';
 
 const PIXEL_TOLERANCE = 48;   // of 255, in any channel
 const MAX_DIFFERING = 0.01;   // fraction of object pixels: 10x what was measured
+const MAX_DIFFERING_LINES = 0.01;  // of line pixels: measured 0 of 3,312 at 800x546
 
 const require = createRequire(import.meta.url);
 const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
@@ -156,6 +161,54 @@ try {
     console.log(`ok: bunny in delta mode matches svg mode, and orbits on delta frames (${await bunny.$eval('#stats', (e) => e.textContent)})`);
   }
   if (errors.length) throw new Error(`page errors: ${errors.join('; ')}`);
+
+  // 4. line drawings: the bunny's lines in svg mode (protocol 2, the server's SVG), then in bin
+  //    mode (bin.js decodes the line section, the canvas strokes it): the same chains, the same
+  //    picture; then fill+lines with the hidden parts on the canvas.
+  const lines = await browser.newPage({ viewport: { width: 800, height: 600 } });
+  const lineErrors = [];
+  lines.on('pageerror', (e) => lineErrors.push(String(e)));
+  await lines.goto(`http://127.0.0.1:${port}/?scene=bunny.ply&style=lines`);
+  await lines.waitForSelector('#view svg g.lines g.contour path', { timeout: 90000 });
+  await lines.waitForFunction(() => /fps/.test(document.querySelector('#stats').textContent), null, { timeout: 30000 });
+  const svgChains = await lines.$$eval('#view svg g.lines path', (p) => p.length);
+  const svgLinesShot = await lines.locator('#view svg').screenshot();
+  await lines.selectOption('#format', 'bin');
+  await lines.waitForSelector('#view canvas[data-chains]', { timeout: 90000 });
+  const [binChains, binTriangles, statsText] = await lines.evaluate(() => {
+    const c = document.querySelector('#view canvas');
+    return [+c.dataset.chains, +c.dataset.triangles, document.querySelector('#stats').textContent];
+  });
+  const headerChains = +(/(\d+) chains/.exec(statsText) || [0, -1])[1];
+  console.log(`bin lines: ${binChains} chains decoded, the header says ${headerChains}, the svg has ${svgChains} paths, ${binTriangles} triangles`);
+  if (binChains < 10 || binChains !== headerChains) throw new Error('the bin frame\'s chains are not the header\'s line_chains');
+  if (binTriangles !== 0) throw new Error('a lines frame drew triangles');
+  const binLinesShot = await lines.locator('#view canvas').screenshot();
+  const dl = await compare(lines, svgLinesShot, binLinesShot);
+  if (dl.error) throw new Error(`screenshots differ in size: ${dl.error}`);
+  console.log(`svg vs bin lines: ${dl.object} line pixels (svg ${dl.objectA}, bin ${dl.objectB}), ` +
+              `${dl.differ} differ by more than ${PIXEL_TOLERANCE} (${(100 * dl.fraction).toFixed(2)}%, ` +
+              `limit ${100 * MAX_DIFFERING_LINES}%), mean difference ${dl.mean.toFixed(2)}`);
+  if (dl.objectB < 1000) throw new Error('the bin image shows almost no lines');
+  if (dl.fraction > MAX_DIFFERING_LINES) throw new Error('svg and bin line drawings differ too much');
+  await lines.check('#hidden');
+  await lines.selectOption('#style', 'fill+lines');
+  await lines.waitForFunction(() => { const c = document.querySelector('#view canvas');
+    return c && +c.dataset.triangles > 0; }, null, { timeout: 90000 });
+  const both = await lines.evaluate(() => +document.querySelector('#view canvas').dataset.chains);
+  const bothShot = await lines.locator('#view canvas').screenshot();
+  const db = await compare(lines, binLinesShot, bothShot);
+  console.log(`bin fill+lines with hidden parts: ${both} chains, ${db.objectB} object pixels (lines alone ${db.objectA})`);
+  if (both <= binChains) throw new Error('the hidden parts added no chains');
+  if (db.objectB < 3 * db.objectA) throw new Error('fill+lines shows no fill');
+  const refused = await lines.evaluate(async () => {
+    const m = await import('/bin.js');
+    try { m.decodeBin(new Uint8Array([0x56, 0x4d, 0x41, 0x50, 1, 0, 0, 0]).buffer); } catch (e) { return `${e.name}: ${e.message}`; }
+    return 'accepted';
+  });
+  if (!/^BinFrameError: bin frame: header: 8 bytes/.test(refused)) throw new Error(`a truncated frame: ${refused}`);
+  if (lineErrors.length) throw new Error(`page errors: ${lineErrors.join('; ')}`);
+  console.log('ok: lines in svg and bin modes, fill+lines with hidden parts, a bad frame refused');
 } catch (e) {
   console.error(e);
   failed = true;
