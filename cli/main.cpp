@@ -57,6 +57,7 @@ const char* kDecodeUsage =
 const char* kDevicesUsage = "  vismap devices\n";
 const char* kNotes =
     "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb, pbrt .pbrt (trianglemesh, loopsubdiv),\n"
+    "       Bezier patches .bpt .patches (loaded; not diced yet, issue 18),\n"
     "       a .json scene file, or an implicit expression in x and y (.sexp).\n"
     "--tolerance PX: curved surfaces are diced within PX pixels of the surface (default 0.2).\n"
     "--device (or $VISMAP_DEVICE): 'P:D' from `vismap devices`, or part of a device/platform "

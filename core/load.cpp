@@ -269,6 +269,10 @@ Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptio
   std::string ext = format_extension(src.file);
   if (ext == ".gltf" || ext == ".glb") return read_gltf(src, bytes, ext == ".glb", opts);
   if (ext == ".pbrt") return read_pbrt(src, bytes, opts);
+  // Patch meshes have no triangles: the tail below (finish_mesh, "every triangle is degenerate")
+  // is for triangle meshes only.
+  if (ext == ".bpt") return read_bpt(src, bytes, opts);
+  if (ext == ".patches") return read_newell_patches(src, bytes, opts);
   std::vector<Mesh> meshes;
   if (ext == ".ply") {
     meshes = read_ply(src, bytes, opts);
@@ -283,7 +287,8 @@ Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptio
     meshes = read_stl(src, bytes, opts);
   } else {
     fail(InputErrorKind::UnknownFormat, src, "", "", -1,
-         "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .pbrt .json)");
+         "unknown format '" + ext +
+             "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .pbrt .bpt .patches .json)");
   }
   Scene s;
   s.source = src.file;
@@ -303,7 +308,8 @@ Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptio
 
 namespace {
 bool known_extension(const std::string& ext) {
-  for (const char* e : {".gltf", ".glb", ".ply", ".ply.gz", ".obj", ".off", ".stl", ".pbrt", ".json"})
+  for (const char* e : {".gltf", ".glb", ".ply", ".ply.gz", ".obj", ".off", ".stl", ".pbrt", ".bpt",
+                        ".patches", ".json"})
     if (ext == e) return true;
   return false;
 }
@@ -316,7 +322,8 @@ Scene load_file(const std::string& path, const LoadOptions& opts, ByteBudget& bu
   std::string ext = format_extension(path);
   if (!known_extension(ext))
     fail(InputErrorKind::UnknownFormat, src, "", "", -1,
-         "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .pbrt .json)");
+         "unknown format '" + ext +
+             "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .pbrt .bpt .patches .json)");
   std::string bytes = read_input_file(path, opts, budget);
   if (ext == ".json") return read_scene_file(src, bytes, opts);
   return load_mesh_bytes(src, bytes, opts);
@@ -339,7 +346,8 @@ Scene load_scene_from_memory(const std::string& name, const std::string& bytes,
   if (!known_extension(ext))
     detail::fail(
         InputErrorKind::UnknownFormat, src, "", "", -1,
-        "unknown format '" + ext + "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .pbrt .json)");
+        "unknown format '" + ext +
+            "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .pbrt .bpt .patches .json)");
   if (ext == ".json") return detail::read_scene_file(src, bytes, opts);
   return detail::load_mesh_bytes(src, bytes, opts);
 }

@@ -87,6 +87,10 @@ Scene read_gltf(const Source& src, std::string_view bytes, bool binary, const Lo
 Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptions& opts);
 // pbrt-v2 scene text (core/load_pbrt.cpp): trianglemesh and loopsubdiv shapes, the camera.
 Scene read_pbrt(const Source& src, std::string_view bytes, const LoadOptions& opts);
+// Bicubic Bezier patches (core/load_patches.cpp): .bpt text and Newell's .patches, one patch mesh
+// (Mesh::patches, no triangles: finish_mesh does not apply).
+Scene read_bpt(const Source& src, std::string_view bytes, const LoadOptions& opts);
+Scene read_newell_patches(const Source& src, std::string_view bytes, const LoadOptions& opts);
 
 // Loads a mesh file (any format but .json) from bytes into a scene.
 Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptions& opts);

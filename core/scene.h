@@ -79,7 +79,8 @@ struct LoadOptions {
 };
 
 // Loads any supported file by extension: .gltf .glb (tinygltf), .ply .obj .off .stl (OpenMesh),
-// .ply.gz, and .json scene files (which reference other files relative to themselves).
+// .ply.gz, .pbrt, Bezier patches .bpt .patches (docs/SCENE_FORMAT.md), and .json scene files
+// (which reference other files relative to themselves).
 // Throws InputError naming the file and element on bad input; never returns a half scene.
 Scene load_scene(const std::string& path, const LoadOptions& opts = {});
 
