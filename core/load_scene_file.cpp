@@ -228,9 +228,29 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
           mesh.positions[v + r] = w;
         }
       }
-      if (det < 0)  // a mirroring transform keeps outward normals by reversing the winding
+      // Bezier control points move with the surface: a patch is affine-invariant.
+      for (size_t v = 0; v < mesh.patches.size(); v += 3) {
+        double x = mesh.patches[v], y = mesh.patches[v + 1], z = mesh.patches[v + 2];
+        for (int r = 0; r < 3; ++r) {
+          float w = float(m[r] * x + m[4 + r] * y + m[8 + r] * z + m[12 + r]);
+          if (!std::isfinite(w))
+            fail(InputErrorKind::NonFiniteVertex, src, mesh.name, "patch", int64_t(v / 48),
+                 "control point " + std::to_string(v % 48 / 3) +
+                     " not finite after the transform of " + path);
+          mesh.patches[v + r] = w;
+        }
+      }
+      if (det < 0) {  // a mirroring transform keeps outward normals by reversing the winding
         for (size_t t = 0; t < mesh.indices.size(); t += 3)
           std::swap(mesh.indices[t + 1], mesh.indices[t + 2]);
+        // and a patch by swapping u and v (S_v x S_u = -S_u x S_v): P_ij <-> P_ji.
+        for (size_t p = 0; p + 48 <= mesh.patches.size(); p += 48)
+          for (int i = 0; i < 4; ++i)
+            for (int j = i + 1; j < 4; ++j)
+              for (int c = 0; c < 3; ++c)
+                std::swap(mesh.patches[p + 3 * (4 * i + j) + c],
+                          mesh.patches[p + 3 * (4 * j + i) + c]);
+      }
       triangles += mesh.source_triangles;
       check_size(triangles, opts, src, mesh.name);
       scene.meshes.push_back(std::move(mesh));
