@@ -322,3 +322,238 @@ TEST(LoadGltf, ExternalBufferRelativeToTheFile) {
   std::string missing = dir.write("gone.gltf", gltf);
   test::expect_error(missing, InputErrorKind::FileNotFound, {"tri.bin"});
 }
+
+// Bezier patches (core/load_patches.cpp): the Newell tea set, in .bpt and in .patches.
+namespace {
+
+std::string teapot_dir() {
+  return test::shared_dir() + "/teapot";
+}
+
+// Control point (i, j) of patch p (i along v, j along u; core/scene.h).
+std::array<float, 3> control(const Mesh& m, size_t p, int i, int j) {
+  const float* q = &m.patches[48 * p + 3 * (4 * i + j)];
+  return {q[0], q[1], q[2]};
+}
+
+// The signed volume that the control nets enclose, each grid cell as the triangles
+// (i,j) (i,j+1) (i+1,j+1) and (i,j) (i+1,j+1) (i+1,j), whose normals turn like S_u x S_v:
+// positive when the patches face outward (core/mesh_topology.h's convention for triangles).
+double control_net_volume(const Mesh& m) {
+  double v = 0;
+  auto tet = [](const std::array<float, 3>& a, const std::array<float, 3>& b,
+                const std::array<float, 3>& c) {
+    return (double(a[0]) * (double(b[1]) * c[2] - double(b[2]) * c[1]) -
+            double(a[1]) * (double(b[0]) * c[2] - double(b[2]) * c[0]) +
+            double(a[2]) * (double(b[0]) * c[1] - double(b[1]) * c[0])) /
+           6;
+  };
+  for (size_t p = 0; p < m.patch_count(); ++p)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        auto a = control(m, p, i, j), b = control(m, p, i, j + 1), c = control(m, p, i + 1, j + 1),
+             d = control(m, p, i + 1, j);
+        v += tet(a, b, c) + tet(a, c, d);
+      }
+  return v;
+}
+
+}  // namespace
+
+TEST(LoadPatches, NewellTeaSetCounts) {
+  REQUIRE_SHARED();
+  struct Case {
+    const char* file;
+    size_t patches;
+  };
+  for (Case c : {Case{"teapot.bpt", 32}, Case{"newell_teapot.patches", 32},
+                 Case{"newell_teacup.patches", 26}, Case{"newell_teaspoon.patches", 16}}) {
+    std::string path = teapot_dir() + "/" + c.file;
+    Scene s = load_scene(path);
+    ASSERT_EQ(s.meshes.size(), 1u) << c.file;
+    const Mesh& m = s.meshes[0];
+    EXPECT_EQ(m.patch_count(), c.patches) << c.file;
+    EXPECT_EQ(m.patches.size(), 48 * c.patches) << c.file;
+    EXPECT_EQ(m.source_triangles, c.patches) << c.file;  // ids run over the patches
+    EXPECT_TRUE(m.positions.empty() && m.indices.empty() && m.face_ids.empty()) << c.file;
+    EXPECT_TRUE(m.is_surface() && s.has_surfaces()) << c.file;
+    EXPECT_EQ(m.name, std::filesystem::path(c.file).stem().string());
+    EXPECT_FLOAT_EQ(m.color[0], 0.8f);
+    EXPECT_EQ(s.triangle_count(), 0u);
+    EXPECT_EQ(s.source, path);
+    EXPECT_FALSE(scene_bounds(s).empty);
+  }
+}
+
+TEST(LoadPatches, BptAndPatchesTeapotsAreTheSamePatchesInTheSameOrder) {
+  REQUIRE_SHARED();
+  Scene a = load_scene(teapot_dir() + "/teapot.bpt");
+  Scene b = load_scene(teapot_dir() + "/newell_teapot.patches");
+  // Point for point, in the same order: no reordering or transposition between the two files.
+  EXPECT_EQ(a.meshes[0].patches, b.meshes[0].patches);
+  const Mesh& m = a.meshes[0];
+  // By hand from the files: teapot.bpt line 3 (patch 0's first point) and newell_teapot.patches
+  // line 35 (point 1); .bpt line 6 (the 4th point: the end of the first row, j = 3) and
+  // line 15 (the 13th: the start of the last row, i = 3); the last patch's last point, .bpt
+  // line 545 and .patches line 305 (point 271, the last index of line 33).
+  EXPECT_EQ(control(m, 0, 0, 0), (std::array<float, 3>{1.4f, 0.0f, 2.4f}));
+  EXPECT_EQ(control(m, 0, 0, 3), (std::array<float, 3>{0.0f, -1.4f, 2.4f}));
+  EXPECT_EQ(control(m, 0, 3, 0), (std::array<float, 3>{1.5f, 0.0f, 2.4f}));
+  EXPECT_EQ(control(m, 31, 3, 3), (std::array<float, 3>{1.5f, 0.0f, 0.15f}));
+}
+
+TEST(LoadPatches, TeapotFacesOutward) {
+  REQUIRE_SHARED();
+  // The rows of a file's 16 points run along u: stored as (k / 4, k % 4), S_u x S_v points out.
+  // The rim's first point: S_u ~ P01 - P00 = (0, -0.784, 0) (around the z axis), S_v ~ P10 - P00
+  // = (-0.0625, 0, 0.13125) (up over the lip), S_u x S_v = (-0.103, 0, -0.049): away from the
+  // lip's inside. Over the whole pot the control nets enclose +32.10 (measured).
+  for (const char* f : {"teapot.bpt", "newell_teapot.patches"}) {
+    Scene s = load_scene(teapot_dir() + "/" + f);
+    EXPECT_NEAR(control_net_volume(s.meshes[0]), 32.105, 0.01) << f;
+  }
+}
+
+TEST(LoadPatches, BadInputNamesTheLine) {
+  using K = InputErrorKind;
+  TempDir dir;
+  std::string pts;  // 16 point lines of one .bpt patch
+  for (int k = 0; k < 16; ++k) pts += std::to_string(k % 4) + " " + std::to_string(k / 4) + " 0\n";
+  std::string one = "1\n3 3\n" + pts;
+  ASSERT_EQ(load_scene(dir.write("ok.bpt", one)).meshes[0].patch_count(), 1u);
+  // .bpt, line by line: count 1, degrees 2, points 3..18.
+  test::expect_error(dir.write("trunc.bpt", "1\n3 3\n" + pts.substr(0, pts.size() - 6)),
+                     K::Truncated, {"line 18: file ends before point 15 of patch 0"});
+  test::expect_error(dir.write("short.bpt", "2\n3 3\n" + pts + "\n\n"), K::Truncated,
+                     {"patch 1", "file ends before patch 1 of 2"});
+  test::expect_error(dir.write("extra.bpt", one + "3 3\n"), K::ParseError,
+                     {"line 19: content after the 1 patches"});
+  test::expect_error(
+      dir.write("nan.bpt", "1\n3 3\n" + pts.substr(0, 6 * 6) + "0 nan 0\n" + pts.substr(7 * 6)),
+      K::NonFiniteVertex, {"patch 0", "line 9: coordinate y is not finite"});
+  test::expect_error(
+      dir.write("big.bpt", "1\n3 3\n" + pts.substr(0, 6) + "1e39 0 0\n" + pts.substr(12)),
+      K::NonFiniteVertex, {"line 4: coordinate x is not finite"});
+  test::expect_error(
+      dir.write("word.bpt", "1\n3 3\n" + pts.substr(0, 12) + "0 one 0\n" + pts.substr(18)),
+      K::ParseError, {"line 5: expected a number, got 'one'"});
+  test::expect_error(dir.write("two.bpt", "1\n3 3\n0 0\n" + pts.substr(6)), K::ParseError,
+                     {"line 3: expected 3 numbers, got 2"});
+  test::expect_error(dir.write("quad.bpt", "1\n3 2\n" + pts), K::ParseError,
+                     {"line 2: degrees 3 2: only bicubic patches (3 3) are supported"});
+  test::expect_error(dir.write("zero.bpt", "0\n"), K::EmptyMesh, {"line 1: no patches"});
+  test::expect_error(dir.write("neg.bpt", "-1\n"), K::ParseError, {"line 1: bad patch count"});
+  test::expect_error(dir.write("empty.bpt", ""), K::Truncated,
+                     {"line 1: file ends before the patch count"});
+  // A count the bytes cannot hold is refused before anything is allocated for it.
+  test::expect_error(dir.write("huge.bpt", "5000000000\n3 3\n" + pts), K::TooLarge,
+                     {"line 1: 5000000000 patches, limit is 2^32 - 1"});
+  // A count larger than the file: the reading stops at its end (nothing reserved past its bytes).
+  test::expect_error(dir.write("lie.bpt", "1000000000\n3 3\n" + pts), K::Truncated,
+                     {"patch 1", "line 19: file ends before patch 1 of 1000000000"});
+  LoadOptions few;
+  few.max_triangles = 1;
+  test::expect_error(dir.write("two_ok.bpt", "2\n3 3\n" + pts + "3 3\n" + pts), K::TooLarge,
+                     {"2 triangles, limit is 1"}, few);
+
+  // .patches: count 1, one index line 2, point count 3, points 4..19.
+  std::string idx = "1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16\n", cpts;
+  for (int k = 0; k < 16; ++k) cpts += std::to_string(k % 4) + "," + std::to_string(k / 4) + ",0\n";
+  std::string onep = "1\n" + idx + "16\n" + cpts;
+  ASSERT_EQ(load_scene(dir.write("ok.patches", onep)).meshes[0].patch_count(), 1u);
+  // Repeated indices (Newell's degenerate lid and bottom patches) are legal.
+  ASSERT_EQ(
+      load_scene(dir.write("rep.patches", "1\n1,1,1,1,5,6,7,8,9,10,11,12,13,14,15,16\n16\n" + cpts))
+          .meshes[0]
+          .patch_count(),
+      1u);
+  test::expect_error(
+      dir.write("oob.patches", "1\n1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,17\n16\n" + cpts),
+      K::IndexOutOfRange,
+      {"patch 0", "line 2: point index 17 out of range (16 points, numbered from 1)"});
+  test::expect_error(
+      dir.write("zero.patches", "1\n0,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16\n16\n" + cpts),
+      K::IndexOutOfRange, {"line 2: point index 0 out of range"});
+  test::expect_error(
+      dir.write("fifteen.patches", "1\n1,2,3,4,5,6,7,8,9,10,11,12,13,14,15\n16\n" + cpts),
+      K::ParseError, {"line 2: expected 16 point indices, got 15"});
+  test::expect_error(
+      dir.write("hole.patches", "1\n1,2,3,4,5,6,7,8,9,,11,12,13,14,15,16\n16\n" + cpts),
+      K::ParseError, {"line 2: expected an integer, got ''"});
+  test::expect_error(dir.write("few.patches", "2\n" + idx + "16\n" + cpts), K::ParseError,
+                     {"line 3: expected 16 point indices, got 1"});
+  test::expect_error(dir.write("morepatches.patches", "1\n" + idx + idx + "16\n" + cpts),
+                     K::ParseError, {"line 3: expected 1 point count, got 16"});
+  test::expect_error(dir.write("fewpts.patches", "1\n" + idx + "17\n" + cpts), K::Truncated,
+                     {"line 20: file ends before point 17 of 17"});
+  test::expect_error(dir.write("morepts.patches", onep + "0,0,0\n"), K::ParseError,
+                     {"line 20: content after the 16 points"});
+  test::expect_error(dir.write("inf.patches", "1\n" + idx + "16\n" + cpts.substr(0, 6) +
+                                                  "0,-inf,0\n" + cpts.substr(12)),
+                     K::NonFiniteVertex, {"point 1", "line 5: coordinate y is not finite"});
+  test::expect_error(dir.write("x.patches", "1\n" + idx + "16\n0,0;0\n" + cpts.substr(6)),
+                     K::ParseError, {"line 4: expected 3 numbers, got 2"});
+  test::expect_error(dir.write("zero2.patches", "0\n16\n" + cpts), K::EmptyMesh,
+                     {"line 1: no patches"});
+  test::expect_error(dir.write("lie.patches", "1\n" + idx + "4000000000\n" + cpts), K::Truncated,
+                     {"point 16", "line 20: file ends before point 17 of 4000000000"});
+  test::expect_error(dir.write("huge.patches", "1\n" + idx + "5000000000\n" + cpts), K::TooLarge,
+                     {"line 3: 5000000000 points, limit is 2^32 - 1"});
+}
+
+TEST(LoadPatches, SceneFileTransformsControlPointsAndTransposesWhenMirrored) {
+  REQUIRE_SHARED();
+  TempDir dir;
+  std::string bpt = teapot_dir() + "/teapot.bpt", pat = teapot_dir() + "/newell_teapot.patches";
+  std::string p = dir.write("s.json", R"({"meshes": [
+    {"file": ")" + bpt + R"(", "scale": 2, "translate": [1, 0, -3], "color": [1, 0, 0]},
+    {"file": ")" + pat + R"(", "matrix": [-1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]},
+    {"file": ")" + bpt + R"(", "name": "pot", "scale": [1, 1, 1]}]})");
+  Scene s = load_scene(p);
+  ASSERT_EQ(s.meshes.size(), 3u);
+  const Mesh &moved = s.meshes[0], &mirrored = s.meshes[1], &plain = s.meshes[2];
+  EXPECT_EQ(moved.color, (std::array<float, 3>{1, 0, 0}));
+  EXPECT_EQ(plain.name, "pot");
+  ASSERT_EQ(moved.patch_count(), 32u);
+  // (1.4, 0, 2.4) * 2 + (1, 0, -3) = (3.8, 0, 1.8).
+  auto a = control(moved, 0, 0, 0);
+  EXPECT_FLOAT_EQ(a[0], 3.8f);
+  EXPECT_FLOAT_EQ(a[1], 0.0f);
+  EXPECT_FLOAT_EQ(a[2], 1.8f);
+  for (size_t q = 0; q < 32; ++q)
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        auto o = control(plain, q, i, j), t = control(moved, q, i, j);
+        for (int c = 0; c < 3; ++c)
+          ASSERT_FLOAT_EQ(t[c], 2 * o[c] + (c == 0 ? 1.0f : c == 2 ? -3.0f : 0.0f));
+        // Mirrored in x and transposed: P'_ij = mirror(P_ji).
+        auto mj = control(mirrored, q, j, i);
+        ASSERT_EQ(mj, (std::array<float, 3>{-o[0], o[1], o[2]})) << q << " " << i << " " << j;
+      }
+  // Still outward after the mirror (a linear map, so the open teapot's volume is comparable).
+  EXPECT_NEAR(control_net_volume(mirrored), 32.105, 0.01);
+  EXPECT_NEAR(control_net_volume(plain), 32.105, 0.01);
+}
+
+TEST(LoadPatches, SceneFileTransformToInfinityIsRefused) {
+  REQUIRE_SHARED();
+  TempDir dir;
+  std::string p = dir.write(
+      "s.json", R"({"meshes": [{"file": ")" + teapot_dir() + R"(/teapot.bpt", "scale": 1e39}]})");
+  test::expect_error(p, InputErrorKind::NonFiniteVertex,
+                     {"patch 0", "control point 0 not finite after the transform of meshes[0]"});
+}
+
+TEST(LoadPatches, FromMemoryAndUnknownFormatListsThem) {
+  std::string pts;
+  for (int k = 0; k < 16; ++k) pts += std::to_string(k % 4) + " " + std::to_string(k / 4) + " 1\n";
+  Scene s = load_scene_from_memory("m.bpt", "1\n3 3\n" + pts);
+  EXPECT_EQ(s.meshes[0].patch_count(), 1u);
+  EXPECT_EQ(control(s.meshes[0], 0, 2, 1), (std::array<float, 3>{1, 2, 1}));  // point k = 9
+  try {
+    load_scene_from_memory("m.bezier", "");
+    ADD_FAILURE() << "loaded an unknown format";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(".bpt .patches"), std::string::npos) << e.what();
+  }
+}
