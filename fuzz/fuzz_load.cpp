@@ -10,10 +10,12 @@
 #include "core/scene.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  static const char* names[] = {"f.ply", "f.ply.gz", "f.obj", "f.off",
-                                "f.stl", "f.gltf",   "f.glb", "f.json"};
+  // New formats go at the end, so that the seeds' format bytes keep their meaning.
+  static const char* names[] = {"f.ply", "f.ply.gz", "f.obj",  "f.off", "f.stl",    "f.gltf",
+                                "f.glb", "f.json",   "f.pbrt", "f.bpt", "f.patches"};
+  constexpr size_t kNames = sizeof(names) / sizeof(names[0]);
   if (size < 1) return 0;
-  const std::string name = names[data[0] % 8];
+  const std::string name = names[data[0] % kNames];
   const std::string bytes(reinterpret_cast<const char*>(data + 1), size - 1);
   vismap::LoadOptions opts;
   opts.max_triangles = 1u << 20;  // keeps the fuzzer's memory bounded; TooLarge is an InputError

@@ -16,6 +16,8 @@ seed 3 "$root/data/stiff/penetrating_tetra_triangle.off"
 seed 5 "$root/data/scenes/triangle_camera.gltf"
 seed 6 "$root/data/scenes/strip_fan.glb"
 seed 7 "$root/data/scenes/two_quads.json"
+seed 9 "$root/../shared/data/teapot/teapot.bpt"
+seed 10 "$root/../shared/data/teapot/newell_teaspoon.patches"
 printf '\x01' > "$out/empty_gz.1"
 printf '\x04solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid x\n' > "$out/ascii.stl.4"
 # Regressions of issue 15 (tests/test_loader_errors.cpp has each as a named test):
