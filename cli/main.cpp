@@ -57,7 +57,7 @@ const char* kDecodeUsage =
 const char* kDevicesUsage = "  vismap devices\n";
 const char* kNotes =
     "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb, pbrt .pbrt (trianglemesh, loopsubdiv),\n"
-    "       Bezier patches .bpt .patches (loaded; not diced yet, issue 18),\n"
+    "       Bezier patches .bpt .patches,\n"
     "       a .json scene file, or an implicit expression in x and y (.sexp).\n"
     "--tolerance PX: curved surfaces are diced within PX pixels of the surface (default 0.2).\n"
     "--device (or $VISMAP_DEVICE): 'P:D' from `vismap devices`, or part of a device/platform "
@@ -372,10 +372,12 @@ int cmd_render(int argc, char** argv) {
     if (ts.triangles)
       std::fprintf(stderr,
                    "tessellate: %.2f ms, %u launches, %u reads, %u split rounds, %llu pieces "
-                   "(%llu culled), %llu triangles, Loop level %u\n",
+                   "(%llu culled, %llu short of the tolerance at the largest rate), %llu "
+                   "triangles, Loop level %u\n",
                    ts.ms, ts.launches, ts.host_syncs, ts.split_rounds,
                    static_cast<unsigned long long>(ts.pieces),
                    static_cast<unsigned long long>(ts.culled),
+                   static_cast<unsigned long long>(ts.over_rate),
                    static_cast<unsigned long long>(ts.triangles), ts.subdivision_level);
     std::fprintf(stderr,
                  "input triangles %llu (dropped degenerate %llu), screen triangles %llu, "
