@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
+#include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "core/compact.h"
@@ -408,6 +410,44 @@ TEST_F(ServerV2Test, KeyframeOutsideDeltaIsRefused) {
   EXPECT_EQ(e["type"], "error");
   EXPECT_EQ(e["code"], "unexpected_message");
   EXPECT_EQ(e["fatal"], false);
+}
+
+// Curved surfaces (issue 18, docs/SURFACES.md) through a session: the tea set's Bezier patches
+// and the Killeroo's Loop surface uploaded as files, diced for each frame at the hello's
+// tolerance, seen from their framing camera; bin frames whose source ids are patches (or control
+// triangles) and whose vertices moved with the camera.
+TEST_F(ServerV2Test, CurvedSurfacesAreDicedPerFrame) {
+  start();
+  const std::string data = std::string(VISMAP_SOURCE_DIR) + "/../shared/data/";
+  const std::pair<const char*, uint32_t> files[] = {{"teapot/teapot.bpt", 32},
+                                                    {"teapot/newell_teacup.patches", 26},
+                                                    {"teapot/newell_teaspoon.patches", 16},
+                                                    {"killeroo/killeroo.pbrt", 8316}};
+  for (auto [file, sources] : files) {
+    std::ifstream in(data + file, std::ios::binary);
+    if (!in) GTEST_SKIP() << data + file;
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    WsClient c;
+    hello2(c, "bin", {{"tolerance", 1.0}});
+    upload(c, fs::path(file).filename().string(), bytes);
+    json r = next(c, 60);
+    ASSERT_EQ(r["type"], "scene_ready") << file << r.dump();
+    std::vector<vismap::BinFrame> frames;
+    for (int k = 0; k < 2; ++k) {
+      json cam = r["camera"];
+      // the second frame from a little to the side
+      if (k == 1) cam["eye"][0] = cam["eye"][0].get<double>() + 0.1 * r["bounds"]["hi"][0].get<double>();
+      c.send_text(json{{"type", "camera"}, {"seq", k}, {"eye", cam["eye"]}, {"target", cam["target"]}}.dump());
+      json h = next(c, 60);
+      ASSERT_EQ(h["type"], "frame") << file << h.dump();
+      Message p = c.read(60);
+      frames.push_back(vismap::read_bin(p.data));
+      const vismap::BinFrame& f = frames.back();
+      EXPECT_GT(f.triangle_count(), 100u) << file;
+      for (uint32_t id : f.triangle_id) ASSERT_LT(id, sources) << file;
+    }
+    EXPECT_NE(frames[0].xy, frames[1].xy) << file;
+  }
 }
 
 }  // namespace
