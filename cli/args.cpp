@@ -86,6 +86,10 @@ bool parse_view_flag(const std::string& f, const std::function<std::string()>& v
     a.tolerance_px = parse_number(f, value());
     if (!(a.tolerance_px >= 1e-3 && a.tolerance_px <= 1000))
       throw UsageError("--tolerance: expected 0.001 ... 1000 pixels");
+  } else if (f == "--implicit-tolerance") {
+    a.implicit_tolerance_px = parse_number(f, value());
+    if (!(a.implicit_tolerance_px >= 1e-2 && a.implicit_tolerance_px <= 1000))
+      throw UsageError("--implicit-tolerance: expected 0.01 ... 1000 pixels");
   } else
     return false;
   return true;
@@ -100,6 +104,7 @@ Scene dice_for_view(Renderer& renderer, Scene scene, const Camera& cam, const Vi
   if (!scene.has_surfaces()) return scene;
   TessellateOptions o;
   o.tolerance_px = float(a.tolerance_px);
+  o.implicit_tolerance_px = float(a.implicit_tolerance_px);
   return renderer.tessellate(scene, cam, o, st);
 }
 

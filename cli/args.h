@@ -25,12 +25,14 @@ uint32_t parse_pixels(const std::string& flag, const std::string& s);
 uint64_t parse_bytes(const std::string& flag, const std::string& s);
 
 // --width --height --eye --target --up --fov-y --ortho --near --far --device --tolerance
+// --implicit-tolerance
 struct ViewArgs {
   std::optional<uint32_t> width, height;
   std::optional<Vec3> eye, target, up;
   std::optional<double> fov_y, ortho, near_plane, far_plane;
   std::string device;
   double tolerance_px = 0.2;  // curved surfaces: TessellateOptions::tolerance_px
+  double implicit_tolerance_px = 4.0;  // TessellateOptions::implicit_tolerance_px
 };
 
 // If `flag` is one of the view flags, consumes its value through `value` and returns true.

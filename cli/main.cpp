@@ -38,7 +38,7 @@ const char* kRenderUsage =
     "                [--quantum Q] [--compression zstd|deflate] [--width W --height H]\n"
     "                [--eye X,Y,Z --target X,Y,Z --up X,Y,Z] [--fov-y DEG | --ortho HEIGHT]\n"
     "                [--near N --far F] [--device NAME] [--memory-budget BYTES]\n"
-    "                [--time-limit SECONDS] [--stats] [--tolerance PX]\n"
+    "                [--time-limit SECONDS] [--stats] [--tolerance PX] [--implicit-tolerance PX]\n"
     "                [--style fill|lines|fill+lines] [--crease-angle DEG] [--line-width PX]\n"
     "                [--line-color KIND=#RRGGBB] [--simplify PX] [--hidden] [--merge]\n"
     "                [--bounds X0,Y0,X1,Y1]   (a 2D implicit .sexp: the window drawn)\n"
@@ -58,8 +58,11 @@ const char* kDevicesUsage = "  vismap devices\n";
 const char* kNotes =
     "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb, pbrt .pbrt (trianglemesh, loopsubdiv),\n"
     "       Bezier patches .bpt .patches,\n"
-    "       a .json scene file, or an implicit expression in x and y (.sexp).\n"
+    "       a .json scene file, or an implicit expression (.sexp): in x and y alone, filled\n"
+    "       regions (2D); with z, a surface f = 0 rendered as any mesh.\n"
     "--tolerance PX: curved surfaces are diced within PX pixels of the surface (default 0.2).\n"
+    "--implicit-tolerance PX: implicit surfaces, within PX pixels at their nearest depth\n"
+    "       (default 4; a bound: the surface is usually far closer).\n"
     "--device (or $VISMAP_DEVICE): 'P:D' from `vismap devices`, or part of a device/platform "
     "name.\n";
 
@@ -130,10 +133,6 @@ int render_implicit_2d(const RenderArgs& a) {
   const auto t0 = Clock::now();
   const implicit::Tape tape = implicit::load(a.scene);
   const auto t_load = Clock::now();
-  if (implicit::uses_z(tape))
-    throw InputError(InputErrorKind::BadScene, a.scene, "", "", -1,
-                     "the expression uses z: 3D implicit surfaces are not rendered yet (issue 19); "
-                     "the 2D mode draws expressions in x and y");
   if (a.format != "svg") throw UsageError("an implicit expression renders to svg only");
   implicit::View2D v;
   if (a.bounds) v.x0 = (*a.bounds)[0], v.y0 = (*a.bounds)[1], v.x1 = (*a.bounds)[2], v.y1 = (*a.bounds)[3];
@@ -287,7 +286,8 @@ int cmd_render(int argc, char** argv) {
   using Clock = std::chrono::steady_clock;
   auto t0 = Clock::now();
   RenderArgs a = parse_render(argc, argv);
-  if (is_sexp(a.scene)) return render_implicit_2d(a);
+  // An expression in x and y alone is MPR's 2D mode; one that uses z is a 3D object.
+  if (is_sexp(a.scene) && !implicit::uses_z(implicit::load(a.scene))) return render_implicit_2d(a);
   if (a.bounds) throw UsageError("--bounds: the window of a 2D implicit expression (.sexp)");
   Scene scene = load_scene(a.scene);
   auto t_load = Clock::now();
@@ -379,6 +379,15 @@ int cmd_render(int argc, char** argv) {
                    static_cast<unsigned long long>(ts.culled),
                    static_cast<unsigned long long>(ts.over_rate),
                    static_cast<unsigned long long>(ts.triangles), ts.subdivision_level);
+    if (ts.implicit_leaves)
+      std::fprintf(stderr,
+                   "implicit: level %u (2^level cells per axis), %llu leaf cells, clauses per "
+                   "leaf %.1f of %llu (tape shortening); ms: queue %.1f, corners %.1f, mesh "
+                   "%.1f\n",
+                   ts.implicit_level, static_cast<unsigned long long>(ts.implicit_leaves),
+                   double(ts.implicit_leaf_clauses) / double(ts.implicit_leaves),
+                   static_cast<unsigned long long>(ts.implicit_clauses_full),
+                   ts.implicit_queue_ms, ts.implicit_points_ms, ts.implicit_mesh_ms);
     std::fprintf(stderr,
                  "input triangles %llu (dropped degenerate %llu), screen triangles %llu, "
                  "silhouette edges %llu\n",

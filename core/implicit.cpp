@@ -5,6 +5,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <sstream>
 #include <unordered_map>
@@ -530,6 +531,203 @@ double eval_slots(const SlotTape& t, double x, double y, double z) {
     s[c[1]] = v;
   }
   return s[t.root_slot];
+}
+
+namespace {
+
+// A value and its gradient (forward differentiation).
+struct Dual {
+  double v = 0, d[3] = {0, 0, 0};
+};
+
+Dual scaled(const Dual& a, double v, double k) {  // value v, derivative k * a'
+  Dual r;
+  r.v = v;
+  for (int i = 0; i < 3; ++i) r.d[i] = k * a.d[i];
+  return r;
+}
+
+Dual apply_dual(Op op, const Dual& a, const Dual& b) {
+  Dual r;
+  r.v = apply(op, a.v, b.v);
+  switch (op) {
+    case Op::Add: for (int i = 0; i < 3; ++i) r.d[i] = a.d[i] + b.d[i]; return r;
+    case Op::Sub: for (int i = 0; i < 3; ++i) r.d[i] = a.d[i] - b.d[i]; return r;
+    case Op::Mul: for (int i = 0; i < 3; ++i) r.d[i] = a.d[i] * b.v + a.v * b.d[i]; return r;
+    case Op::Div:
+      for (int i = 0; i < 3; ++i) r.d[i] = (a.d[i] * b.v - a.v * b.d[i]) / (b.v * b.v);
+      return r;
+    case Op::Min: return a.v <= b.v ? scaled(a, r.v, 1) : scaled(b, r.v, 1);
+    case Op::Max: return a.v >= b.v ? scaled(a, r.v, 1) : scaled(b, r.v, 1);
+    case Op::Pow:
+      if (b.v == std::floor(b.v)) return scaled(a, r.v, b.v * integer_power(a.v, b.v - 1));
+      return a.v > 0 ? scaled(a, r.v, b.v * r.v / a.v) : scaled(a, r.v, 0);
+    case Op::Neg: return scaled(a, r.v, -1);
+    case Op::Square: return scaled(a, r.v, 2 * a.v);
+    case Op::Sqrt: return scaled(a, r.v, a.v > 0 ? 0.5 / r.v : 0);
+    case Op::Abs: return scaled(a, r.v, a.v < 0 ? -1 : 1);
+    case Op::Exp: return scaled(a, r.v, r.v);
+    case Op::Log: return scaled(a, r.v, a.v > 0 ? 1 / a.v : 0);
+    case Op::Sin: return scaled(a, r.v, std::cos(a.v));
+    case Op::Cos: return scaled(a, r.v, -std::sin(a.v));
+    case Op::Tan: return scaled(a, r.v, 1 / (std::cos(a.v) * std::cos(a.v)));
+    case Op::Asin: return scaled(a, r.v, std::abs(a.v) < 1 ? 1 / std::sqrt(1 - a.v * a.v) : 0);
+    case Op::Acos: return scaled(a, r.v, std::abs(a.v) < 1 ? -1 / std::sqrt(1 - a.v * a.v) : 0);
+    case Op::Atan: return scaled(a, r.v, 1 / (1 + a.v * a.v));
+    default: return r;
+  }
+}
+
+}  // namespace
+
+double eval_code_grad(const uint32_t* code, size_t clauses, uint32_t slots, uint32_t root_slot,
+                      double x, double y, double z, double grad[3]) {
+  std::vector<Dual> s(std::max<uint32_t>(slots, 1));
+  for (size_t k = 0; k < clauses; ++k) {
+    const uint32_t* c = &code[4 * k];
+    const Op op = Op(c[0]);
+    Dual v;
+    if (c[0] == kCopy) {
+      v = s[c[2]];
+    } else if (op == Op::Const) {
+      float f;
+      std::memcpy(&f, &c[2], 4);
+      v.v = f;
+    } else if (op == Op::X || op == Op::Y || op == Op::Z) {
+      const int axis = int(op) - int(Op::X);
+      v.v = axis == 0 ? x : axis == 1 ? y : z;
+      v.d[axis] = 1;
+    } else {
+      v = apply_dual(op, s[c[2]], is_binary(op) ? s[c[3]] : Dual{});
+    }
+    s[c[1]] = v;
+  }
+  const Dual& f = s[root_slot];
+  for (int i = 0; i < 3; ++i) grad[i] = f.d[i];
+  return f.v;
+}
+
+Tape clipped_to_box(const Tape& t, const double lo[3], const double hi[3], int dims) {
+  Tape o = t;
+  const uint32_t f = o.root();
+  auto add = [&o](Op op, uint32_t a = 0, uint32_t b = 0, double v = 0) {
+    Clause c;
+    c.op = op;
+    c.a = a;
+    c.b = b;
+    c.value = v;
+    o.clauses.push_back(c);
+    return uint32_t(o.clauses.size() - 1);
+  };
+  uint32_t var[3], c0[3], c1[3];
+  for (int k = 0; k < dims; ++k) var[k] = add(k == 0 ? Op::X : k == 1 ? Op::Y : Op::Z);
+  for (int k = 0; k < dims; ++k) {
+    c0[k] = add(Op::Const, 0, 0, lo[k]);
+    c1[k] = add(Op::Const, 0, 0, hi[k]);
+  }
+  uint32_t slab[3];
+  for (int k = 0; k < dims; ++k)
+    slab[k] = add(Op::Max, add(Op::Sub, c0[k], var[k]), add(Op::Sub, var[k], c1[k]));
+  uint32_t box = add(Op::Max, slab[0], slab[1]);
+  if (dims == 3) box = add(Op::Max, box, slab[2]);
+  add(Op::Max, f, box);
+  return o;
+}
+
+namespace {
+std::array<double, 6> bounds_in_cube(const Tape& t, const std::string& file, double search) {
+  struct Box {
+    double lo[3];
+    std::shared_ptr<const Tape> tape;
+  };
+  const auto fail = [&file](InputErrorKind kind, const std::string& msg) {
+    throw InputError(kind, file, "", "", -1, msg);
+  };
+  std::vector<Box> cur{{{-search, -search, -search}, std::make_shared<const Tape>(t)}};
+  double size = 2 * search;
+  double blo[3], bhi[3];
+  bool any_full = false;
+  double flo[3] = {kInf, kInf, kInf}, fhi[3] = {-kInf, -kInf, -kInf};  // full boxes so far
+  std::vector<uint8_t> choices;
+  for (int level = 0;; ++level) {
+    std::vector<Box> next;
+    double lo[3] = {kInf, kInf, kInf}, hi[3] = {-kInf, -kInf, -kInf};
+    bool edge = false;  // a box not shown empty touches the search cube's faces
+    for (const Box& b : cur) {
+      const Interval iv = eval_interval(*b.tape, {b.lo[0], b.lo[0] + size},
+                                        {b.lo[1], b.lo[1] + size}, {b.lo[2], b.lo[2] + size},
+                                        &choices);
+      // f >= 0 over the box: no solid (f < 0) in it. An exact 0 rounded outward is a denormal
+      // below 0: below -1e-200 counts (where f touches 0 on a sheet, as in the architecture
+      // model's floor, the box would otherwise never be shown empty).
+      if (iv.lo >= -1e-200) continue;
+      bool touches = false;
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], b.lo[k]);
+        hi[k] = std::max(hi[k], b.lo[k] + size);
+        touches = touches || b.lo[k] <= -search || b.lo[k] + size >= search;
+      }
+      if (iv.hi < 0) {  // full: in the bounds for good, no need to split
+        if (touches && level > 0)
+          fail(InputErrorKind::BadScene,
+               "the solid f < 0 fills a box on the faces of the search cube [-" +
+                   std::to_string(int(search)) + ", " + std::to_string(int(search)) +
+                   "]^3: unbounded or too large; give the object bounds");
+        any_full = true;
+        for (int k = 0; k < 3; ++k) {
+          flo[k] = std::min(flo[k], b.lo[k]);
+          fhi[k] = std::max(fhi[k], b.lo[k] + size);
+        }
+        continue;
+      }
+      edge = edge || touches;
+      auto shortened = std::make_shared<const Tape>(shorten(*b.tape, choices));
+      for (int c = 0; c < 8; ++c)
+        next.push_back({{b.lo[0] + (c & 1 ? size / 2 : 0), b.lo[1] + (c & 2 ? size / 2 : 0),
+                         b.lo[2] + (c & 4 ? size / 2 : 0)},
+                        shortened});
+    }
+    for (int k = 0; k < 3; ++k) {
+      blo[k] = std::min(lo[k], flo[k]);
+      bhi[k] = std::max(hi[k], fhi[k]);
+    }
+    if (next.empty() && !any_full && lo[0] > hi[0])
+      fail(InputErrorKind::EmptyMesh, "f > 0 over the whole search cube [-" +
+                                          std::to_string(int(search)) + ", " +
+                                          std::to_string(int(search)) + "]^3: nothing to draw");
+    const double extent = std::max({bhi[0] - blo[0], bhi[1] - blo[1], bhi[2] - blo[2]});
+    if (next.empty() || size <= extent / 64 || level >= 30) {
+      if (edge && level > 0)
+        fail(InputErrorKind::BadScene,
+             "the solid f < 0 reaches the faces of the search cube [-" +
+                 std::to_string(int(search)) + ", " + std::to_string(int(search)) +
+                 "]^3: unbounded or too large; give the object bounds");
+      break;
+    }
+    if (next.size() > (size_t(1) << 20))
+      fail(InputErrorKind::TooLarge, "the bounds search passed 2^20 boxes at level " +
+                                         std::to_string(level + 1) + "; give the object bounds");
+    cur = std::move(next);
+    size /= 2;
+  }
+  // Grown by one box: the surface lies inside, never on the box's faces.
+  return {blo[0] - size, blo[1] - size, blo[2] - size, bhi[0] + size, bhi[1] + size,
+          bhi[2] + size};
+}
+}  // namespace
+
+std::array<double, 6> find_bounds(const Tape& t, const std::string& file, double search) {
+  // Cubes of side 32, 64, ... up to 2 search: the first whose faces the solid does not reach.
+  // Interval arithmetic is loose over large boxes far from the origin (products of coordinates),
+  // so a small cube that holds the object proves that far sooner than the largest one.
+  for (double s = 16; s < search; s *= 2) {
+    try {
+      return bounds_in_cube(t, file, s);
+    } catch (const InputError& e) {
+      if (e.kind() != InputErrorKind::BadScene) throw;
+    }
+  }
+  return bounds_in_cube(t, file, search);
 }
 
 }  // namespace vismap::implicit

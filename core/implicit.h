@@ -6,6 +6,7 @@
 // arithmetic) with MPR's tape shortening. The device evaluates the same tape (kernels/).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -78,5 +79,26 @@ constexpr uint32_t kCopy = 23;  // VM_IOP_COPY
 SlotTape allocate_slots(const Tape& t);
 // The slot tape evaluated on the host in doubles (constants as the float the device holds).
 double eval_slots(const SlotTape& t, double x, double y, double z);
+// The same over `clauses` clauses of slot code (4 words each: a slot tape or one of the
+// device's shortened tapes), with the gradient by forward differentiation: min/max follow the
+// operand they return, sqrt/log/asin/acos/abs at the edge of their domain (or a kink) take the
+// one-sided or zero derivative. Returns f; grad receives df/dx, df/dy, df/dz.
+double eval_code_grad(const uint32_t* code, size_t clauses, uint32_t slots, uint32_t root_slot,
+                      double x, double y, double z, double grad[3]);
+
+// The tape with a box intersected in: max(f, lo0 - x, x - hi0, ...) over the first `dims` axes
+// (2: x, y; 3: x, y, z), so the solid is f < 0 inside the box and closes at its faces.
+Tape clipped_to_box(const Tape& t, const double lo[3], const double hi[3], int dims);
+
+// The box of the solid f < 0 (lo xyz, hi xyz), for an implicit object given without bounds:
+// host interval arithmetic over a cube [-s, s]^3, every box not shown empty (f >= 0) split in
+// eight with its tape shortened, level by level, until a box's side is at most 1/64 of the
+// extent found; the boxes not shown empty, grown by one box. s = 16, 32, ... up to `search`:
+// the first cube whose faces the solid does not reach (interval bounds are loose over large far
+// boxes, so a cube near the object's size proves it bounded where the largest cannot); a part of
+// the solid outside that cube is not in the box (give bounds to choose it). Errors name `file`:
+// InputError BadScene when the solid reaches the faces of [-search, search]^3 (unbounded, or
+// larger: give bounds), EmptyMesh when f >= 0 over the whole cube, TooLarge past 2^20 boxes.
+std::array<double, 6> find_bounds(const Tape& t, const std::string& file, double search = 1024);
 
 }  // namespace vismap::implicit

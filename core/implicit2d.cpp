@@ -22,29 +22,6 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// t with the window's box intersected in: max(f, x0 - x, x - x1, y0 - y, y - y1), so the solid
-// drawn is f < 0 inside the window and its loops close at the window's edges.
-Tape clipped_to(const Tape& t, double x0, double y0, double x1, double y1) {
-  Tape o = t;
-  const uint32_t f = o.root();
-  auto add = [&o](Op op, uint32_t a = 0, uint32_t b = 0, double v = 0) {
-    Clause c;
-    c.op = op;
-    c.a = a;
-    c.b = b;
-    c.value = v;
-    o.clauses.push_back(c);
-    return uint32_t(o.clauses.size() - 1);
-  };
-  const uint32_t x = add(Op::X), y = add(Op::Y);
-  const uint32_t cx0 = add(Op::Const, 0, 0, x0), cx1 = add(Op::Const, 0, 0, x1);
-  const uint32_t cy0 = add(Op::Const, 0, 0, y0), cy1 = add(Op::Const, 0, 0, y1);
-  const uint32_t bx = add(Op::Max, add(Op::Sub, cx0, x), add(Op::Sub, x, cx1));
-  const uint32_t by = add(Op::Max, add(Op::Sub, cy0, y), add(Op::Sub, y, cy1));
-  add(Op::Max, f, add(Op::Max, bx, by));
-  return o;
-}
-
 struct Key {
   int64_t i, j;
   int dir;  // 0: the edge (i, j)-(i+1, j); 1: (i, j)-(i, j+1); 2: a corner
@@ -110,7 +87,8 @@ Regions2D contour_2d(ClRuntime& rt, const Tape& tape, const View2D& v, double to
   }
   out.cell_px = h * std::max(sx, sy);
   // The window inset by half a cell: its edges then run through cells, not along them.
-  const Tape clipped = clipped_to(tape, v.x0 + h / 2, v.y0 + h / 2, v.x1 - h / 2, v.y1 - h / 2);
+  const double wlo[3] = {v.x0 + h / 2, v.y0 + h / 2, 0}, whi[3] = {v.x1 - h / 2, v.y1 - h / 2, 0};
+  const Tape clipped = clipped_to_box(tape, wlo, whi, 2);
   const SlotTape st = allocate_slots(clipped);
   const float lo[3] = {float(v.x0), float(v.y0), 0.f};
   const stages::ImplicitQueue q = stages::run_implicit_queue(rt, st, lo, float(size), 2, splits);

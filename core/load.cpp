@@ -15,6 +15,10 @@
 namespace vismap {
 namespace detail {
 
+// What the formats' unknown-format message lists.
+constexpr const char* kFormats =
+    ".gltf .glb .ply .ply.gz .obj .off .stl .pbrt .bpt .patches .sexp .json";
+
 std::string format_extension(const std::string& name) {
   std::string base = name.substr(name.find_last_of('/') + 1);
   std::transform(base.begin(), base.end(), base.begin(),
@@ -273,6 +277,7 @@ Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptio
   // is for triangle meshes only.
   if (ext == ".bpt") return read_bpt(src, bytes, opts);
   if (ext == ".patches") return read_newell_patches(src, bytes, opts);
+  if (ext == ".sexp") return read_sexp(src, bytes, opts);
   std::vector<Mesh> meshes;
   if (ext == ".ply") {
     meshes = read_ply(src, bytes, opts);
@@ -288,7 +293,7 @@ Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptio
   } else {
     fail(InputErrorKind::UnknownFormat, src, "", "", -1,
          "unknown format '" + ext +
-             "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .pbrt .bpt .patches .json)");
+             "' (expected " + std::string(kFormats) + ")");
   }
   Scene s;
   s.source = src.file;
@@ -309,7 +314,7 @@ Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptio
 namespace {
 bool known_extension(const std::string& ext) {
   for (const char* e : {".gltf", ".glb", ".ply", ".ply.gz", ".obj", ".off", ".stl", ".pbrt", ".bpt",
-                        ".patches", ".json"})
+                        ".patches", ".sexp", ".json"})
     if (ext == e) return true;
   return false;
 }
@@ -323,7 +328,7 @@ Scene load_file(const std::string& path, const LoadOptions& opts, ByteBudget& bu
   if (!known_extension(ext))
     fail(InputErrorKind::UnknownFormat, src, "", "", -1,
          "unknown format '" + ext +
-             "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .pbrt .bpt .patches .json)");
+             "' (expected " + std::string(kFormats) + ")");
   std::string bytes = read_input_file(path, opts, budget);
   if (ext == ".json") return read_scene_file(src, bytes, opts);
   return load_mesh_bytes(src, bytes, opts);
@@ -347,7 +352,7 @@ Scene load_scene_from_memory(const std::string& name, const std::string& bytes,
     detail::fail(
         InputErrorKind::UnknownFormat, src, "", "", -1,
         "unknown format '" + ext +
-            "' (expected .gltf .glb .ply .ply.gz .obj .off .stl .pbrt .bpt .patches .json)");
+            "' (expected " + std::string(detail::kFormats) + ")");
   if (ext == ".json") return detail::read_scene_file(src, bytes, opts);
   return detail::load_mesh_bytes(src, bytes, opts);
 }

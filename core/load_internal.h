@@ -5,6 +5,8 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
+#include <optional>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -91,6 +93,13 @@ Scene read_pbrt(const Source& src, std::string_view bytes, const LoadOptions& op
 // (Mesh::patches, no triangles: finish_mesh does not apply).
 Scene read_bpt(const Source& src, std::string_view bytes, const LoadOptions& opts);
 Scene read_newell_patches(const Source& src, std::string_view bytes, const LoadOptions& opts);
+
+// Implicit objects (core/load_implicit.cpp): an expression parsed (errors name src.file, line and
+// column) into one Mesh with Mesh::implicit set, its box `bounds` (checked lo < hi) or, without
+// them, found by implicit::find_bounds. read_sexp: a .sexp file as such an object.
+Mesh implicit_object(const Source& src, std::string_view text, const std::string& name,
+                     const std::optional<std::array<double, 6>>& bounds);
+Scene read_sexp(const Source& src, std::string_view bytes, const LoadOptions& opts);
 
 // Loads a mesh file (any format but .json) from bytes into a scene.
 Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptions& opts);

@@ -177,14 +177,30 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
     std::string path = "meshes[" + std::to_string(i) + "]";
     const json& e = meshes[i];
     ck.keys(e, path,
-            {"file", "name", "translate", "rotate_deg", "rotate_axis_angle", "scale", "matrix",
-             "color", "subdivision"});
-    if (!e.contains("file") || !e["file"].is_string() || e["file"].get<std::string>().empty())
+            {"file", "expression", "bounds", "name", "translate", "rotate_deg",
+             "rotate_axis_angle", "scale", "matrix", "color", "subdivision"});
+    const bool inline_expr = e.contains("expression");
+    if (inline_expr && e.contains("file"))
+      ck.bad(path + ".expression", "give either 'file' or 'expression'");
+    if (inline_expr && (!e["expression"].is_string() || e["expression"].get<std::string>().empty()))
+      ck.bad(path + ".expression", "expected an expression string");
+    if (!inline_expr &&
+        (!e.contains("file") || !e["file"].is_string() || e["file"].get<std::string>().empty()))
       ck.bad(path + ".file", "expected a file name");
-    std::string file = e["file"].get<std::string>();
-    if (src.base_dir.empty())
+    std::string file = inline_expr ? std::string() : e["file"].get<std::string>();
+    if (!inline_expr && src.base_dir.empty())
       ck.bad(path + ".file", "a scene sent as bytes cannot reference files");
     if (format_extension(file) == ".json") ck.bad(path + ".file", "scene files do not nest");
+    const bool is_implicit = inline_expr || format_extension(file) == ".sexp";
+    std::optional<std::array<double, 6>> bounds;
+    if (e.contains("bounds")) {
+      if (!is_implicit) ck.bad(path + ".bounds", "only an implicit object has bounds");
+      auto b = ck.numbers(e["bounds"], path + ".bounds", 6);
+      for (int k = 0; k < 3; ++k)
+        if (!(b[k] < b[k + 3]))
+          ck.bad(path + ".bounds", "expected [xlo, ylo, zlo, xhi, yhi, zhi] with each lo < hi");
+      bounds = std::array<double, 6>{b[0], b[1], b[2], b[3], b[4], b[5]};
+    }
     M4 m = entry_transform(ck, e, path);
     std::optional<std::array<float, 3>> color;
     if (e.contains("color")) {
@@ -194,9 +210,27 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
     if (e.contains("name") && !e["name"].is_string()) ck.bad(path + ".name", "expected a string");
     if (e.contains("subdivision") && !e["subdivision"].is_boolean())
       ck.bad(path + ".subdivision", "expected true or false");
-    std::string full = file[0] == '/' ? file : src.base_dir + file;
-    auto it = loaded.find(full);
-    if (it == loaded.end()) {
+    if (is_implicit && e.contains("subdivision"))
+      ck.bad(path + ".subdivision", "an implicit object has no control mesh");
+    std::string full = inline_expr ? path : file[0] == '/' ? file : src.base_dir + file;
+    // An implicit entry is its own object (its bounds are the entry's); a mesh file is loaded
+    // once and copied per entry.
+    auto it = is_implicit ? loaded.end() : loaded.find(full);
+    Scene own;
+    if (is_implicit) {
+      try {
+        std::string text = inline_expr ? e["expression"].get<std::string>()
+                                       : read_input_file(full, opts, *src.budget);
+        Source isrc{inline_expr ? src.file + " " + path + ".expression" : full, src.base_dir,
+                    src.budget};
+        own.meshes.push_back(implicit_object(isrc, text, file_stem(inline_expr ? "implicit" : full),
+                                             bounds));
+      } catch (const InputError& ie) {
+        if (inline_expr) throw;
+        throw InputError(ie.kind(), ie.file(), ie.mesh(), ie.element(), ie.index(),
+                         ie.detail() + " (referenced by " + src.file + " " + path + ")");
+      }
+    } else if (it == loaded.end()) {
       try {
         // The scene's budget: its referenced files together are held against one cap.
         it = loaded.emplace(full, load_file(full, opts, *src.budget)).first;
@@ -207,7 +241,9 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
     }
     double det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
                  m[8] * (m[1] * m[6] - m[5] * m[2]);
-    const Scene& part = it->second;
+    if (is_implicit && (!(std::abs(det) > 0) || m[3] != 0 || m[7] != 0 || m[11] != 0 || m[15] != 1))
+      ck.bad(path, "an implicit object's transform must be affine and invertible");
+    const Scene& part = is_implicit ? own : it->second;
     for (const Mesh& pm : part.meshes) {
       Mesh mesh = pm;
       if (e.contains("name"))
@@ -228,6 +264,8 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
           mesh.positions[v + r] = w;
         }
       }
+      // An implicit object is placed by its matrix: f is evaluated in its own space.
+      if (mesh.implicit) mesh.implicit_xform = mul(m, mesh.implicit_xform);
       // Bezier control points move with the surface: a patch is affine-invariant.
       for (size_t v = 0; v < mesh.patches.size(); v += 3) {
         double x = mesh.patches[v], y = mesh.patches[v + 1], z = mesh.patches[v + 2];

@@ -330,8 +330,15 @@ double lambert_shade(const Scene& scene, const Camera& cam, uint32_t mesh, uint3
   }
   const Vec3 e1{p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
   const Vec3 e2{p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
-  const Vec3 n{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
-               e1[0] * e2[1] - e1[1] * e2[0]};
+  Vec3 n{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+         e1[0] * e2[1] - e1[1] * e2[0]};
+  // A diced implicit surface carries the gradient's normal per vertex: their mean shades the
+  // triangle, so cells do not show as facets.
+  if (m.normals.size() == m.positions.size()) {
+    n = {0, 0, 0};
+    for (int k = 0; k < 3; ++k)
+      for (int c = 0; c < 3; ++c) n[c] += m.normals[3 * size_t(m.indices[3 * size_t(tri) + k]) + c];
+  }
   // A headlight along the view direction, for both projections: a plane gets one shade
   // whatever its triangulation (a light at the eye shaded each triangle of a wall by its own
   // centroid, issue 20).

@@ -371,7 +371,9 @@ Scene Renderer::tessellate(const Scene& scene, const Camera& camera,
     out.source = scene.source;
     out.meshes.reserve(scene.meshes.size());
     for (const Mesh& m : scene.meshes) {
-      if (!m.patches.empty())
+      if (m.implicit)
+        out.meshes.push_back(stages::dice_implicit(impl_->rt, m, camera, opts, st));
+      else if (!m.patches.empty())
         out.meshes.push_back(stages::dice_patches(impl_->rt, m, camera, opts, st));
       else if (m.subdivision)
         out.meshes.push_back(

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -11,6 +12,10 @@
 #include "core/camera.h"
 
 namespace vismap {
+
+namespace implicit {
+struct Tape;
+}
 
 struct Mesh {
   std::string name;              // for messages: the file's mesh/node/group name or the file stem
@@ -37,8 +42,19 @@ struct Mesh {
   // its sources. face_ids name the patch or the control triangle. Empty for ordinary meshes.
   std::vector<float> uv;
 
+  // An implicit surface (issue 19, docs/IMPLICIT.md): the boundary of the solid f < 0 of this
+  // tape in its own space, clipped to implicit_box (lo xyz, hi xyz, in that space), placed in
+  // the world by implicit_xform (column-major 4x4 affine, as the scene file's matrix).
+  // positions/indices stay empty until diced (source_triangles = 1: the object is one source).
+  std::shared_ptr<const implicit::Tape> implicit;
+  std::array<double, 6> implicit_box{};
+  std::array<double, 16> implicit_xform{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  // A diced implicit: a unit normal per vertex (the world gradient of f, normalized; 3 floats),
+  // which shading uses in place of the triangle's own. Empty otherwise.
+  std::vector<float> normals;
+
   size_t patch_count() const { return patches.size() / 48; }
-  bool is_surface() const { return !patches.empty() || subdivision; }
+  bool is_surface() const { return !patches.empty() || subdivision || implicit != nullptr; }
 
   size_t vertex_count() const { return positions.size() / 3; }
   size_t triangle_count() const { return indices.size() / 3; }

@@ -16,6 +16,10 @@ struct TessellateOptions {
   // The largest screen distance (pixels) between a diced triangle and its surface, bounded per
   // piece from the control points (docs/SURFACES.md "Error bound").
   float tolerance_px = 0.2f;
+  // Implicit surfaces (docs/IMPLICIT.md "3D"): the largest screen distance (pixels) between a
+  // triangle and the surface f = 0, for the object's nearest depth in view (cells of side h with
+  // sqrt(3) h at most this many pixels there).
+  float implicit_tolerance_px = 4.0f;
 };
 
 struct TessellateStats {
@@ -27,6 +31,14 @@ struct TessellateStats {
   uint64_t over_rate = 0;       // Bezier patches diced at the largest rate (128) without reaching
                                 // the tolerance there (near the eye, across the near plane)
   uint32_t subdivision_level = 0;  // the deepest Loop level used
+  // Implicit surfaces: the finest queue level (2^level cells per axis), leaf cells, and the
+  // clauses of the full tape (clipped to its box) against those of the leaves' shortened tapes.
+  uint32_t implicit_level = 0;
+  uint64_t implicit_leaves = 0, implicit_clauses_full = 0, implicit_leaf_clauses = 0;
+  // Leaf cells by the length of their shortened tape: [1, 2), [2, 4), ... [2^15, inf).
+  std::array<uint64_t, 16> implicit_clause_hist{};
+  // Host wall time of the region queue, the corners' evaluation and the meshing (with normals).
+  double implicit_queue_ms = 0, implicit_points_ms = 0, implicit_mesh_ms = 0;
   uint32_t launches = 0, host_syncs = 0;
 };
 

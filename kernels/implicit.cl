@@ -3,7 +3,8 @@
  * it (full, empty, or ambiguous), shortens the tape of an ambiguous region to the clauses that can
  * still choose its value (decided min/max become copies of their winner), and splits it into
  * children that inherit the shortened tape. Slots live in a scratch buffer sized from the region
- * count and the tape's slot count: no fixed limit.
+ * count and the tape's slot count: no fixed limit. The per-region kernels take regions
+ * first .. first + global size (the host runs a large round in chunks, reusing the scratch).
  *
  * Rounding: float, with every bound of an inexact operation moved outward by VM_IULPS ulps, which
  * covers OpenCL 1.2's full-profile error bounds (+ - * exact-rounded, / 2.5 ulp, sqrt 3 ulp, exp
@@ -120,17 +121,43 @@ inline float2 vm_iop(uint op, float2 a, float2 b, uchar* choice) {
 inline bool vm_iop_binary(uint op) { return op >= VM_IOP_ADD && op <= VM_IOP_POW; }
 inline bool vm_iop_leaf(uint op) { return op <= VM_IOP_Z; }
 
-/* Per region: its tape over its box in intervals (the choices of its min/max clauses in
- * choices[r * maxlen + k]) and the result; counts full and empty regions in totals. */
-__kernel void implicit_intervals(global const VmIRegion* reg, uint n, global const VmIClause* pool,
+/* Region r's slice of the round's choice bytes: the regions are the children of the last
+ * round's ambiguous regions, `per` a parent (1 in the first round), child c of a parent at
+ * r = per * (parent's rank) + c, sharing the parent's tape at tape_off; so the slices
+ * per * tape_off + c * tape_len tile per * (the pool's length) bytes. */
+inline size_t vm_choice_off(VmIRegion R, uint r, uint per) {
+  return (size_t)per * R.tape_off + (size_t)(r % per) * R.tape_len;
+}
+
+/* Per region: its tape over its box in intervals (the choices of its min/max clauses in its
+ * slice of choices) and the result; counts full and empty regions in totals. */
+#define VM_IZERO (-1e-30f) /* see vm_ambiguous */
+__kernel void implicit_intervals(global const VmIRegion* reg, uint n, uint first,
+                               global const VmIClause* pool,
                                global float2* scratch, uint slots, uint root_slot,
-                               global uchar* choices, uint maxlen, global float2* result,
-                               global uint* totals) {
-  const uint r = get_global_id(0);
+                               global uchar* choices, uint per, global float2* result,
+                               global uint* totals, global const float4* planes, uint nplanes) {
+  const uint r = first + get_global_id(0);
   if (r >= n) return;
   const VmIRegion R = reg[r];
-  global float2* s = scratch + (size_t)r * slots;
-  global uchar* ch = choices + (size_t)r * maxlen;
+  /* Culling (3D frames): a box wholly on the outer side of one of the view's planes (n.p + w <
+   * 0 over the box, with a margin of a thousandth of the box) cannot be seen; it leaves the
+   * queue as if empty and is counted apart. */
+  for (uint k = 0; k < nplanes; ++k) {
+    const float4 P = planes[k];
+    const float hi = P.x * (R.lo[0] + (P.x > 0.0f ? R.size : 0.0f)) +
+                     P.y * (R.lo[1] + (P.y > 0.0f ? R.size : 0.0f)) +
+                     P.z * (R.lo[2] + (P.z > 0.0f ? R.size : 0.0f)) + P.w;
+    const float margin = 1e-3f * R.size * (fabs(P.x) + fabs(P.y) + fabs(P.z)) +
+                         1e-6f * (fabs(P.x * R.lo[0]) + fabs(P.y * R.lo[1]) + fabs(P.z * R.lo[2]) + fabs(P.w));
+    if (hi < -margin) {
+      result[r] = (float2)(VM_IINF, VM_IINF);
+      atomic_inc(&totals[VM_ITOTAL_CULLED]);
+      return;
+    }
+  }
+  global float2* s = scratch + (size_t)(r - first) * slots;
+  global uchar* ch = choices + vm_choice_off(R, r, per);
   /* The box grown by 1/1000 of its side each way: points computed elsewhere for its corners
    * (in doubles, or by other roundings of lo) still lie inside the box the tape was shortened
    * over. */
@@ -154,7 +181,7 @@ __kernel void implicit_intervals(global const VmIRegion* reg, uint n, global con
   const float2 f = s[root_slot];
   result[r] = f;
   if (f.y < 0.0f) atomic_inc(&totals[VM_ITOTAL_FULL]);
-  else if (f.x > 0.0f) atomic_inc(&totals[VM_ITOTAL_EMPTY]);
+  else if (f.x >= VM_IZERO) atomic_inc(&totals[VM_ITOTAL_EMPTY]);
 }
 
 /* The backward walk of tape shortening (MPR): a clause is kept when its slot is live below it; a
@@ -188,21 +215,25 @@ inline uint vm_shorten(global const VmIClause* pool, VmIRegion R, global const u
   return kept;
 }
 
-inline bool vm_ambiguous(float2 f) { return !(f.y < 0.0f) && !(f.x > 0.0f); }
+/* Empty: f >= 0 over the box, so no point of the solid f < 0. An exact 0 rounded outward is a
+ * denormal below 0: VM_IZERO (-1e-30) still counts as 0, so a sheet where f touches 0 (the
+ * architecture model's floor) leaves the queue instead of splitting to the last level. */
+inline bool vm_ambiguous(float2 f) { return !(f.y < 0.0f) && !(f.x >= VM_IZERO); }
 
 /* counts[r]: the shortened tape's length of an ambiguous region, else 0; amb[r]: 1 if ambiguous. */
-__kernel void implicit_shorten_count(global const VmIRegion* reg, uint n, global const VmIClause* pool,
-                                   global const uchar* choices, uint maxlen,
+__kernel void implicit_shorten_count(global const VmIRegion* reg, uint n, uint first,
+                                   global const VmIClause* pool,
+                                   global const uchar* choices, uint per_in,
                                    global const float2* result, global uchar* live, uint slots,
                                    uint root_slot, global uint* counts, global uint* amb) {
-  const uint r = get_global_id(0);
+  const uint r = first + get_global_id(0);
   if (r >= n) return;
   if (!vm_ambiguous(result[r])) {
     counts[r] = 0;
     amb[r] = 0;
     return;
   }
-  counts[r] = vm_shorten(pool, reg[r], choices + (size_t)r * maxlen, live + (size_t)r * slots,
+  counts[r] = vm_shorten(pool, reg[r], choices + vm_choice_off(reg[r], r, per_in), live + (size_t)(r - first) * slots,
                          slots, root_slot, 0, 0);
   amb[r] = 1;
 }
@@ -210,19 +241,20 @@ __kernel void implicit_shorten_count(global const VmIRegion* reg, uint n, global
 /* Writes the shortened tapes at their offsets in the next pool, and for each ambiguous region
  * either its split^dims children (split > 1) or the region itself as a leaf (split == 1), all
  * with the new tape. */
-__kernel void implicit_shorten_fill(global const VmIRegion* reg, uint n, global const VmIClause* pool,
-                                  global const uchar* choices, uint maxlen,
+__kernel void implicit_shorten_fill(global const VmIRegion* reg, uint n, uint first,
+                                  global const VmIClause* pool,
+                                  global const uchar* choices, uint per_in,
                                   global const float2* result, global uchar* live, uint slots,
                                   uint root_slot, global const uint* counts,
                                   global const uint* offsets, global const uint* amb_off,
                                   global VmIClause* next_pool, global VmIRegion* next, uint split,
                                   uint dims) {
-  const uint r = get_global_id(0);
+  const uint r = first + get_global_id(0);
   if (r >= n) return;
   const uint len = counts[r];
   if (len == 0) return;
   VmIRegion R = reg[r];
-  vm_shorten(pool, R, choices + (size_t)r * maxlen, live + (size_t)r * slots, slots, root_slot,
+  vm_shorten(pool, R, choices + vm_choice_off(R, r, per_in), live + (size_t)(r - first) * slots, slots, root_slot,
              next_pool + offsets[r], len);
   VmIRegion C = R;
   C.tape_off = offsets[r];

@@ -180,10 +180,12 @@ typedef struct {
   vm_u32 tape_off, tape_len;
   vm_u32 pad[2];
 } VmIRegion;
-/* implicit_intervals' totals: regions found full (f < 0 over the box) and empty (f > 0). */
+/* implicit_intervals' totals: regions found full (f < 0 over the box) and empty (f >= 0), and
+ * regions culled outside the view. */
 #define VM_ITOTAL_FULL 0
 #define VM_ITOTAL_EMPTY 1
-#define VM_ITOTAL_SLOTS 2
+#define VM_ITOTAL_CULLED 2
+#define VM_ITOTAL_SLOTS 3
 
 #ifndef __OPENCL_VERSION__
 static_assert(sizeof(VmIClause) == 16, "VmIClause layout");

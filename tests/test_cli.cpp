@@ -290,10 +290,12 @@ TEST_F(Cli, ImplicitTwoDimensional) {
   EXPECT_EQ(std::count(svg.begin(), svg.end(), 'M'), 2) << svg.substr(0, 300);  // two regions
   EXPECT_NE(ok.err.find("2 regions"), std::string::npos) << ok.err;
   fs::remove(out);
+  // An expression with z is a 3D object: a half-space has no bounds, an error naming the file.
   std::ofstream(dir / "z.sexp") << "(+ x z)";
   CliRun z = run("render " + (dir / "z.sexp").string() + " -o " + out.string(), dir);
   EXPECT_EQ(z.status, 1);
-  EXPECT_NE(z.err.find("uses z"), std::string::npos) << z.err;
+  EXPECT_NE(z.err.find("unbounded or too large; give the object bounds"), std::string::npos) << z.err;
+  EXPECT_FALSE(fs::exists(out));
   std::ofstream(dir / "bad.sexp") << "(+ x\n (sqr y))";
   CliRun bad = run("render " + (dir / "bad.sexp").string() + " -o " + out.string(), dir);
   EXPECT_EQ(bad.status, 1);

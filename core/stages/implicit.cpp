@@ -17,9 +17,12 @@ void check_bytes(uint64_t bytes, uint64_t max_bytes, size_t round) {
 
 }  // namespace
 
+constexpr uint64_t kChunkBytes = uint64_t(256) << 20;
+
 ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, const float lo[3],
                                  float size, uint32_t dims, const std::vector<uint32_t>& splits,
-                                 uint64_t max_bytes) {
+                                 uint64_t max_bytes,
+                                 const std::vector<std::array<float, 4>>& planes) {
   ImplicitQueue q;
   const uint32_t syncs0 = rt.host_syncs();
   const uint32_t slots = std::max<uint32_t>(tape.slots, 1), maxlen = uint32_t(tape.size());
@@ -31,34 +34,49 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
   cl::Buffer regions = rt.upload(std::vector<VmIRegion>{root}, "implicit regions");
   cl::Buffer pool = rt.upload(tape.code, "implicit tape");
   uint32_t n = 1;
-  uint64_t clauses = maxlen;
+  uint64_t clauses = maxlen;  // the round's tape lengths summed: its choice bytes
+  uint32_t per_in = 1;        // regions a parent of the last round (kernels: vm_choice_off)
   cl::Buffer totals = rt.alloc(VM_ITOTAL_SLOTS * sizeof(cl_uint), "implicit totals");
+  std::vector<cl_float4> pl(std::max<size_t>(planes.size(), 1), cl_float4{{0, 0, 0, 1}});
+  for (size_t k = 0; k < planes.size(); ++k)
+    pl[k] = cl_float4{{planes[k][0], planes[k][1], planes[k][2], planes[k][3]}};
+  cl::Buffer plane_buf = rt.upload(pl, "implicit planes");
+  const uint32_t nplanes = uint32_t(planes.size());
   for (size_t round = 0; round <= splits.size() && n > 0; ++round) {
     const bool last = round == splits.size();
     const uint32_t split = last ? 1 : splits[round];
-    // Per region: slots of intervals and of liveness, a choice byte per clause, the result.
-    check_bytes(uint64_t(n) * (slots * 9ull + maxlen + 8 + 12), max_bytes, round);
-    cl::Buffer scratch = rt.alloc(size_t(n) * slots * sizeof(cl_float2), "implicit slots");
-    cl::Buffer live = rt.alloc(size_t(n) * slots, "implicit liveness");
-    cl::Buffer choices = rt.alloc(size_t(n) * maxlen, "implicit choices");
+    // Per region: the result and counts; a choice byte per clause of its own tape; slots of
+    // intervals and of liveness for the regions of one chunk at a time (at most 256 MiB: a
+    // round of millions of regions on a tape of hundreds of slots runs in pieces).
+    const uint32_t chunk = uint32_t(std::clamp<uint64_t>(kChunkBytes / (slots * 9ull), 1, n));
+    check_bytes(uint64_t(n) * (8 + 16) + clauses + uint64_t(chunk) * slots * 9, max_bytes, round);
+    cl::Buffer scratch = rt.alloc(size_t(chunk) * slots * sizeof(cl_float2), "implicit slots");
+    cl::Buffer live = rt.alloc(size_t(chunk) * slots, "implicit liveness");
+    cl::Buffer choices = rt.alloc(std::max<size_t>(clauses, 1), "implicit choices");
     cl::Buffer result = rt.alloc(size_t(n) * sizeof(cl_float2), "implicit results");
     cl::Buffer counts = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit tape counts");
     cl::Buffer offsets = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit tape offsets");
     cl::Buffer amb = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit ambiguous");
     cl::Buffer amb_off = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit ambiguous offsets");
     rt.fill_u32(totals, 0, VM_ITOTAL_SLOTS, Stage::Implicit);
-    rt.launch(Stage::Implicit, "implicit_intervals", n, regions, n, pool, scratch, slots,
-              tape.root_slot, choices, maxlen, result, totals);
-    rt.launch(Stage::Implicit, "implicit_shorten_count", n, regions, n, pool, choices, maxlen,
-              result, live, slots, tape.root_slot, counts, amb);
+    for (uint32_t first = 0; first < n; first += chunk) {
+      const uint32_t m = std::min(chunk, n - first);
+      rt.launch(Stage::Implicit, "implicit_intervals", m, regions, n, first, pool, scratch, slots,
+                tape.root_slot, choices, per_in, result, totals, plane_buf, nplanes);
+      rt.launch(Stage::Implicit, "implicit_shorten_count", m, regions, n, first, pool, choices,
+                per_in, result, live, slots, tape.root_slot, counts, amb);
+      if (first) q.launches += 2;
+    }
     const uint32_t pool_next = rt.scan(Stage::Implicit, counts, offsets, n);
     const uint32_t namb = rt.scan(Stage::Implicit, amb, amb_off, n);
+    q.launches += 6;  // the fill, three kernels, two scans (each counted as one)
     cl_uint tot[VM_ITOTAL_SLOTS];
     rt.read(Stage::Implicit, totals, 0, sizeof tot, tot);
     ImplicitRound r;
     r.regions = n;
     r.full = tot[VM_ITOTAL_FULL];
     r.empty = tot[VM_ITOTAL_EMPTY];
+    r.culled = tot[VM_ITOTAL_CULLED];
     r.ambiguous = namb;
     r.clauses = clauses;
     q.rounds.push_back(r);
@@ -72,13 +90,17 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     cl::Buffer next_pool = rt.alloc(std::max<size_t>(pool_next, 1) * sizeof(VmIClause),
                                     "implicit tape pool");
     cl::Buffer next = rt.alloc(std::max<size_t>(next_n, 1) * sizeof(VmIRegion), "implicit regions");
-    rt.launch(Stage::Implicit, "implicit_shorten_fill", n, regions, n, pool, choices, maxlen,
-              result, live, slots, tape.root_slot, counts, offsets, amb_off, next_pool, next,
-              split, dims);
+    for (uint32_t first = 0; first < n; first += chunk) {
+      rt.launch(Stage::Implicit, "implicit_shorten_fill", std::min(chunk, n - first), regions, n,
+                first, pool, choices, per_in, result, live, slots, tape.root_slot, counts, offsets,
+                amb_off, next_pool, next, split, dims);
+      if (first) ++q.launches;
+    }
     regions = next;
     pool = next_pool;
     n = uint32_t(next_n);
     clauses = uint64_t(pool_next) * per;
+    per_in = per;
     if (last) {
       q.leaves.resize(n);
       q.pool.resize(size_t(pool_next) * 4);
@@ -93,22 +115,34 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
 
 std::vector<float> eval_leaf_points(ClRuntime& rt, const implicit::SlotTape& tape,
                                     const ImplicitQueue& q, const std::vector<float>& xyz,
-                                    uint32_t m) {
-  const uint32_t n = uint32_t(q.leaves.size());
-  std::vector<float> out(size_t(n) * m);
+                                    uint32_t m, uint32_t* launches_out) {
+  uint32_t launches = 0;
+  const size_t n = q.leaves.size();
+  std::vector<float> out(n * m);
   if (n == 0 || m == 0) return out;
-  std::vector<cl_float4> pts(size_t(n) * m);
-  for (size_t i = 0; i < pts.size(); ++i)
-    pts[i] = cl_float4{{xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], 0.f}};
-  cl::Buffer reg = rt.upload(q.leaves, "implicit leaves");
-  cl::Buffer pool = rt.upload(q.pool, "implicit leaf tapes");
-  cl::Buffer p = rt.upload(pts, "implicit points");
   const uint32_t slots = std::max<uint32_t>(tape.slots, 1);
-  cl::Buffer scratch = rt.alloc(pts.size() * slots * sizeof(float), "implicit point slots");
-  cl::Buffer val = rt.alloc(out.size() * sizeof(float), "implicit values");
-  rt.launch(Stage::Implicit, "implicit_points", pts.size(), reg, n, pool, scratch, slots,
-            tape.root_slot, p, m, val);
-  rt.read(Stage::Implicit, val, 0, out.size() * sizeof(float), out.data());
+  cl::Buffer pool = rt.upload(q.pool, "implicit leaf tapes");
+  // In batches of leaves, so the per-point scratch (slots floats a point) stays under 256 MiB
+  // whatever the count: a 3D frame has millions of leaf corners.
+  const size_t per_leaf = size_t(m) * (slots * sizeof(float) + sizeof(cl_float4) + sizeof(float));
+  const size_t batch = std::max<size_t>(1, (size_t(256) << 20) / per_leaf);
+  for (size_t first = 0; first < n; first += batch) {
+    const size_t nb = std::min(batch, n - first);
+    std::vector<VmIRegion> reg_b(q.leaves.begin() + first, q.leaves.begin() + first + nb);
+    std::vector<cl_float4> pts(nb * m);
+    const float* src = xyz.data() + 3 * first * m;
+    for (size_t i = 0; i < pts.size(); ++i)
+      pts[i] = cl_float4{{src[3 * i], src[3 * i + 1], src[3 * i + 2], 0.f}};
+    cl::Buffer reg = rt.upload(reg_b, "implicit leaves");
+    cl::Buffer p = rt.upload(pts, "implicit points");
+    cl::Buffer scratch = rt.alloc(pts.size() * slots * sizeof(float), "implicit point slots");
+    cl::Buffer val = rt.alloc(pts.size() * sizeof(float), "implicit values");
+    ++launches;
+    rt.launch(Stage::Implicit, "implicit_points", pts.size(), reg, uint32_t(nb), pool, scratch,
+              slots, tape.root_slot, p, m, val);
+    rt.read(Stage::Implicit, val, 0, pts.size() * sizeof(float), out.data() + first * m);
+  }
+  if (launches_out) *launches_out += launches;
   return out;
 }
 

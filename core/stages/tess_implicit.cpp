@@ -1,0 +1,414 @@
+// An implicit surface diced for the camera (issue 19, docs/IMPLICIT.md "3D").
+// Device (kernels/implicit.cl): MPR's region queue over the object's cube, in its own space:
+// interval arithmetic culls regions outside the view's planes and those proven full or empty,
+// shortens each ambiguous region's tape and hands it to its children, down to cells of side h;
+// then each leaf cell's 8 corners are evaluated with its shortened tape (the same operations on
+// the same values as the full tape, so a corner shared by cells gets one value).
+// Host: surface nets on the leaf cells (one vertex per cell the surface crosses, placed from the
+// cell's own corner values; one quad per crossing edge between the four cells around it), so
+// every edge of the mesh is shared and the surface has no cracks; vertex normals from the
+// gradient of the cell's shortened tape (forward differentiation).
+//
+// Error bound: a quad lies in the 2 x 2 x 1 block of cells around its edge, whose corner values
+// differ in sign (f = 0 at a point of the edge), so each of its points is within sqrt(3) h of a
+// point where f = 0. In
+// pixels that is at most sqrt(3) h sigma k_px / d, sigma the transform's largest stretch, k_px
+// the projection's largest pixel scale per unit at depth 1 and d the depth; h is chosen for the
+// nearest depth of the object's box in view. What a grid cannot see (a wall thinner than h, a
+// sign change between corners of one cell that does not reach an edge) is left out.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <unordered_map>
+
+#include "core/clock.h"
+#include "core/error.h"
+#include "core/implicit.h"
+#include "core/stages/implicit.h"
+#include "core/stages/tessellate.h"
+
+namespace vismap::stages {
+
+namespace {
+
+constexpr uint64_t kMaxDicedTriangles = uint64_t(1) << 27;
+constexpr uint32_t kMaxLevel = 16;  // cells per axis up to 2^16
+
+using M4 = std::array<double, 16>;  // column-major
+
+// Open addressing from 64-bit keys (never ~0) to vertex indices.
+class EdgeTable {
+ public:
+  explicit EdgeTable(size_t expect) {
+    size_t cap = 16;
+    while (cap < 2 * expect) cap <<= 1;
+    keys_.assign(cap, ~uint64_t(0));
+    vals_.resize(cap);
+  }
+  // The slot of `key`: inserted (found = false) when absent.
+  uint32_t* find_or_insert(uint64_t key, bool& found) {
+    if (2 * (count_ + 1) > keys_.size()) grow();
+    size_t i = hash(key) & (keys_.size() - 1);
+    while (keys_[i] != ~uint64_t(0) && keys_[i] != key) i = (i + 1) & (keys_.size() - 1);
+    found = keys_[i] == key;
+    if (!found) keys_[i] = key, ++count_;
+    return &vals_[i];
+  }
+
+ private:
+  static size_t hash(uint64_t k) {
+    k ^= k >> 31;
+    k *= 0x9E3779B97F4A7C15ull;
+    return size_t(k ^ (k >> 29));
+  }
+  void grow() {
+    std::vector<uint64_t> k = std::move(keys_);
+    std::vector<uint32_t> v = std::move(vals_);
+    keys_.assign(2 * k.size(), ~uint64_t(0));
+    vals_.assign(2 * k.size(), 0);
+    count_ = 0;
+    bool f;
+    for (size_t i = 0; i < k.size(); ++i)
+      if (k[i] != ~uint64_t(0)) *find_or_insert(k[i], f) = v[i];
+  }
+  std::vector<uint64_t> keys_;
+  std::vector<uint32_t> vals_;
+  size_t count_ = 0;
+};
+
+std::array<double, 3> place(const M4& m, const double p[3]) {
+  return {m[0] * p[0] + m[4] * p[1] + m[8] * p[2] + m[12],
+          m[1] * p[0] + m[5] * p[1] + m[9] * p[2] + m[13],
+          m[2] * p[0] + m[6] * p[1] + m[10] * p[2] + m[14]};
+}
+
+// The largest singular value of the linear part (power iteration on A^T A), rounded up.
+double spectral_norm(const M4& m) {
+  double v[3] = {1, 0.7, 0.4}, s = 0;
+  for (int it = 0; it < 100; ++it) {
+    double av[3], w[3];
+    for (int r = 0; r < 3; ++r) av[r] = m[r] * v[0] + m[4 + r] * v[1] + m[8 + r] * v[2];
+    for (int c = 0; c < 3; ++c)
+      w[c] = m[4 * c] * av[0] + m[4 * c + 1] * av[1] + m[4 * c + 2] * av[2];
+    double l = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    if (!(l > 0)) break;
+    for (int c = 0; c < 3; ++c) v[c] = w[c] / l;
+    s = std::sqrt(l);
+  }
+  // The Frobenius norm bounds it from above: a cap, and the answer if the iteration failed.
+  double fro = 0;
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) fro += m[4 * c + r] * m[4 * c + r];
+  fro = std::sqrt(fro);
+  return s > 0 ? std::min(fro, s * 1.001) : fro;
+}
+
+// Inverse transpose of the linear part (row-major 3x3), for normals.
+std::array<double, 9> normal_matrix(const M4& m) {
+  const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6],
+               i = m[10];
+  const double A = e * i - f * h, B = -(d * i - f * g), C = d * h - e * g;
+  const double det = a * A + b * B + c * C;
+  // inverse = adj / det; its transpose's rows are the cofactor rows.
+  return {A / det,
+          B / det,
+          C / det,
+          -(b * i - c * h) / det,
+          (a * i - c * g) / det,
+          -(a * h - b * g) / det,
+          (b * f - c * e) / det,
+          -(a * f - c * d) / det,
+          (a * e - b * d) / det};
+}
+
+}  // namespace
+
+Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
+                   const TessellateOptions& o, TessellateStats& st) {
+  const implicit::Tape& tape = *mesh.implicit;
+  const M4& xf = mesh.implicit_xform;
+  const double* blo = mesh.implicit_box.data();
+  const double* bhi = mesh.implicit_box.data() + 3;
+  const double tol = o.implicit_tolerance_px;
+  if (!(tol > 0) || !std::isfinite(tol))
+    throw InputError(InputErrorKind::BadScene, "", mesh.name, "", -1,
+                     "the implicit tolerance must be a positive number of pixels");
+
+  // The box's corners in the world, for near/far and the nearest depth.
+  std::array<std::array<double, 3>, 8> wc;
+  Bounds wb;
+  for (int c = 0; c < 8; ++c) {
+    const double p[3] = {c & 1 ? bhi[0] : blo[0], c & 2 ? bhi[1] : blo[1],
+                         c & 4 ? bhi[2] : blo[2]};
+    wc[c] = place(xf, p);
+    for (int k = 0; k < 3; ++k) {
+      wb.lo[k] = wb.empty ? wc[c][k] : std::min(wb.lo[k], wc[c][k]);
+      wb.hi[k] = wb.empty ? wc[c][k] : std::max(wb.hi[k], wc[c][k]);
+    }
+    wb.empty = false;
+  }
+  Camera cam = cam_in;
+  if (cam.near_plane <= 0 || cam.far_plane <= 0) fit_near_far(cam, wb);
+  const bool persp = cam.projection == Camera::Projection::Perspective;
+  const double f_px = persp ? cam.height / (2 * std::tan(cam.fov_y_deg * M_PI / 360))
+                            : cam.height / cam.ortho_height;
+  const double r_px = 0.5 * std::hypot(double(cam.width), double(cam.height));
+  const double k_px = persp ? f_px * std::sqrt(1 + (r_px / f_px) * (r_px / f_px)) : f_px;
+  const double sigma = spectral_norm(xf);
+  // The nearest depth along the view direction of the box (at least the near plane).
+  double d_min = 1;
+  if (persp) {
+    const Mat4 view = cam.view();
+    d_min = INFINITY;
+    for (const auto& p : wc)
+      d_min = std::min(d_min, -(view[2] * p[0] + view[6] * p[1] + view[10] * p[2] + view[14]));
+    d_min = std::max(d_min, cam.near_plane);
+  }
+  const double h_max = tol * d_min / (std::sqrt(3.0) * sigma * k_px);
+  double side = 0;
+  for (int k = 0; k < 3; ++k) side = std::max(side, bhi[k] - blo[k]);
+  uint32_t level = 0;
+  while (level < kMaxLevel && side / double(1u << level) > h_max) ++level;
+  if (side / double(1u << level) > h_max)
+    throw InputError(InputErrorKind::TooLarge, "", mesh.name, "", -1,
+                     "the tolerance needs more than 2^16 cells per axis (the eye is close to "
+                     "the surface's box: give a larger implicit tolerance or tighter bounds)");
+  const uint32_t N = 1u << level;
+  std::vector<uint32_t> splits;
+  for (uint32_t l = level; l >= 2; l -= 2) splits.push_back(4);
+  if (level % 2) splits.push_back(2);
+  const float lo[3] = {float(blo[0]), float(blo[1]), float(blo[2])};
+  const float size = float(side);
+  const double h = double(size) / N;
+
+  // The view's planes (Gribb-Hartmann rows of the view-projection), in the object's space.
+  const Mat4 vp = cam.view_projection();
+  const auto row = [&](int r) {
+    return std::array<double, 4>{vp[r], vp[4 + r], vp[8 + r], vp[12 + r]};
+  };
+  std::vector<std::array<float, 4>> planes;
+  for (int r = 0; r < 3; ++r)
+    for (double sgn : {1.0, -1.0}) {
+      if (r == 2 && sgn < 0) continue;  // no far plane: far is fitted, the near one matters
+      std::array<double, 4> p3 = row(3), pr = row(r), w;
+      for (int k = 0; k < 4; ++k) w[k] = p3[k] + sgn * pr[k];
+      // w . (M p) = (w^T M) p; then moved out by two leaf cells, so every cell next to one in
+      // view is kept: a quad joins four cells, and one culled would leave a gap at the border.
+      double po[4];
+      for (int c = 0; c < 4; ++c)
+        po[c] = w[0] * xf[4 * c] + w[1] * xf[4 * c + 1] + w[2] * xf[4 * c + 2] +
+                w[3] * xf[4 * c + 3];
+      po[3] += 2 * h * (std::abs(po[0]) + std::abs(po[1]) + std::abs(po[2]));
+      planes.push_back({float(po[0]), float(po[1]), float(po[2]), float(po[3])});
+    }
+
+  const implicit::Tape clipped = implicit::clipped_to_box(tape, blo, bhi, 3);
+  const implicit::SlotTape code = implicit::allocate_slots(clipped);
+  const uint32_t syncs0 = rt.host_syncs();
+  auto t0 = Clock::now();
+  const ImplicitQueue q =
+      run_implicit_queue(rt, code, lo, size, 3, splits, uint64_t(4) << 30, planes);
+  st.implicit_queue_ms += ms_since(t0);
+  t0 = Clock::now();
+  st.split_rounds += uint32_t(q.rounds.size());
+  for (const ImplicitRound& r : q.rounds) st.culled += r.culled;
+  st.launches += q.launches;
+  st.pieces += q.leaves.size();
+  st.implicit_level = std::max(st.implicit_level, level);
+  st.implicit_clauses_full += code.size();
+  for (const VmIRegion& l : q.leaves) {
+    st.implicit_leaf_clauses += l.tape_len;
+    uint32_t b = 0;
+    while (b + 1 < st.implicit_clause_hist.size() && (2u << b) <= l.tape_len) ++b;
+    ++st.implicit_clause_hist[b];
+  }
+  st.implicit_leaves += q.leaves.size();
+
+  // Leaf cells: their grid indices and corners (canonical: lo + i h in double, then float).
+  const size_t nl = q.leaves.size();
+  std::vector<uint32_t> gi(3 * nl);
+  std::vector<float> xyz(24 * nl);
+  for (size_t l = 0; l < nl; ++l) {
+    for (int k = 0; k < 3; ++k)
+      gi[3 * l + k] = uint32_t(std::llround((double(q.leaves[l].lo[k]) - lo[k]) / h));
+    for (int c = 0; c < 8; ++c)
+      for (int k = 0; k < 3; ++k)
+        xyz[24 * l + 3 * c + k] = float(lo[k] + double(gi[3 * l + k] + ((c >> k) & 1)) * h);
+  }
+  const std::vector<float> val = eval_leaf_points(rt, code, q, xyz, 8, &st.launches);
+  st.implicit_points_ms += ms_since(t0);
+  t0 = Clock::now();
+
+  Mesh out;
+  out.name = mesh.name;
+  out.color = mesh.color;
+  // Surface nets: one vertex per leaf cell whose corners differ in sign, at the mean of its
+  // edges' crossings (each crossing from the edge's two corner values, so the vertex is a
+  // function of the cell's corner values alone); one quad per crossing edge, joining the four
+  // cells around it.
+  const uint64_t N1 = uint64_t(N) + 1;
+  const auto cell_key = [&](uint64_t i, uint64_t j, uint64_t k) { return i + N1 * (j + N1 * k); };
+  EdgeTable cells(nl);
+  std::vector<double> opos;  // object-space vertex positions
+  std::vector<uint32_t> vleaf;
+  static const int kEdges[12][2] = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3},
+                                    {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+  for (size_t l = 0; l < nl; ++l) {
+    const float* f = &val[8 * l];
+    const float* P = &xyz[24 * l];
+    int neg = 0;
+    for (int c = 0; c < 8; ++c) {
+      if (std::isnan(f[c]))
+        throw InputError(InputErrorKind::NonFiniteVertex, "", mesh.name, "expression", -1,
+                         "f is not a number at (" + std::to_string(P[3 * c]) + ", " +
+                             std::to_string(P[3 * c + 1]) + ", " + std::to_string(P[3 * c + 2]) +
+                             ")");
+      neg += f[c] < 0;
+    }
+    if (neg == 0 || neg == 8) continue;
+    double acc[3] = {0, 0, 0};
+    int nc = 0;
+    for (const auto& e : kEdges) {
+      const int u = e[0], v = e[1];
+      if ((f[u] < 0) == (f[v] < 0)) continue;
+      const double fa = f[u], fb = f[v], t = fa / (fa - fb);
+      for (int k = 0; k < 3; ++k) {
+        const double a = lo[k] + double(gi[3 * l + k] + ((u >> k) & 1)) * h;
+        const double b = lo[k] + double(gi[3 * l + k] + ((v >> k) & 1)) * h;
+        acc[k] += a + t * (b - a);
+      }
+      ++nc;
+    }
+    bool found;
+    *cells.find_or_insert(cell_key(gi[3 * l], gi[3 * l + 1], gi[3 * l + 2]), found) =
+        uint32_t(vleaf.size());
+    for (int k = 0; k < 3; ++k) opos.push_back(acc[k] / nc);
+    vleaf.push_back(uint32_t(l));
+  }
+  // Quads: the edges from each cell's corner 0 along x, y, z; the four cells around the edge
+  // are this one and its neighbours below in the other two axes, ordered counter-clockwise
+  // about the axis (a, b the other axes with a x b = the axis), reversed when the edge's low
+  // end is outside so the normal points out of the solid.
+  for (size_t l = 0; l < nl; ++l) {
+    const float* f = &val[8 * l];
+    const uint32_t i0 = gi[3 * l], j0 = gi[3 * l + 1], k0 = gi[3 * l + 2];
+    for (int ax = 0; ax < 3; ++ax) {
+      if ((f[0] < 0) == (f[1 << ax] < 0)) continue;
+      const int a = (ax + 1) % 3, b = (ax + 2) % 3;
+      uint32_t g[3] = {i0, j0, k0};
+      if (g[a] == 0 || g[b] == 0) continue;  // the cube's faces: f >= 0 there (clipped)
+      uint32_t quad[4];
+      bool ok = true;
+      static const int kAround[4][2] = {{1, 1}, {0, 1}, {0, 0}, {1, 0}};  // (da, db) subtracted
+      for (int c = 0; c < 4 && ok; ++c) {
+        uint32_t q3[3] = {g[0], g[1], g[2]};
+        q3[a] -= kAround[c][0], q3[b] -= kAround[c][1];
+        bool found;
+        uint32_t* slot = cells.find_or_insert(cell_key(q3[0], q3[1], q3[2]), found);
+        // A neighbour that is not a leaf with a vertex (culled outside the view): no quad.
+        if (!found) *slot = ~0u;
+        ok = found && *slot != ~0u;
+        quad[c] = *slot;
+      }
+      if (!ok) continue;
+      if (!(f[0] < 0)) std::swap(quad[1], quad[3]);
+      // Split along the shorter diagonal.
+      const auto d2 = [&](uint32_t p, uint32_t q) {
+        double s2 = 0;
+        for (int k = 0; k < 3; ++k) s2 += (opos[3 * p + k] - opos[3 * q + k]) * (opos[3 * p + k] - opos[3 * q + k]);
+        return s2;
+      };
+      if (d2(quad[0], quad[2]) <= d2(quad[1], quad[3])) {
+        const uint32_t t[6] = {quad[0], quad[1], quad[2], quad[0], quad[2], quad[3]};
+        out.indices.insert(out.indices.end(), t, t + 6);
+      } else {
+        const uint32_t t[6] = {quad[0], quad[1], quad[3], quad[1], quad[2], quad[3]};
+        out.indices.insert(out.indices.end(), t, t + 6);
+      }
+    }
+  }
+  const double det = xf[0] * (xf[5] * xf[10] - xf[9] * xf[6]) -
+                     xf[4] * (xf[1] * xf[10] - xf[9] * xf[2]) +
+                     xf[8] * (xf[1] * xf[6] - xf[5] * xf[2]);
+
+  // World positions (float), welded by their bits: edges that meet at a corner where f = 0, or
+  // vertices a float apart, become one vertex.
+  const size_t nv = vleaf.size();
+  std::vector<uint32_t> remap(nv);
+  {
+    struct Key {
+      uint32_t x, y, z;
+      bool operator==(const Key& k) const { return x == k.x && y == k.y && z == k.z; }
+    };
+    struct KeyHash {
+      size_t operator()(const Key& k) const {
+        uint64_t v = k.x * 0x9E3779B97F4A7C15ull;
+        v ^= (v >> 29) + k.y * 0xC2B2AE3D27D4EB4Full;
+        v ^= (v >> 31) + k.z * 0x165667B19E3779F9ull;
+        return size_t(v ^ (v >> 32));
+      }
+    };
+    std::unordered_map<Key, uint32_t, KeyHash> weld;
+    weld.reserve(nv);
+    const std::array<double, 9> nm = normal_matrix(xf);
+    for (size_t v = 0; v < nv; ++v) {
+      const std::array<double, 3> w = place(xf, &opos[3 * v]);
+      float wf[3];
+      for (int k = 0; k < 3; ++k) {
+        wf[k] = float(w[k]);
+        if (!std::isfinite(wf[k]))
+          throw InputError(InputErrorKind::NonFiniteVertex, "", mesh.name, "vertex", int64_t(v),
+                           "not finite after the object's transform");
+      }
+      Key key;
+      std::memcpy(&key.x, &wf[0], 4), std::memcpy(&key.y, &wf[1], 4),
+          std::memcpy(&key.z, &wf[2], 4);
+      auto [it, fresh] = weld.emplace(key, uint32_t(out.positions.size() / 3));
+      remap[v] = it->second;
+      if (!fresh) continue;
+      out.positions.insert(out.positions.end(), wf, wf + 3);
+      // The normal: the gradient of the cell's own shortened tape, to the world by A^{-T}.
+      const VmIRegion& L = q.leaves[vleaf[v]];
+      double g[3];
+      implicit::eval_code_grad(q.pool.data() + 4 * size_t(L.tape_off), L.tape_len, code.slots,
+                               code.root_slot, opos[3 * v], opos[3 * v + 1], opos[3 * v + 2], g);
+      double n[3];
+      for (int r = 0; r < 3; ++r) n[r] = nm[3 * r] * g[0] + nm[3 * r + 1] * g[1] + nm[3 * r + 2] * g[2];
+      double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+      if (!(len > 0) || !std::isfinite(len)) n[0] = n[1] = 0, n[2] = 1, len = 1;
+      for (int k = 0; k < 3; ++k) out.normals.push_back(float(n[k] / len));
+    }
+  }
+  // Triangles through the weld; collapsed or exactly flat ones dropped; a mirroring transform
+  // reverses the winding so normals stay outward.
+  size_t kept = 0;
+  for (size_t t = 0; t < out.indices.size(); t += 3) {
+    uint32_t a = remap[out.indices[t]], b = remap[out.indices[t + 1]],
+             c = remap[out.indices[t + 2]];
+    if (a == b || b == c || a == c) continue;
+    const float* pa = &out.positions[3 * size_t(a)];
+    const float* pb = &out.positions[3 * size_t(b)];
+    const float* pc = &out.positions[3 * size_t(c)];
+    const double u[3] = {double(pb[0]) - pa[0], double(pb[1]) - pa[1], double(pb[2]) - pa[2]};
+    const double w[3] = {double(pc[0]) - pa[0], double(pc[1]) - pa[1], double(pc[2]) - pa[2]};
+    if (u[1] * w[2] - u[2] * w[1] == 0 && u[2] * w[0] - u[0] * w[2] == 0 &&
+        u[0] * w[1] - u[1] * w[0] == 0)
+      continue;
+    if (det < 0) std::swap(b, c);
+    out.indices[kept++] = a, out.indices[kept++] = b, out.indices[kept++] = c;
+  }
+  out.indices.resize(kept);
+  const size_t ntri = kept / 3;
+  if (ntri > kMaxDicedTriangles)
+    throw InputError(InputErrorKind::TooLarge, "", mesh.name, "", -1,
+                     "more than 2^27 triangles at this tolerance");
+  out.face_ids.resize(ntri);
+  for (size_t t = 0; t < ntri; ++t) out.face_ids[t] = uint32_t(t);
+  out.source_triangles = ntri;
+  st.triangles += ntri;
+  st.host_syncs += rt.host_syncs() - syncs0;
+  st.implicit_mesh_ms += ms_since(t0);
+  return out;
+}
+
+}  // namespace vismap::stages
