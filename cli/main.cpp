@@ -381,10 +381,11 @@ int cmd_render(int argc, char** argv) {
                    static_cast<unsigned long long>(ts.triangles), ts.subdivision_level);
     if (ts.implicit_leaves)
       std::fprintf(stderr,
-                   "implicit: level %u (2^level cells per axis), %llu leaf cells, clauses per "
+                   "implicit: %llu cells per axis, %llu leaf cells, clauses per "
                    "leaf %.1f of %llu (tape shortening); ms: queue %.1f, corners %.1f, mesh "
                    "%.1f\n",
-                   ts.implicit_level, static_cast<unsigned long long>(ts.implicit_leaves),
+                   static_cast<unsigned long long>(ts.implicit_cells),
+                   static_cast<unsigned long long>(ts.implicit_leaves),
                    double(ts.implicit_leaf_clauses) / double(ts.implicit_leaves),
                    static_cast<unsigned long long>(ts.implicit_clauses_full),
                    ts.implicit_queue_ms, ts.implicit_points_ms, ts.implicit_mesh_ms);

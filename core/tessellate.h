@@ -20,6 +20,9 @@ struct TessellateOptions {
   // triangle and the surface f = 0, for the object's nearest depth in view (cells of side h with
   // sqrt(3) h at most this many pixels there).
   float implicit_tolerance_px = 4.0f;
+  // Keep an implicit surface's back faces. By default they are left out where they cannot be
+  // seen: the eye outside the solid and the near plane cutting no leaf cell.
+  bool implicit_back_faces = false;
 };
 
 struct TessellateStats {
@@ -31,10 +34,11 @@ struct TessellateStats {
   uint64_t over_rate = 0;       // Bezier patches diced at the largest rate (128) without reaching
                                 // the tolerance there (near the eye, across the near plane)
   uint32_t subdivision_level = 0;  // the deepest Loop level used
-  // Implicit surfaces: the finest queue level (2^level cells per axis), leaf cells, and the
-  // clauses of the full tape (clipped to its box) against those of the leaves' shortened tapes.
-  uint32_t implicit_level = 0;
+  // Implicit surfaces: the most cells per axis of an object's grid, leaf cells, and the clauses
+  // of the full tape (clipped to its box) against those of the leaves' shortened tapes.
+  uint64_t implicit_cells = 0;
   uint64_t implicit_leaves = 0, implicit_clauses_full = 0, implicit_leaf_clauses = 0;
+  uint64_t implicit_back_faces = 0;  // triangles left out as back faces
   // Leaf cells by the length of their shortened tape: [1, 2), [2, 4), ... [2^15, inf).
   std::array<uint64_t, 16> implicit_clause_hist{};
   // Host wall time of the region queue, the corners' evaluation and the meshing (with normals).

@@ -47,15 +47,16 @@ struct Diced {
   double h = 0;  // the leaf cells' side
 };
 
-Diced dice(const Scene& s, const Camera& cam, float tol) {
+Diced dice(const Scene& s, const Camera& cam, float tol, bool back_faces = true) {
   TessellateOptions o;
   o.implicit_tolerance_px = tol;
+  o.implicit_back_faces = back_faces;
   Diced d;
   Scene out = renderer().tessellate(s, cam, o, &d.st);
   d.mesh = out.meshes.at(0);
   const auto& b = s.meshes[0].implicit_box;
   const double side = std::max({b[3] - b[0], b[4] - b[1], b[5] - b[2]});
-  d.h = double(float(side)) / double(1u << d.st.implicit_level);
+  d.h = double(float(side)) / double(d.st.implicit_cells);
   return d;
 }
 
@@ -135,6 +136,42 @@ TEST(Implicit3D, ShapesWithKnownAnswersAreClosedAndWithinTheBound) {
                      "division");
 }
 
+TEST(Implicit3D, BackFacesLeftOutOnlyWhereHidden) {
+  // The torus from outside: back faces go, the visible map keeps its area and its raster.
+  const Scene s = scene_of(kTorus);
+  const Camera cam = frame_scene(s, 240, 240);
+  const Diced all = dice(s, cam, 2.0f), front = dice(s, cam, 2.0f, false);
+  EXPECT_GT(front.st.implicit_back_faces, all.mesh.triangle_count() / 3);
+  EXPECT_EQ(front.mesh.triangle_count() + front.st.implicit_back_faces, all.mesh.triangle_count());
+  Scene a = s, f = s;
+  a.meshes[0] = all.mesh;
+  f.meshes[0] = front.mesh;
+  const PlanarMap ma = renderer().render(a, cam), mf = renderer().render(f, cam);
+  double area_a = 0, area_f = 0;
+  for (size_t i = 0; i < ma.fragment_count(); ++i) area_a += ma.fragment_area(i);
+  for (size_t i = 0; i < mf.fragment_count(); ++i) area_f += mf.fragment_area(i);
+  EXPECT_NEAR(area_f, area_a, 1e-5 * area_a);  // areas over the map's rounded vertices
+  std::vector<uint32_t> ra, rf;
+  renderer().raster_ids(a, cam, &ra);
+  renderer().raster_ids(f, cam, &rf);
+  size_t differ = 0, covered = 0;
+  for (size_t i = 0; i < ra.size(); ++i) {
+    covered += ra[i] != ~0u;
+    differ += (ra[i] == ~0u) != (rf[i] == ~0u);
+  }
+  EXPECT_GT(covered, 5000u);
+  EXPECT_EQ(differ, 0u);
+  // From inside the torus's tube the eye sees back faces: none are left out.
+  Camera in = cam;
+  in.eye = {1, 0, 0.1};
+  in.target = {1, 1, 0.1};
+  in.up = {0, 0, 1};
+  in.near_plane = 0.2, in.far_plane = 10;
+  in.width = in.height = 64;
+  const Diced inside = dice(s, in, 16.0f, false);
+  EXPECT_EQ(inside.st.implicit_back_faces, 0u);
+}
+
 TEST(Implicit3D, SphereNormalsAreTheGradient) {
   const Scene s = scene_of(kSphere);
   const Diced d = dice(s, frame_scene(s, 256, 256), 1.0f);
@@ -155,7 +192,8 @@ TEST(Implicit3D, FinerToleranceMeansSmallerCells) {
   const Scene s = scene_of(kTorus);
   const Camera cam = frame_scene(s, 256, 256);
   const Diced a = dice(s, cam, 4.0f), b = dice(s, cam, 1.0f);
-  EXPECT_EQ(b.st.implicit_level, a.st.implicit_level + 2);
+  EXPECT_GE(b.st.implicit_cells, 3 * a.st.implicit_cells);
+  EXPECT_LE(b.st.implicit_cells, 6 * a.st.implicit_cells);
   EXPECT_GT(b.mesh.triangle_count(), 8 * a.mesh.triangle_count());
 }
 
@@ -283,6 +321,7 @@ TEST(Implicit3D, SceneFileObjectsTransformsAndBadInput) {
   const Camera cam = frame_scene(s, 320, 200);
   TessellateOptions o;
   o.implicit_tolerance_px = 2;
+  o.implicit_back_faces = true;  // closed, for the volume
   const Scene d = renderer().tessellate(s, cam, o);
   // The ball: radius 2 about (5, 0, 0).
   for (size_t v = 0; v < d.meshes[0].vertex_count(); v += 7) {

@@ -120,26 +120,61 @@ std::vector<float> eval_leaf_points(ClRuntime& rt, const implicit::SlotTape& tap
   const size_t n = q.leaves.size();
   std::vector<float> out(n * m);
   if (n == 0 || m == 0) return out;
-  const uint32_t slots = std::max<uint32_t>(tape.slots, 1);
-  cl::Buffer pool = rt.upload(q.pool, "implicit leaf tapes");
+  // Each leaf's tape renumbered for its own scratch: value k of a tape of length L in slot k + 1,
+  // its last value (the root) in slot 0, so a point needs L values of scratch, not the full
+  // tape's slot count (hundreds on large models; a leaf's tape is a few dozen clauses). The
+  // same operations on the same values: the results are those of the slot tape.
+  std::vector<uint32_t> code = q.pool;
+  std::vector<VmIRegion> leaves = q.leaves;
+  std::vector<uint32_t> latest(std::max<uint32_t>(tape.slots, 1));
+  uint32_t slots = 1;
+  bool renumbered = true;
+  for (const VmIRegion& L : leaves) {
+    uint32_t* c = code.data() + 4 * size_t(L.tape_off);
+    if (L.tape_len == 0 || c[4 * (L.tape_len - 1) + 1] != tape.root_slot) renumbered = false;
+  }
+  if (renumbered) {
+    std::vector<uint8_t> done(q.pool.size() / 4, 0);  // leaves may share a tape (in 2D they do)
+    for (const VmIRegion& L : leaves) {
+      slots = std::max<uint32_t>(slots, L.tape_len);
+      if (done[L.tape_off]) continue;
+      done[L.tape_off] = 1;
+      uint32_t* c = code.data() + 4 * size_t(L.tape_off);
+      for (uint32_t k = 0; k < L.tape_len; ++k, c += 4) {
+        const uint32_t op = c[0];
+        const bool leaf = op <= uint32_t(implicit::Op::Z);
+        const bool binary = op != implicit::kCopy && implicit::is_binary(implicit::Op(op));
+        if (!leaf) c[2] = latest[c[2]];
+        if (binary) c[3] = latest[c[3]];
+        const uint32_t to = k + 1 == L.tape_len ? 0 : k + 1;
+        latest[c[1]] = to;
+        c[1] = to;
+      }
+    }
+  } else {
+    code = q.pool;
+    slots = std::max<uint32_t>(tape.slots, 1);
+  }
+  const uint32_t root = renumbered ? 0 : tape.root_slot;
+  cl::Buffer pool = rt.upload(code, "implicit leaf tapes");
   // In batches of leaves, so the per-point scratch (slots floats a point) stays under 256 MiB
-  // whatever the count: a 3D frame has millions of leaf corners.
+  // whatever the count: a 3D frame has millions of leaf corners. One scratch for all batches.
   const size_t per_leaf = size_t(m) * (slots * sizeof(float) + sizeof(cl_float4) + sizeof(float));
-  const size_t batch = std::max<size_t>(1, (size_t(256) << 20) / per_leaf);
+  const size_t batch = std::min(n, std::max<size_t>(1, (size_t(256) << 20) / per_leaf));
+  cl::Buffer scratch = rt.alloc(batch * m * slots * sizeof(float), "implicit point slots");
   for (size_t first = 0; first < n; first += batch) {
     const size_t nb = std::min(batch, n - first);
-    std::vector<VmIRegion> reg_b(q.leaves.begin() + first, q.leaves.begin() + first + nb);
+    std::vector<VmIRegion> reg_b(leaves.begin() + first, leaves.begin() + first + nb);
     std::vector<cl_float4> pts(nb * m);
     const float* src = xyz.data() + 3 * first * m;
     for (size_t i = 0; i < pts.size(); ++i)
       pts[i] = cl_float4{{src[3 * i], src[3 * i + 1], src[3 * i + 2], 0.f}};
     cl::Buffer reg = rt.upload(reg_b, "implicit leaves");
     cl::Buffer p = rt.upload(pts, "implicit points");
-    cl::Buffer scratch = rt.alloc(pts.size() * slots * sizeof(float), "implicit point slots");
     cl::Buffer val = rt.alloc(pts.size() * sizeof(float), "implicit values");
     ++launches;
     rt.launch(Stage::Implicit, "implicit_points", pts.size(), reg, uint32_t(nb), pool, scratch,
-              slots, tape.root_slot, p, m, val);
+              slots, root, p, m, val);
     rt.read(Stage::Implicit, val, 0, pts.size() * sizeof(float), out.data() + first * m);
   }
   if (launches_out) *launches_out += launches;

@@ -32,7 +32,7 @@ namespace vismap::stages {
 namespace {
 
 constexpr uint64_t kMaxDicedTriangles = uint64_t(1) << 27;
-constexpr uint32_t kMaxLevel = 16;  // cells per axis up to 2^16
+constexpr uint64_t kMaxCells = uint64_t(1) << 16;  // cells per axis
 
 using M4 = std::array<double, 16>;  // column-major
 
@@ -80,6 +80,17 @@ std::array<double, 3> place(const M4& m, const double p[3]) {
   return {m[0] * p[0] + m[4] * p[1] + m[8] * p[2] + m[12],
           m[1] * p[0] + m[5] * p[1] + m[9] * p[2] + m[13],
           m[2] * p[0] + m[6] * p[1] + m[10] * p[2] + m[14]};
+}
+
+// The inverse of an affine transform applied to a point.
+std::array<double, 3> unplace(const M4& m, const std::array<double, 3>& w) {
+  const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6],
+               i = m[10];
+  const double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+  const double x = w[0] - m[12], y = w[1] - m[13], z = w[2] - m[14];
+  return {((e * i - f * h) * x - (b * i - c * h) * y + (b * f - c * e) * z) / det,
+          (-(d * i - f * g) * x + (a * i - c * g) * y - (a * f - c * d) * z) / det,
+          ((d * h - e * g) * x - (a * h - b * g) * y + (a * e - b * d) * z) / det};
 }
 
 // The largest singular value of the linear part (power iteration on A^T A), rounded up.
@@ -155,66 +166,84 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   const double r_px = 0.5 * std::hypot(double(cam.width), double(cam.height));
   const double k_px = persp ? f_px * std::sqrt(1 + (r_px / f_px) * (r_px / f_px)) : f_px;
   const double sigma = spectral_norm(xf);
-  // The nearest depth along the view direction of the box (at least the near plane).
-  double d_min = 1;
-  if (persp) {
-    const Mat4 view = cam.view();
-    d_min = INFINITY;
-    for (const auto& p : wc)
-      d_min = std::min(d_min, -(view[2] * p[0] + view[6] * p[1] + view[10] * p[2] + view[14]));
-    d_min = std::max(d_min, cam.near_plane);
-  }
-  const double h_max = tol * d_min / (std::sqrt(3.0) * sigma * k_px);
   double side = 0;
   for (int k = 0; k < 3; ++k) side = std::max(side, bhi[k] - blo[k]);
-  uint32_t level = 0;
-  while (level < kMaxLevel && side / double(1u << level) > h_max) ++level;
-  if (side / double(1u << level) > h_max)
-    throw InputError(InputErrorKind::TooLarge, "", mesh.name, "", -1,
-                     "the tolerance needs more than 2^16 cells per axis (the eye is close to "
-                     "the surface's box: give a larger implicit tolerance or tighter bounds)");
-  const uint32_t N = 1u << level;
-  std::vector<uint32_t> splits;
-  for (uint32_t l = level; l >= 2; l -= 2) splits.push_back(4);
-  if (level % 2) splits.push_back(2);
   const float lo[3] = {float(blo[0]), float(blo[1]), float(blo[2])};
   const float size = float(side);
-  const double h = double(size) / N;
 
-  // The view's planes (Gribb-Hartmann rows of the view-projection), in the object's space.
+  // The view's planes (Gribb-Hartmann rows of the view-projection), in the object's space,
+  // moved out by two cells of side `cell`: every cell next to one in view is kept (a quad joins
+  // four cells, and one culled would leave a gap at the border).
   const Mat4 vp = cam.view_projection();
-  const auto row = [&](int r) {
-    return std::array<double, 4>{vp[r], vp[4 + r], vp[8 + r], vp[12 + r]};
+  const auto view_planes = [&](double cell) {
+    std::vector<std::array<float, 4>> planes;
+    for (int r = 0; r < 3; ++r)
+      for (double sgn : {1.0, -1.0}) {
+        if (r == 2 && sgn < 0) continue;  // no far plane: far is fitted, the near one matters
+        double w[4], po[4];
+        for (int k = 0; k < 4; ++k) w[k] = vp[4 * k + 3] + sgn * vp[4 * k + r];
+        // w . (M p) = (w^T M) p
+        for (int c = 0; c < 4; ++c)
+          po[c] = w[0] * xf[4 * c] + w[1] * xf[4 * c + 1] + w[2] * xf[4 * c + 2] +
+                  w[3] * xf[4 * c + 3];
+        po[3] += 2 * cell * (std::abs(po[0]) + std::abs(po[1]) + std::abs(po[2]));
+        planes.push_back({float(po[0]), float(po[1]), float(po[2]), float(po[3])});
+      }
+    return planes;
   };
-  std::vector<std::array<float, 4>> planes;
-  for (int r = 0; r < 3; ++r)
-    for (double sgn : {1.0, -1.0}) {
-      if (r == 2 && sgn < 0) continue;  // no far plane: far is fitted, the near one matters
-      std::array<double, 4> p3 = row(3), pr = row(r), w;
-      for (int k = 0; k < 4; ++k) w[k] = p3[k] + sgn * pr[k];
-      // w . (M p) = (w^T M) p; then moved out by two leaf cells, so every cell next to one in
-      // view is kept: a quad joins four cells, and one culled would leave a gap at the border.
-      double po[4];
-      for (int c = 0; c < 4; ++c)
-        po[c] = w[0] * xf[4 * c] + w[1] * xf[4 * c + 1] + w[2] * xf[4 * c + 2] +
-                w[3] * xf[4 * c + 3];
-      po[3] += 2 * h * (std::abs(po[0]) + std::abs(po[1]) + std::abs(po[2]));
-      planes.push_back({float(po[0]), float(po[1]), float(po[2]), float(po[3])});
-    }
-
   const implicit::Tape clipped = implicit::clipped_to_box(tape, blo, bhi, 3);
   const implicit::SlotTape code = implicit::allocate_slots(clipped);
   const uint32_t syncs0 = rt.host_syncs();
   auto t0 = Clock::now();
-  const ImplicitQueue q =
-      run_implicit_queue(rt, code, lo, size, 3, splits, uint64_t(4) << 30, planes);
+
+  // The nearest depth of the surface in view: a coarse pass (16 cells per axis) of the same
+  // queue, its leaves' corners' depths (the box's nearest corner is often far nearer than any
+  // surface). At least the near plane.
+  double d_min = 1;
+  const uint64_t kMaxQueueBytes = uint64_t(4) << 30;
+  if (persp) {
+    const ImplicitQueue coarse =
+        run_implicit_queue(rt, code, lo, size, 3, {4, 4}, kMaxQueueBytes, view_planes(side / 16));
+    st.launches += coarse.launches;
+    const Mat4 view = cam.view();
+    d_min = INFINITY;
+    for (const VmIRegion& L : coarse.leaves)
+      for (int c = 0; c < 8; ++c) {
+        const double p[3] = {L.lo[0] + (c & 1 ? L.size : 0.0), L.lo[1] + (c & 2 ? L.size : 0.0),
+                             L.lo[2] + (c & 4 ? L.size : 0.0)};
+        const std::array<double, 3> w = place(xf, p);
+        d_min = std::min(d_min, -(view[2] * w[0] + view[6] * w[1] + view[10] * w[2] + view[14]));
+      }
+    if (coarse.leaves.empty()) d_min = 1;  // nothing in view: the fine pass finds no leaves
+    d_min = std::max(d_min, cam.near_plane);
+  }
+  // Cells per axis: 4^a m (m = 1 .. 6; rounds split 4 ways, the last m ways), the fewest with
+  // sqrt(3) h sigma k_px / d_min at most the tolerance.
+  const double h_max = tol * d_min / (std::sqrt(3.0) * sigma * k_px);
+  const double need = side / h_max;
+  uint64_t N = 0;
+  std::vector<uint32_t> splits;
+  for (uint64_t p4 = 1, a = 0; p4 <= kMaxCells && !N; p4 *= 4, ++a)
+    for (uint32_t m = 1; m <= 6 && !N; ++m)
+      if (double(p4 * m) >= need && p4 * m <= kMaxCells) {
+        N = p4 * m;
+        splits.assign(a, 4);
+        if (m > 1) splits.push_back(m);
+      }
+  if (!N)
+    throw InputError(InputErrorKind::TooLarge, "", mesh.name, "", -1,
+                     "the tolerance needs more than 2^16 cells per axis (the eye is close to "
+                     "the surface: give a larger implicit tolerance or tighter bounds)");
+  const double h = double(size) / double(N);
+  const ImplicitQueue q = run_implicit_queue(rt, code, lo, size, 3, splits, kMaxQueueBytes,
+                                             view_planes(h));
   st.implicit_queue_ms += ms_since(t0);
   t0 = Clock::now();
   st.split_rounds += uint32_t(q.rounds.size());
   for (const ImplicitRound& r : q.rounds) st.culled += r.culled;
   st.launches += q.launches;
   st.pieces += q.leaves.size();
-  st.implicit_level = std::max(st.implicit_level, level);
+  st.implicit_cells = std::max<uint64_t>(st.implicit_cells, N);
   st.implicit_clauses_full += code.size();
   for (const VmIRegion& l : q.leaves) {
     st.implicit_leaf_clauses += l.tape_len;
@@ -379,6 +408,24 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
       for (int k = 0; k < 3; ++k) out.normals.push_back(float(n[k] / len));
     }
   }
+  // Back faces: a closed surface seen from outside hides every triangle that faces away (a ray
+  // reaching one from the eye has entered the solid through a front face first), so they are
+  // left out when that holds: the eye outside the solid (f > 0 there) and every leaf cell wholly
+  // beyond the near plane (the near plane cuts nothing open). Otherwise all are kept.
+  bool cull_back = !o.implicit_back_faces;
+  if (cull_back) {
+    const std::array<float, 4> np = view_planes(0)[4];  // the near plane, unshifted
+    for (size_t l = 0; l < nl && cull_back; ++l) {
+      const VmIRegion& L = q.leaves[l];
+      double lowest = np[3];
+      for (int k = 0; k < 3; ++k) lowest += np[k] * (L.lo[k] + (np[k] < 0 ? L.size : 0.0f));
+      cull_back = lowest > 0;
+    }
+    const std::array<double, 3> eo = unplace(xf, cam.eye);
+    cull_back = cull_back && implicit::eval(clipped, eo[0], eo[1], eo[2]) > 0;
+  }
+  const double view_dir[3] = {cam.target[0] - cam.eye[0], cam.target[1] - cam.eye[1],
+                              cam.target[2] - cam.eye[2]};
   // Triangles through the weld; collapsed or exactly flat ones dropped; a mirroring transform
   // reverses the winding so normals stay outward.
   size_t kept = 0;
@@ -391,13 +438,40 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
     const float* pc = &out.positions[3 * size_t(c)];
     const double u[3] = {double(pb[0]) - pa[0], double(pb[1]) - pa[1], double(pb[2]) - pa[2]};
     const double w[3] = {double(pc[0]) - pa[0], double(pc[1]) - pa[1], double(pc[2]) - pa[2]};
-    if (u[1] * w[2] - u[2] * w[1] == 0 && u[2] * w[0] - u[0] * w[2] == 0 &&
-        u[0] * w[1] - u[1] * w[0] == 0)
-      continue;
+    const double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                         u[0] * w[1] - u[1] * w[0]};
+    if (n[0] == 0 && n[1] == 0 && n[2] == 0) continue;
     if (det < 0) std::swap(b, c);
+    if (cull_back) {
+      const double s = det < 0 ? -1 : 1;  // the kept winding's normal is s n
+      const double e[3] = {persp ? pa[0] - cam.eye[0] : view_dir[0],
+                           persp ? pa[1] - cam.eye[1] : view_dir[1],
+                           persp ? pa[2] - cam.eye[2] : view_dir[2]};
+      if (s * (n[0] * e[0] + n[1] * e[1] + n[2] * e[2]) > 0) {
+        ++st.implicit_back_faces;
+        continue;
+      }
+    }
     out.indices[kept++] = a, out.indices[kept++] = b, out.indices[kept++] = c;
   }
   out.indices.resize(kept);
+  if (cull_back) {  // vertices only back faces used go too
+    std::vector<uint32_t> renum(out.vertex_count(), ~0u);
+    uint32_t nvk = 0;
+    for (uint32_t& i : out.indices) {
+      if (renum[i] == ~0u) {
+        renum[i] = nvk;
+        for (int k = 0; k < 3; ++k) {
+          out.positions[3 * size_t(nvk) + k] = out.positions[3 * size_t(i) + k];
+          out.normals[3 * size_t(nvk) + k] = out.normals[3 * size_t(i) + k];
+        }
+        ++nvk;
+      }
+      i = renum[i];
+    }
+    out.positions.resize(3 * size_t(nvk));
+    out.normals.resize(3 * size_t(nvk));
+  }
   const size_t ntri = kept / 3;
   if (ntri > kMaxDicedTriangles)
     throw InputError(InputErrorKind::TooLarge, "", mesh.name, "", -1,
