@@ -155,6 +155,11 @@ Hello parse_hello(const json& j, uint32_t max_viewport) {
         bad("'tolerance' must be a number of pixels from 0.001 to 1000");
       h.tolerance_px = v->get<double>();
     }
+    if (const json* v = field(j, "implicit_tolerance")) {
+      if (!v->is_number() || !(v->get<double>() >= 1e-2 && v->get<double>() <= 1000))
+        bad("'implicit_tolerance' must be a number of pixels from 0.01 to 1000");
+      h.implicit_tolerance_px = v->get<double>();
+    }
     if (h.style != "fill" && h.format != Format::Svg && h.format != Format::Bin)
       bad("'style': lines are drawn in svg and bin frames, not " +
           std::string(format_spec(h.format).name));

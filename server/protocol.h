@@ -102,6 +102,9 @@ struct Hello {
   double crease_angle_deg = 45.0;
   // Curved surfaces (version 2, any format): diced within this many pixels (TessellateOptions).
   double tolerance_px = 0.2;
+  // Implicit surfaces (version 2, any format): within this many pixels at their nearest depth
+  // (TessellateOptions::implicit_tolerance_px).
+  double implicit_tolerance_px = 4.0;
 };
 
 // Scene upload header. Exactly one source: `library` (a file in the server's library), `data`

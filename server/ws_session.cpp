@@ -505,6 +505,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       if (job.scene->has_surfaces()) {  // diced for this view; the frame keeps the diced scene
         TessellateOptions to;
         to.tolerance_px = float(h.tolerance_px);
+        to.implicit_tolerance_px = float(h.implicit_tolerance_px);
         job.scene = std::make_shared<const Scene>(renderer->tessellate(*job.scene, cam, to));
       }
       RenderOptions opts;

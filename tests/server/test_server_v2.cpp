@@ -450,4 +450,51 @@ TEST_F(ServerV2Test, CurvedSurfacesAreDicedPerFrame) {
   }
 }
 
+// Implicit surfaces (issue 19, docs/IMPLICIT.md) through a session: a .sexp upload, and a
+// library scene mixing an implicit slab (a file) with the bunny standing in it, both diced for
+// each frame at the hello's implicit tolerance; bin frames carry both objects' triangles.
+TEST_F(ServerV2Test, ImplicitSurfacesAreDicedPerFrame) {
+  std::ofstream(lib_ / "slab.sexp")
+      << "(max (- (abs x) 0.12) (- (abs (- y 0.045)) 0.01) (- (abs z) 0.12))";
+  fs::copy_file(fs::path(VISMAP_SOURCE_DIR) / "data/bunny.ply", lib_ / "bunny.ply");
+  std::ofstream(lib_ / "mixed.json")
+      << R"({"meshes": [{"file": "bunny.ply"}, {"file": "slab.sexp", "color": [0.3, 0.5, 0.8]}]})";
+  start();
+  {
+    WsClient c;
+    hello2(c, "bin", {{"implicit_tolerance", 8.0}});
+    upload(c, "ring.sexp",
+           "(- (sqrt (+ (square (- (sqrt (+ (square x) (square y))) 1)) (square z))) 0.3)");
+    json r = next(c, 60);
+    ASSERT_EQ(r["type"], "scene_ready") << r.dump();
+    c.send_text(json{{"type", "camera"}, {"seq", 1}, {"eye", r["camera"]["eye"]},
+                     {"target", r["camera"]["target"]}}.dump());
+    json h = next(c, 60);
+    ASSERT_EQ(h["type"], "frame") << h.dump();
+    const vismap::BinFrame f = vismap::read_bin(c.read(60).data);
+    EXPECT_GT(f.triangle_count(), 100u);
+    // A bad expression is a non-fatal error naming the line and column.
+    upload(c, "bad.sexp", "(+ x\n  (sqr y))");
+    json e = next(c, 60);
+    EXPECT_EQ(e["type"], "error") << e.dump();
+    EXPECT_NE(e.value("message", "").find("line 2 column 4"), std::string::npos) << e.dump();
+    EXPECT_EQ(e["fatal"], false);
+  }
+  WsClient c;
+  hello2(c, "bin", {{"implicit_tolerance", 8.0}});
+  c.send_text(R"({"type":"scene","library":"mixed.json"})");
+  json r = next(c, 60);
+  ASSERT_EQ(r["type"], "scene_ready") << r.dump();
+  c.send_text(json{{"type", "camera"}, {"seq", 1}, {"eye", r["camera"]["eye"]},
+                   {"target", r["camera"]["target"]}}.dump());
+  json h = next(c, 60);
+  ASSERT_EQ(h["type"], "frame") << h.dump();
+  const vismap::BinFrame f = vismap::read_bin(c.read(60).data);
+  const uint32_t bunny = 69451;  // the bunny's triangles come first; the slab's ids follow
+  size_t slab = 0, rabbit = 0;
+  for (uint32_t id : f.triangle_id) (id >= bunny ? slab : rabbit) += 1;
+  EXPECT_GT(slab, 10u);
+  EXPECT_GT(rabbit, 1000u);
+}
+
 }  // namespace
