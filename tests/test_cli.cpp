@@ -276,8 +276,8 @@ TEST_F(Cli, ListsDevices) {
 
 }  // namespace
 
-// An expression in x and y (.sexp) draws filled regions (MPR's 2D mode); one with z, a parse
-// error, a non-svg output and --bounds on a mesh are refused, writing nothing.
+// An expression in x and y (.sexp) draws filled regions (MPR's 2D mode); an unbounded one
+// with z, a parse error, a non-svg output and --bounds on a mesh are refused, writing nothing.
 TEST_F(Cli, ImplicitTwoDimensional) {
   fs::path out = dir / "out.svg";
   std::ofstream(dir / "discs.sexp") << "; two discs\n(min (- (+ (square (- x 0.5)) (square y)) 0.09)\n"
