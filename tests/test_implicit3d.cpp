@@ -6,11 +6,13 @@
 // finite differences.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <random>
+#include <set>
 
 #include "core/error.h"
 #include "core/implicit.h"
@@ -143,6 +145,23 @@ TEST(Implicit3D, BackFacesLeftOutOnlyWhereHidden) {
   const Diced all = dice(s, cam, 2.0f), front = dice(s, cam, 2.0f, false);
   EXPECT_GT(front.st.implicit_back_faces, all.mesh.triangle_count() / 3);
   EXPECT_EQ(front.mesh.triangle_count() + front.st.implicit_back_faces, all.mesh.triangle_count());
+  // Every kept triangle is one of the full mesh's, with its corners and normals (the kept
+  // vertices are renumbered).
+  const auto corners = [](const Mesh& m, size_t t) {
+    std::array<std::array<float, 6>, 3> c;
+    for (int k = 0; k < 3; ++k)
+      for (int a = 0; a < 3; ++a) {
+        c[k][a] = m.positions[3 * m.indices[3 * t + k] + a];
+        c[k][3 + a] = m.normals[3 * m.indices[3 * t + k] + a];
+      }
+    std::rotate(c.begin(), std::min_element(c.begin(), c.end()), c.end());
+    return c;
+  };
+  std::set<std::array<std::array<float, 6>, 3>> full;
+  for (size_t t = 0; t < all.mesh.triangle_count(); ++t) full.insert(corners(all.mesh, t));
+  for (size_t t = 0; t < front.mesh.triangle_count(); ++t)
+    ASSERT_TRUE(full.count(corners(front.mesh, t))) << "triangle " << t;
+  ASSERT_EQ(front.mesh.normals.size(), front.mesh.positions.size());
   Scene a = s, f = s;
   a.meshes[0] = all.mesh;
   f.meshes[0] = front.mesh;

@@ -364,6 +364,8 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   // vertices a float apart, become one vertex.
   const size_t nv = vleaf.size();
   std::vector<uint32_t> remap(nv);
+  std::vector<uint32_t> src;  // per output vertex: its surface-nets vertex
+  src.reserve(nv);
   {
     struct Key {
       uint32_t x, y, z;
@@ -379,7 +381,6 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
     };
     std::unordered_map<Key, uint32_t, KeyHash> weld;
     weld.reserve(nv);
-    const std::array<double, 9> nm = normal_matrix(xf);
     for (size_t v = 0; v < nv; ++v) {
       const std::array<double, 3> w = place(xf, &opos[3 * v]);
       float wf[3];
@@ -396,16 +397,7 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
       remap[v] = it->second;
       if (!fresh) continue;
       out.positions.insert(out.positions.end(), wf, wf + 3);
-      // The normal: the gradient of the cell's own shortened tape, to the world by A^{-T}.
-      const VmIRegion& L = q.leaves[vleaf[v]];
-      double g[3];
-      implicit::eval_code_grad(q.pool.data() + 4 * size_t(L.tape_off), L.tape_len, code.slots,
-                               code.root_slot, opos[3 * v], opos[3 * v + 1], opos[3 * v + 2], g);
-      double n[3];
-      for (int r = 0; r < 3; ++r) n[r] = nm[3 * r] * g[0] + nm[3 * r + 1] * g[1] + nm[3 * r + 2] * g[2];
-      double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-      if (!(len > 0) || !std::isfinite(len)) n[0] = n[1] = 0, n[2] = 1, len = 1;
-      for (int k = 0; k < 3; ++k) out.normals.push_back(float(n[k] / len));
+      src.push_back(uint32_t(v));
     }
   }
   // Back faces: a closed surface seen from outside hides every triangle that faces away (a ray
@@ -455,22 +447,37 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
     out.indices[kept++] = a, out.indices[kept++] = b, out.indices[kept++] = c;
   }
   out.indices.resize(kept);
-  if (cull_back) {  // vertices only back faces used go too
+  if (cull_back) {  // vertices only back faces used go too (numbered in order of first use)
     std::vector<uint32_t> renum(out.vertex_count(), ~0u);
-    uint32_t nvk = 0;
+    std::vector<float> pos;
+    std::vector<uint32_t> src_kept;
     for (uint32_t& i : out.indices) {
       if (renum[i] == ~0u) {
-        renum[i] = nvk;
-        for (int k = 0; k < 3; ++k) {
-          out.positions[3 * size_t(nvk) + k] = out.positions[3 * size_t(i) + k];
-          out.normals[3 * size_t(nvk) + k] = out.normals[3 * size_t(i) + k];
-        }
-        ++nvk;
+        renum[i] = uint32_t(src_kept.size());
+        pos.insert(pos.end(), &out.positions[3 * size_t(i)], &out.positions[3 * size_t(i)] + 3);
+        src_kept.push_back(src[i]);
       }
       i = renum[i];
     }
-    out.positions.resize(3 * size_t(nvk));
-    out.normals.resize(3 * size_t(nvk));
+    out.positions = std::move(pos);
+    src = std::move(src_kept);
+  }
+  // Normals of the vertices kept: the gradient of the cell's own shortened tape at the vertex,
+  // to the world by the inverse transpose, unit length.
+  const std::array<double, 9> nm = normal_matrix(xf);
+  out.normals.resize(out.positions.size());
+  for (size_t v = 0; v < src.size(); ++v) {
+    const uint32_t sv = src[v];
+    const VmIRegion& L = q.leaves[vleaf[sv]];
+    double g[3];
+    implicit::eval_code_grad(q.pool.data() + 4 * size_t(L.tape_off), L.tape_len, code.slots,
+                             code.root_slot, opos[3 * size_t(sv)], opos[3 * size_t(sv) + 1],
+                             opos[3 * size_t(sv) + 2], g);
+    double n[3];
+    for (int r = 0; r < 3; ++r) n[r] = nm[3 * r] * g[0] + nm[3 * r + 1] * g[1] + nm[3 * r + 2] * g[2];
+    double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(len > 0) || !std::isfinite(len)) n[0] = n[1] = 0, n[2] = 1, len = 1;
+    for (int k = 0; k < 3; ++k) out.normals[3 * v + k] = float(n[k] / len);
   }
   const size_t ntri = kept / 3;
   if (ntri > kMaxDicedTriangles)
