@@ -367,19 +367,7 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   std::vector<uint32_t> src;  // per output vertex: its surface-nets vertex
   src.reserve(nv);
   {
-    struct Key {
-      uint32_t x, y, z;
-      bool operator==(const Key& k) const { return x == k.x && y == k.y && z == k.z; }
-    };
-    struct KeyHash {
-      size_t operator()(const Key& k) const {
-        uint64_t v = k.x * 0x9E3779B97F4A7C15ull;
-        v ^= (v >> 29) + k.y * 0xC2B2AE3D27D4EB4Full;
-        v ^= (v >> 31) + k.z * 0x165667B19E3779F9ull;
-        return size_t(v ^ (v >> 32));
-      }
-    };
-    std::unordered_map<Key, uint32_t, KeyHash> weld;
+    std::unordered_map<Bits3, uint32_t, Bits3Hash> weld;
     weld.reserve(nv);
     for (size_t v = 0; v < nv; ++v) {
       const std::array<double, 3> w = place(xf, &opos[3 * v]);
@@ -390,10 +378,8 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
           throw InputError(InputErrorKind::NonFiniteVertex, "", mesh.name, "vertex", int64_t(v),
                            "not finite after the object's transform");
       }
-      Key key;
-      std::memcpy(&key.x, &wf[0], 4), std::memcpy(&key.y, &wf[1], 4),
-          std::memcpy(&key.z, &wf[2], 4);
-      auto [it, fresh] = weld.emplace(key, uint32_t(out.positions.size() / 3));
+      auto [it, fresh] =
+          weld.emplace(Bits3::of(wf[0], wf[1], wf[2]), uint32_t(out.positions.size() / 3));
       remap[v] = it->second;
       if (!fresh) continue;
       out.positions.insert(out.positions.end(), wf, wf + 3);

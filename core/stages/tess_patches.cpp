@@ -25,19 +25,6 @@ namespace {
 // downstream); past it the frame is TooLarge naming the mesh, never truncated.
 constexpr uint64_t kMaxDicedTriangles = uint64_t(1) << 27;
 
-struct Bits3 {
-  uint32_t x, y, z;
-  bool operator==(const Bits3& o) const { return x == o.x && y == o.y && z == o.z; }
-};
-struct Bits3Hash {
-  size_t operator()(const Bits3& b) const {
-    uint64_t h = b.x * 0x9E3779B97F4A7C15ull;
-    h ^= (h >> 29) + b.y * 0xC2B2AE3D27D4EB4Full;
-    h ^= (h >> 31) + b.z * 0x165667B19E3779F9ull;
-    return size_t(h ^ (h >> 32));
-  }
-};
-
 }  // namespace
 
 Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in, const TessellateOptions& o,
@@ -195,12 +182,8 @@ Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in, const T
   std::vector<uint32_t> remap(nv);
   out.positions.reserve(3 * nv);
   for (uint64_t v = 0; v < nv; ++v) {
-    Bits3 b;
-    const float x = xyz[3 * v] + 0.0f, y = xyz[3 * v + 1] + 0.0f, z = xyz[3 * v + 2] + 0.0f;
-    std::memcpy(&b.x, &x, 4);
-    std::memcpy(&b.y, &y, 4);
-    std::memcpy(&b.z, &z, 4);
-    auto [it, fresh] = ids.emplace(b, uint32_t(out.positions.size() / 3));
+    auto [it, fresh] = ids.emplace(Bits3::of(xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]),
+                                   uint32_t(out.positions.size() / 3));
     if (fresh) out.positions.insert(out.positions.end(), &xyz[3 * v], &xyz[3 * v] + 3);
     remap[v] = it->second;
   }
