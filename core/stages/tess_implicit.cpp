@@ -235,8 +235,17 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
                      "the tolerance needs more than 2^16 cells per axis (the eye is close to "
                      "the surface: give a larger implicit tolerance or tighter bounds)");
   const double h = double(size) / double(N);
-  const ImplicitQueue q = run_implicit_queue(rt, code, lo, size, 3, splits, kMaxQueueBytes,
-                                             view_planes(h));
+  const ImplicitQueue q = [&] {
+    try {
+      return run_implicit_queue(rt, code, lo, size, 3, splits, kMaxQueueBytes, view_planes(h));
+    } catch (const InputError& e) {  // say which object, and what would need less
+      throw InputError(e.kind(), e.file(), mesh.name, e.element(), e.index(),
+                       e.detail() + " (" + std::to_string(N) +
+                           " cells per axis for the surface's nearest depth in view, " +
+                           std::to_string(d_min) +
+                           ": a larger implicit tolerance or a farther eye needs fewer)");
+    }
+  }();
   st.implicit_queue_ms += ms_since(t0);
   t0 = Clock::now();
   st.split_rounds += uint32_t(q.rounds.size());
