@@ -382,13 +382,13 @@ int cmd_render(int argc, char** argv) {
     if (ts.implicit_leaves)
       std::fprintf(stderr,
                    "implicit: %llu cells per axis, %llu leaf cells, clauses per "
-                   "leaf %.1f of %llu (tape shortening); ms: queue %.1f, corners %.1f, mesh "
-                   "%.1f\n",
+                   "leaf %.1f of %llu (tape shortening), %llu back faces left out; ms: queue "
+                   "%.1f, corners %.1f, mesh %.1f\n",
                    static_cast<unsigned long long>(ts.implicit_cells),
                    static_cast<unsigned long long>(ts.implicit_leaves),
                    double(ts.implicit_leaf_clauses) / double(ts.implicit_leaves),
                    static_cast<unsigned long long>(ts.implicit_clauses_full),
-                   ts.implicit_queue_ms, ts.implicit_points_ms, ts.implicit_mesh_ms);
+                   static_cast<unsigned long long>(ts.implicit_back_faces), ts.implicit_queue_ms, ts.implicit_points_ms, ts.implicit_mesh_ms);
     std::fprintf(stderr,
                  "input triangles %llu (dropped degenerate %llu), screen triangles %llu, "
                  "silhouette edges %llu\n",
