@@ -6,16 +6,17 @@
 // the same values as the full tape, so a corner shared by cells gets one value).
 // Host: surface nets on the leaf cells (one vertex per cell the surface crosses, placed from the
 // cell's own corner values; one quad per crossing edge between the four cells around it), so
-// every edge of the mesh is shared and the surface has no cracks; vertex normals from the
-// gradient of the cell's shortened tape (forward differentiation).
+// every edge of the mesh inside the view is shared and the surface has no cracks; back faces left
+// out where they cannot be seen; vertex normals from the gradient of the cell's shortened tape
+// (forward differentiation).
 //
 // Error bound: a quad lies in the 2 x 2 x 1 block of cells around its edge, whose corner values
 // differ in sign (f = 0 at a point of the edge), so each of its points is within sqrt(3) h of a
-// point where f = 0. In
-// pixels that is at most sqrt(3) h sigma k_px / d, sigma the transform's largest stretch, k_px
-// the projection's largest pixel scale per unit at depth 1 and d the depth; h is chosen for the
-// nearest depth of the object's box in view. What a grid cannot see (a wall thinner than h, a
-// sign change between corners of one cell that does not reach an edge) is left out.
+// point where f = 0. In pixels that is at most sqrt(3) h sigma k_px / d, sigma the transform's
+// largest stretch, k_px the projection's largest pixel scale per unit at depth 1 and d the depth;
+// h is chosen for the nearest depth of the surface in view (a coarse pass of the queue finds it).
+// What a grid cannot see (a wall thinner than h, a sign change between corners of one cell that
+// does not reach an edge) is left out.
 #include <algorithm>
 #include <cmath>
 #include <cstring>
