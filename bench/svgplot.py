@@ -1,11 +1,22 @@
 """Tiny SVG plots for bench/run.sh (no matplotlib here): line/scatter plots with linear or log
 axes, and horizontal stacked bars. Plain standard library; output is a self-contained SVG."""
 
+import csv
 import math
+import os
 from xml.sax.saxutils import escape
 
 COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
           "#7f7f7f", "#bcbd22", "#17becf", "#393b79", "#637939"]
+
+
+def read_runs(paths):
+    """CSV files as (name, rows): the file's base name without extension, its rows as dicts."""
+    runs = []
+    for path in paths:
+        with open(path) as f:
+            runs.append((os.path.splitext(os.path.basename(path))[0], list(csv.DictReader(f))))
+    return runs
 
 
 def _ticks(lo, hi, log):

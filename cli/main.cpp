@@ -128,10 +128,10 @@ bool is_sexp(const std::string& path) {
 }
 
 // An implicit expression in x and y (MPR's 2D mode): filled regions straight to SVG.
-int render_implicit_2d(const RenderArgs& a) {
+// t0: when the command began (the tape was read and parsed since).
+int render_implicit_2d(const RenderArgs& a, const implicit::Tape& tape,
+                       std::chrono::steady_clock::time_point t0) {
   using Clock = std::chrono::steady_clock;
-  const auto t0 = Clock::now();
-  const implicit::Tape tape = implicit::load(a.scene);
   const auto t_load = Clock::now();
   if (a.format != "svg") throw UsageError("an implicit expression renders to svg only");
   implicit::View2D v;
@@ -287,7 +287,10 @@ int cmd_render(int argc, char** argv) {
   auto t0 = Clock::now();
   RenderArgs a = parse_render(argc, argv);
   // An expression in x and y alone is MPR's 2D mode; one that uses z is a 3D object.
-  if (is_sexp(a.scene) && !implicit::uses_z(implicit::load(a.scene))) return render_implicit_2d(a);
+  if (is_sexp(a.scene)) {
+    const implicit::Tape tape = implicit::load(a.scene);
+    if (!implicit::uses_z(tape)) return render_implicit_2d(a, tape, t0);
+  }
   if (a.bounds) throw UsageError("--bounds: the window of a 2D implicit expression (.sexp)");
   Scene scene = load_scene(a.scene);
   auto t_load = Clock::now();
@@ -388,7 +391,8 @@ int cmd_render(int argc, char** argv) {
                    static_cast<unsigned long long>(ts.implicit_leaves),
                    double(ts.implicit_leaf_clauses) / double(ts.implicit_leaves),
                    static_cast<unsigned long long>(ts.implicit_clauses_full),
-                   static_cast<unsigned long long>(ts.implicit_back_faces), ts.implicit_queue_ms, ts.implicit_points_ms, ts.implicit_mesh_ms);
+                   static_cast<unsigned long long>(ts.implicit_back_faces), ts.implicit_queue_ms,
+                   ts.implicit_points_ms, ts.implicit_mesh_ms);
     std::fprintf(stderr,
                  "input triangles %llu (dropped degenerate %llu), screen triangles %llu, "
                  "silhouette edges %llu\n",

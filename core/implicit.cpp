@@ -507,32 +507,6 @@ SlotTape allocate_slots(const Tape& t) {
   return out;
 }
 
-double eval_slots(const SlotTape& t, double x, double y, double z) {
-  std::vector<double> s(std::max<uint32_t>(t.slots, 1));
-  for (size_t k = 0; k < t.size(); ++k) {
-    const uint32_t* c = &t.code[4 * k];
-    const Op op = Op(c[0]);
-    double v;
-    if (c[0] == kCopy) {
-      v = s[c[2]];
-    } else if (op == Op::Const) {
-      float f;
-      std::memcpy(&f, &c[2], 4);
-      v = f;
-    } else if (op == Op::X) {
-      v = x;
-    } else if (op == Op::Y) {
-      v = y;
-    } else if (op == Op::Z) {
-      v = z;
-    } else {
-      v = apply(op, s[c[2]], is_binary(op) ? s[c[3]] : 0);
-    }
-    s[c[1]] = v;
-  }
-  return s[t.root_slot];
-}
-
 namespace {
 
 // A value and its gradient (forward differentiation).
@@ -607,6 +581,11 @@ double eval_code_grad(const uint32_t* code, size_t clauses, uint32_t slots, uint
   return f.v;
 }
 
+double eval_slots(const SlotTape& t, double x, double y, double z) {
+  double grad[3];
+  return eval_code_grad(t.code.data(), t.size(), t.slots, t.root_slot, x, y, z, grad);
+}
+
 Tape clipped_to_box(const Tape& t, const double lo[3], const double hi[3], int dims) {
   Tape o = t;
   const uint32_t f = o.root();
@@ -643,6 +622,12 @@ std::array<double, 6> bounds_in_cube(const Tape& t, const std::string& file, dou
   const auto fail = [&file](InputErrorKind kind, const std::string& msg) {
     throw InputError(kind, file, "", "", -1, msg);
   };
+  const std::string cube =
+      "the search cube [-" + std::to_string(int(search)) + ", " + std::to_string(int(search)) + "]^3";
+  const auto unbounded = [&](const char* how) {
+    fail(InputErrorKind::BadScene, std::string("the solid f < 0 ") + how + " the faces of " +
+                                       cube + ": unbounded or too large; give the object bounds");
+  };
   std::vector<Box> cur{{{-search, -search, -search}, std::make_shared<const Tape>(t)}};
   double size = 2 * search;
   double blo[3], bhi[3];
@@ -668,11 +653,7 @@ std::array<double, 6> bounds_in_cube(const Tape& t, const std::string& file, dou
         touches = touches || b.lo[k] <= -search || b.lo[k] + size >= search;
       }
       if (iv.hi < 0) {  // full: in the bounds for good, no need to split
-        if (touches && level > 0)
-          fail(InputErrorKind::BadScene,
-               "the solid f < 0 fills a box on the faces of the search cube [-" +
-                   std::to_string(int(search)) + ", " + std::to_string(int(search)) +
-                   "]^3: unbounded or too large; give the object bounds");
+        if (touches && level > 0) unbounded("fills a box on");
         any_full = true;
         for (int k = 0; k < 3; ++k) {
           flo[k] = std::min(flo[k], b.lo[k]);
@@ -692,16 +673,10 @@ std::array<double, 6> bounds_in_cube(const Tape& t, const std::string& file, dou
       bhi[k] = std::max(hi[k], fhi[k]);
     }
     if (next.empty() && !any_full && lo[0] > hi[0])
-      fail(InputErrorKind::EmptyMesh, "f > 0 over the whole search cube [-" +
-                                          std::to_string(int(search)) + ", " +
-                                          std::to_string(int(search)) + "]^3: nothing to draw");
+      fail(InputErrorKind::EmptyMesh, "f > 0 over the whole " + cube + ": nothing to draw");
     const double extent = std::max({bhi[0] - blo[0], bhi[1] - blo[1], bhi[2] - blo[2]});
     if (next.empty() || size <= extent / 64 || level >= 30) {
-      if (edge && level > 0)
-        fail(InputErrorKind::BadScene,
-             "the solid f < 0 reaches the faces of the search cube [-" +
-                 std::to_string(int(search)) + ", " + std::to_string(int(search)) +
-                 "]^3: unbounded or too large; give the object bounds");
+      if (edge && level > 0) unbounded("reaches");
       break;
     }
     if (next.size() > (size_t(1) << 20))

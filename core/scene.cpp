@@ -27,6 +27,17 @@ std::vector<uint64_t> Scene::triangle_id_base() const {
   return base;
 }
 
+std::array<std::array<double, 3>, 8> Mesh::implicit_corners() const {
+  const auto& b = implicit_box;
+  const auto& x = implicit_xform;
+  std::array<std::array<double, 3>, 8> w;
+  for (int c = 0; c < 8; ++c) {
+    const double p[3] = {b[c & 1 ? 3 : 0], b[c & 2 ? 4 : 1], b[c & 4 ? 5 : 2]};
+    for (int r = 0; r < 3; ++r) w[c][r] = x[r] * p[0] + x[4 + r] * p[1] + x[8 + r] * p[2] + x[12 + r];
+  }
+  return w;
+}
+
 Bounds scene_bounds(const Scene& s) {
   // Only vertices that triangles use: stray unused vertices must not move the framing.
   // A Bezier patch lies in the hull of its control points, and so does a Loop surface in its
@@ -46,17 +57,11 @@ Bounds scene_bounds(const Scene& s) {
   };
   for (const Mesh& m : s.meshes) {
     for (size_t i = 0; i + 3 <= m.patches.size(); i += 3) add(&m.patches[i]);
-    if (m.implicit && m.positions.empty()) {  // an undiced implicit: its box's corners, placed
-      const auto& b = m.implicit_box;
-      const auto& x = m.implicit_xform;
-      for (int c = 0; c < 8; ++c) {
-        const double p[3] = {b[c & 1 ? 3 : 0], b[c & 2 ? 4 : 1], b[c & 4 ? 5 : 2]};
-        float w[3];
-        for (int r = 0; r < 3; ++r)
-          w[r] = float(x[r] * p[0] + x[4 + r] * p[1] + x[8 + r] * p[2] + x[12 + r]);
+    if (m.implicit && m.positions.empty())  // an undiced implicit: its box's corners, placed
+      for (const auto& p : m.implicit_corners()) {
+        const float w[3] = {float(p[0]), float(p[1]), float(p[2])};
         add(w);
       }
-    }
     const size_t nv = m.vertex_count();
     for (uint32_t i : m.indices) {
       if (i >= nv) continue;  // the loader reports bad indices; bounds just skip them

@@ -53,6 +53,9 @@ struct Mesh {
   // which shading uses in place of the triangle's own. Empty otherwise.
   std::vector<float> normals;
 
+  // The 8 corners of implicit_box placed by implicit_xform (corner c: bit k picks hi on axis k).
+  std::array<std::array<double, 3>, 8> implicit_corners() const;
+
   size_t patch_count() const { return patches.size() / 48; }
   bool is_surface() const { return !patches.empty() || subdivision || implicit != nullptr; }
 

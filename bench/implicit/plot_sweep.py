@@ -2,7 +2,6 @@
 the pixel error against the tolerance, and the warm frame and tessellation times, one series per
 file.
   python3 bench/implicit/plot_sweep.py OUT_DIR A.csv B.csv ..."""
-import csv
 import os
 import sys
 
@@ -10,10 +9,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 import svgplot  # noqa: E402
 
 out = sys.argv[1]
-runs = []
-for path in sys.argv[2:]:
-    with open(path) as f:
-        runs.append((os.path.splitext(os.path.basename(path))[0], list(csv.DictReader(f))))
+runs = svgplot.read_runs(sys.argv[2:])
 err, time = [], []
 for name, rows in runs:
     tol = [float(r["tolerance_px"]) for r in rows]

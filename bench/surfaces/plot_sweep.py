@@ -1,7 +1,6 @@
 """Plots bench/surfaces/patch_sweep.cpp's CSVs (docs/SURFACES.md): largest measured error and
 warm frame time against the tolerance, one series per file.
   python3 bench/surfaces/plot_sweep.py OUT_DIR A.csv B.csv ..."""
-import csv
 import os
 import sys
 
@@ -9,10 +8,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 import svgplot  # noqa: E402
 
 out = sys.argv[1]
-runs = []
-for path in sys.argv[2:]:
-    with open(path) as f:
-        runs.append((os.path.splitext(os.path.basename(path))[0], list(csv.DictReader(f))))
+runs = svgplot.read_runs(sys.argv[2:])
 err, frame, tess = [], [], []
 for name, rows in runs:
     err.append((name + " largest error", [(float(r["tolerance_px"]), float(r["max_error_px"])) for r in rows], "line"))

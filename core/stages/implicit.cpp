@@ -152,8 +152,7 @@ std::vector<float> eval_leaf_points(ClRuntime& rt, const implicit::SlotTape& tap
       }
     }
   } else {
-    code = q.pool;
-    slots = std::max<uint32_t>(tape.slots, 1);
+    slots = std::max<uint32_t>(tape.slots, 1);  // code is the pool as it came
   }
   const uint32_t root = renumbered ? 0 : tape.root_slot;
   cl::Buffer pool = rt.upload(code, "implicit leaf tapes");

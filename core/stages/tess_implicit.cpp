@@ -32,15 +32,14 @@ namespace vismap::stages {
 
 namespace {
 
-constexpr uint64_t kMaxDicedTriangles = uint64_t(1) << 27;
 constexpr uint64_t kMaxCells = uint64_t(1) << 16;  // cells per axis
 
 using M4 = std::array<double, 16>;  // column-major
 
-// Open addressing from 64-bit keys (never ~0) to vertex indices.
-class EdgeTable {
+// Open addressing from 64-bit keys (never ~0; here grid cells) to 32-bit values.
+class KeyTable {
  public:
-  explicit EdgeTable(size_t expect) {
+  explicit KeyTable(size_t expect) {
     size_t cap = 16;
     while (cap < 2 * expect) cap <<= 1;
     keys_.assign(cap, ~uint64_t(0));
@@ -83,15 +82,21 @@ std::array<double, 3> place(const M4& m, const double p[3]) {
           m[2] * p[0] + m[6] * p[1] + m[10] * p[2] + m[14]};
 }
 
-// The inverse of an affine transform applied to a point.
-std::array<double, 3> unplace(const M4& m, const std::array<double, 3>& w) {
+// The inverse of the linear part (row-major 3x3), from the adjugate.
+std::array<double, 9> inverse3(const M4& m) {
   const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6],
                i = m[10];
-  const double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
-  const double x = w[0] - m[12], y = w[1] - m[13], z = w[2] - m[14];
-  return {((e * i - f * h) * x - (b * i - c * h) * y + (b * f - c * e) * z) / det,
-          (-(d * i - f * g) * x + (a * i - c * g) * y - (a * f - c * d) * z) / det,
-          ((d * h - e * g) * x - (a * h - b * g) * y + (a * e - b * d) * z) / det};
+  const double A = e * i - f * h, B = -(d * i - f * g), C = d * h - e * g;
+  const double det = a * A + b * B + c * C;
+  return {A / det,
+          -(b * i - c * h) / det,
+          (b * f - c * e) / det,
+          B / det,
+          (a * i - c * g) / det,
+          -(a * f - c * d) / det,
+          C / det,
+          -(a * h - b * g) / det,
+          (a * e - b * d) / det};
 }
 
 // The largest singular value of the linear part (power iteration on A^T A), rounded up.
@@ -115,24 +120,6 @@ double spectral_norm(const M4& m) {
   return s > 0 ? std::min(fro, s * 1.001) : fro;
 }
 
-// Inverse transpose of the linear part (row-major 3x3), for normals.
-std::array<double, 9> normal_matrix(const M4& m) {
-  const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6],
-               i = m[10];
-  const double A = e * i - f * h, B = -(d * i - f * g), C = d * h - e * g;
-  const double det = a * A + b * B + c * C;
-  // inverse = adj / det; its transpose's rows are the cofactor rows.
-  return {A / det,
-          B / det,
-          C / det,
-          -(b * i - c * h) / det,
-          (a * i - c * g) / det,
-          -(a * h - b * g) / det,
-          (b * f - c * e) / det,
-          -(a * f - c * d) / det,
-          (a * e - b * d) / det};
-}
-
 }  // namespace
 
 Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
@@ -146,16 +133,12 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
     throw InputError(InputErrorKind::BadScene, "", mesh.name, "", -1,
                      "the implicit tolerance must be a positive number of pixels");
 
-  // The box's corners in the world, for near/far and the nearest depth.
-  std::array<std::array<double, 3>, 8> wc;
+  // The box's corners in the world, for near/far.
   Bounds wb;
-  for (int c = 0; c < 8; ++c) {
-    const double p[3] = {c & 1 ? bhi[0] : blo[0], c & 2 ? bhi[1] : blo[1],
-                         c & 4 ? bhi[2] : blo[2]};
-    wc[c] = place(xf, p);
+  for (const auto& w : mesh.implicit_corners()) {
     for (int k = 0; k < 3; ++k) {
-      wb.lo[k] = wb.empty ? wc[c][k] : std::min(wb.lo[k], wc[c][k]);
-      wb.hi[k] = wb.empty ? wc[c][k] : std::max(wb.hi[k], wc[c][k]);
+      wb.lo[k] = wb.empty ? w[k] : std::min(wb.lo[k], w[k]);
+      wb.hi[k] = wb.empty ? w[k] : std::max(wb.hi[k], w[k]);
     }
     wb.empty = false;
   }
@@ -264,6 +247,7 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   st.implicit_leaves += q.leaves.size();
 
   // Leaf cells: their grid indices and corners (canonical: lo + i h in double, then float).
+  const auto grid = [&](int k, uint32_t i) { return lo[k] + double(i) * h; };
   const size_t nl = q.leaves.size();
   std::vector<uint32_t> gi(3 * nl);
   std::vector<float> xyz(24 * nl);
@@ -272,7 +256,7 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
       gi[3 * l + k] = uint32_t(std::llround((double(q.leaves[l].lo[k]) - lo[k]) / h));
     for (int c = 0; c < 8; ++c)
       for (int k = 0; k < 3; ++k)
-        xyz[24 * l + 3 * c + k] = float(lo[k] + double(gi[3 * l + k] + ((c >> k) & 1)) * h);
+        xyz[24 * l + 3 * c + k] = float(grid(k, gi[3 * l + k] + ((c >> k) & 1)));
   }
   const std::vector<float> val = eval_leaf_points(rt, code, q, xyz, 8, &st.launches);
   st.implicit_points_ms += ms_since(t0);
@@ -287,7 +271,7 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   // cells around it.
   const uint64_t N1 = uint64_t(N) + 1;
   const auto cell_key = [&](uint64_t i, uint64_t j, uint64_t k) { return i + N1 * (j + N1 * k); };
-  EdgeTable cells(nl);
+  KeyTable cells(nl);
   std::vector<double> opos;  // object-space vertex positions
   std::vector<uint32_t> vleaf;
   static const int kEdges[12][2] = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3},
@@ -312,8 +296,8 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
       if ((f[u] < 0) == (f[v] < 0)) continue;
       const double fa = f[u], fb = f[v], t = fa / (fa - fb);
       for (int k = 0; k < 3; ++k) {
-        const double a = lo[k] + double(gi[3 * l + k] + ((u >> k) & 1)) * h;
-        const double b = lo[k] + double(gi[3 * l + k] + ((v >> k) & 1)) * h;
+        const double a = grid(k, gi[3 * l + k] + ((u >> k) & 1));
+        const double b = grid(k, gi[3 * l + k] + ((v >> k) & 1));
         acc[k] += a + t * (b - a);
       }
       ++nc;
@@ -366,6 +350,7 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
       }
     }
   }
+  const std::array<double, 9> inv = inverse3(xf);  // for the eye's place and the normals
   const double det = xf[0] * (xf[5] * xf[10] - xf[9] * xf[6]) -
                      xf[4] * (xf[1] * xf[10] - xf[9] * xf[2]) +
                      xf[8] * (xf[1] * xf[6] - xf[5] * xf[2]);
@@ -409,7 +394,9 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
       for (int k = 0; k < 3; ++k) lowest += np[k] * (L.lo[k] + (np[k] < 0 ? L.size : 0.0f));
       cull_back = lowest > 0;
     }
-    const std::array<double, 3> eo = unplace(xf, cam.eye);
+    const double w[3] = {cam.eye[0] - xf[12], cam.eye[1] - xf[13], cam.eye[2] - xf[14]};
+    double eo[3];
+    for (int r = 0; r < 3; ++r) eo[r] = inv[3 * r] * w[0] + inv[3 * r + 1] * w[1] + inv[3 * r + 2] * w[2];
     cull_back = cull_back && implicit::eval(clipped, eo[0], eo[1], eo[2]) > 0;
   }
   const double view_dir[3] = {cam.target[0] - cam.eye[0], cam.target[1] - cam.eye[1],
@@ -460,7 +447,6 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   }
   // Normals of the vertices kept: the gradient of the cell's own shortened tape at the vertex,
   // to the world by the inverse transpose, unit length.
-  const std::array<double, 9> nm = normal_matrix(xf);
   out.normals.resize(out.positions.size());
   for (size_t v = 0; v < src.size(); ++v) {
     const uint32_t sv = src[v];
@@ -470,7 +456,7 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
                              code.root_slot, opos[3 * size_t(sv)], opos[3 * size_t(sv) + 1],
                              opos[3 * size_t(sv) + 2], g);
     double n[3];
-    for (int r = 0; r < 3; ++r) n[r] = nm[3 * r] * g[0] + nm[3 * r + 1] * g[1] + nm[3 * r + 2] * g[2];
+    for (int r = 0; r < 3; ++r) n[r] = inv[r] * g[0] + inv[3 + r] * g[1] + inv[6 + r] * g[2];  // A^-T g
     double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     if (!(len > 0) || !std::isfinite(len)) n[0] = n[1] = 0, n[2] = 1, len = 1;
     for (int k = 0; k < 3; ++k) out.normals[3 * v + k] = float(n[k] / len);

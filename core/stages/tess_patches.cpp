@@ -21,10 +21,6 @@ namespace vismap::stages {
 
 namespace {
 
-// Output caps: the diced mesh of one patch mesh. 2^27 triangles (~5 GB of host arrays
-// downstream); past it the frame is TooLarge naming the mesh, never truncated.
-constexpr uint64_t kMaxDicedTriangles = uint64_t(1) << 27;
-
 }  // namespace
 
 Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in, const TessellateOptions& o,

@@ -17,6 +17,10 @@
 
 namespace vismap::stages {
 
+// Output cap of one diced surface mesh: 2^27 triangles (~5 GB of host arrays downstream); past
+// it the frame is TooLarge naming the mesh, never truncated.
+constexpr uint64_t kMaxDicedTriangles = uint64_t(1) << 27;
+
 // A position's float bits, -0 taken as +0, as a hash key: the dicers weld vertices whose
 // positions came out equal (shared corners evaluated from the same data, poles).
 struct Bits3 {
