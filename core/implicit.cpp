@@ -673,7 +673,7 @@ std::array<double, 6> bounds_in_cube(const Tape& t, const std::string& file, dou
       bhi[k] = std::max(hi[k], fhi[k]);
     }
     if (next.empty() && !any_full && lo[0] > hi[0])
-      fail(InputErrorKind::EmptyMesh, "f > 0 over the whole " + cube + ": nothing to draw");
+      fail(InputErrorKind::EmptyMesh, "f >= 0 over the whole of " + cube + ": nothing to draw");
     const double extent = std::max({bhi[0] - blo[0], bhi[1] - blo[1], bhi[2] - blo[2]});
     if (next.empty() || size <= extent / 64 || level >= 30) {
       if (edge && level > 0) unbounded("reaches");
@@ -692,14 +692,15 @@ std::array<double, 6> bounds_in_cube(const Tape& t, const std::string& file, dou
 }  // namespace
 
 std::array<double, 6> find_bounds(const Tape& t, const std::string& file, double search) {
-  // Cubes of side 32, 64, ... up to 2 search: the first whose faces the solid does not reach.
-  // Interval arithmetic is loose over large boxes far from the origin (products of coordinates),
-  // so a small cube that holds the object proves that far sooner than the largest one.
+  // Cubes of side 32, 64, ... up to 2 search: the first that holds some of the solid and whose
+  // faces the solid does not reach. Interval arithmetic is loose over large boxes far from the
+  // origin (products of coordinates), so a small cube that holds the object proves that far
+  // sooner than the largest one. A smaller cube found empty or reached only says: look wider.
   for (double s = 16; s < search; s *= 2) {
     try {
       return bounds_in_cube(t, file, s);
     } catch (const InputError& e) {
-      if (e.kind() != InputErrorKind::BadScene) throw;
+      if (e.kind() != InputErrorKind::BadScene && e.kind() != InputErrorKind::EmptyMesh) throw;
     }
   }
   return bounds_in_cube(t, file, search);

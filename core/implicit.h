@@ -94,7 +94,7 @@ Tape clipped_to_box(const Tape& t, const double lo[3], const double hi[3], int d
 // host interval arithmetic over a cube [-s, s]^3, every box not shown empty (f >= 0) split in
 // eight with its tape shortened, level by level, until a box's side is at most 1/64 of the
 // extent found; the boxes not shown empty, grown by one box. s = 16, 32, ... up to `search`:
-// the first cube whose faces the solid does not reach (interval bounds are loose over large far
+// the first cube that holds some of the solid and whose faces the solid does not reach (interval bounds are loose over large far
 // boxes, so a cube near the object's size proves it bounded where the largest cannot); a part of
 // the solid outside that cube is not in the box (give bounds to choose it). Errors name `file`:
 // InputError BadScene when the solid reaches the faces of [-search, search]^3 (unbounded, or

@@ -262,6 +262,13 @@ TEST(Implicit3D, BoundsSearch) {
     EXPECT_GE(b[k + 3], want[k + 3]);
     EXPECT_LE(b[k + 3], want[k + 3] + 1);
   }
+  // Away from the origin: the small cubes are empty there, a larger one holds it.
+  const auto far = implicit::find_bounds(
+      implicit::parse("(- (sqrt (+ (square (- x 100)) (square y) (square z))) 2)", "far"), "far");
+  EXPECT_LE(far[0], 98);
+  EXPECT_GE(far[0], 97);
+  EXPECT_GE(far[3], 102);
+  EXPECT_LE(far[3], 103);
   try {
     implicit::find_bounds(implicit::parse("(+ x z)", "half"), "half.sexp");
     ADD_FAILURE() << "a half-space has no bounds";
