@@ -331,16 +331,24 @@ void ClRuntime::fill_u32(cl::Buffer& b, uint32_t value, size_t count, Stage stag
   launches_.push_back({stage, "fill", ev, count * sizeof(uint32_t)});
 }
 
-void ClRuntime::scan_level(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
-  uint32_t blocks = static_cast<uint32_t>((n + VM_SCAN_BLOCK - 1) / VM_SCAN_BLOCK);
+void ClRuntime::scan_level(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n,
+                           cl::Buffer& total, uint32_t slot) {
+  const uint32_t blocks = static_cast<uint32_t>((n + VM_SCAN_BLOCK - 1) / VM_SCAN_BLOCK);
+  if (blocks == 1) {  // one launch: the block's sum is the total
+    launch_grouped(stage, "scan_blocks", VM_SCAN_WG, VM_SCAN_WG, counts, offsets, n, total, slot);
+    return;
+  }
   cl::Buffer sums = alloc(blocks * sizeof(uint32_t), "scan block sums");
   launch_grouped(stage, "scan_blocks", size_t(blocks) * VM_SCAN_WG, VM_SCAN_WG, counts, offsets, n,
-                 sums);
-  if (blocks > 1) {
-    cl::Buffer sum_offsets = alloc(blocks * sizeof(uint32_t), "scan block offsets");
-    scan_level(stage, sums, sum_offsets, blocks);
-    launch(stage, "scan_add", n, offsets, n, sum_offsets);
+                 sums, 0u);
+  if (blocks <= VM_SCAN_FINISH_MAX) {
+    launch_grouped(stage, "scan_finish", size_t(blocks) * VM_SCAN_WG, VM_SCAN_WG, offsets, n, sums,
+                   blocks, total, slot);
+    return;
   }
+  cl::Buffer sum_offsets = alloc(blocks * sizeof(uint32_t), "scan block offsets");
+  scan_level(stage, sums, sum_offsets, blocks, total, slot);
+  launch(stage, "scan_add", n, offsets, n, sum_offsets);
 }
 
 void ClRuntime::scan_to(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n,
@@ -352,14 +360,12 @@ void ClRuntime::scan_to(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, ui
     launches_.push_back({stage, "fill", ev, sizeof(uint32_t)});
     return;
   }
-  scan_level(stage, counts, offsets, n);
-  launch(stage, "scan_total", 1, counts, offsets, n, totals, slot);
+  scan_level(stage, counts, offsets, n, totals, slot);
 }
 
 uint32_t ClRuntime::scan(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
   if (n == 0) return 0;
-  scan_level(stage, counts, offsets, n);
-  launch(stage, "scan_total", 1, counts, offsets, n, scratch_total_, 0u);
+  scan_level(stage, counts, offsets, n, scratch_total_, 0u);
   uint32_t total = 0;
   read(stage, scratch_total_, 0, sizeof total, &total);
   return total;
@@ -367,6 +373,7 @@ uint32_t ClRuntime::scan(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, u
 
 void ClRuntime::read(Stage stage, const cl::Buffer& b, size_t offset, size_t bytes, void* dst) {
   queue_.enqueueReadBuffer(b, CL_TRUE, offset, bytes, dst);
+  async_pending_ = false;  // the queue is in order: every earlier read is done
   ++syncs_;
   ++stage_syncs_[size_t(stage)];
   stage_transfer_[size_t(stage)] += bytes;
@@ -377,6 +384,15 @@ void ClRuntime::read_async(Stage stage, const cl::Buffer& b, size_t offset, size
   if (bytes == 0) return;
   queue_.enqueueReadBuffer(b, CL_FALSE, offset, bytes, dst);
   stage_transfer_[size_t(stage)] += bytes;
+  async_pending_ = true;
+}
+
+void ClRuntime::complete_reads(Stage stage) {
+  if (!async_pending_) return;
+  queue_.finish();
+  async_pending_ = false;
+  ++syncs_;
+  ++stage_syncs_[size_t(stage)];
 }
 
 void ClRuntime::copy(Stage stage, const cl::Buffer& src, cl::Buffer& dst, size_t bytes) {
@@ -397,6 +413,7 @@ void ClRuntime::reset_profile() {
 
 ClRuntime::StageTimes ClRuntime::collect_profile() {
   queue_.finish();
+  async_pending_ = false;
   StageTimes out{};
   for (Launch& l : launches_) {
     cl_ulong s = l.event.getProfilingInfo<CL_PROFILING_COMMAND_START>();

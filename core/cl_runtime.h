@@ -80,6 +80,9 @@ class ClRuntime {
   // Non-blocking read (done by the next blocking read or collect_profile, the queue being in
   // order): counted as transfer bytes only.
   void read_async(Stage stage, const cl::Buffer& b, size_t offset, size_t bytes, void* dst);
+  // Makes every earlier read_async complete: free when a blocking read (or collect_profile) came
+  // after the last of them, else one wait for the queue, counted as a blocking read of `stage`.
+  void complete_reads(Stage stage);
   // Device-side copy, recorded as a launch of `stage` ("copy") that moves 2 x bytes.
   void copy(Stage stage, const cl::Buffer& src, cl::Buffer& dst, size_t bytes);
   uint32_t host_syncs() const { return syncs_; }
@@ -136,7 +139,10 @@ class ClRuntime {
   void set_args(Kernel&, Stage, const char*, cl_uint) {}
   void check_arity(const Kernel& k, Stage stage, const char* name, size_t given) const;
   [[noreturn]] void throw_arg_error(Stage stage, const char* name, cl_uint arg, cl_int err) const;
-  void scan_level(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n);
+  // Scans n > 0 counts into offsets and writes the total to total[slot] (1 launch for at most
+  // VM_SCAN_BLOCK counts, 2 for at most VM_SCAN_FINISH_MAX blocks; scan.cl).
+  void scan_level(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n,
+                  cl::Buffer& total, uint32_t slot);
 
   DeviceInfo info_;
   cl::Platform platform_;
@@ -161,6 +167,7 @@ class ClRuntime {
       false;  // large buffers on host blocks: CPU devices, unless $VISMAP_HOST_BLOCKS=0
   uint64_t peak_ = 0;
   uint32_t syncs_ = 0;
+  bool async_pending_ = false;  // a read_async not yet followed by a blocking read
   uint64_t pending_bytes_ = 0;  // buffer sizes of the launch being set up
   uint64_t write_bytes_ = 0;
   std::array<uint32_t, kStageCount> stage_syncs_{};

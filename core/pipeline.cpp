@@ -262,10 +262,10 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
                                    PlanarMap& map, ScreenTriangles* screen) {
   using namespace stages;
   ScreenSet s = fill_screen(rt, sb, fr, region, S, opts.attributes, Stage::Transform);
-  cl::Buffer totals = rt.alloc(VM_TOTAL_SLOTS * 4, "totals");
-  rt.fill_u32(totals, 0, VM_TOTAL_SLOTS, Stage::Transform);
+  cl::Buffer& totals = fr.totals;
 
-  const Silhouettes sil = find_silhouettes(rt, s, totals);
+  Silhouettes sil;
+  find_silhouettes(rt, s, totals, sil);
   snap_depths(rt, fr, s, Stage::Transform);
   const Grids grids = choose_grids(opts.tile_pixels, fr.W, fr.H, S);
   st.tile_pixels = grids.tile_px;

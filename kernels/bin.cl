@@ -143,7 +143,8 @@ inline uint box_class(int4 tr, int4 lr, int tx, int ty, int lx, int ly) {
  * e(d) the entries the tile's items would have at depth d (an item is listed in every leaf its
  * box touches): per-leaf overhead + entries + pair visits, the last as if the entries spread
  * evenly, e(d)^2 / 4^d. An uncrowded tile stays one leaf; a tile under a few big triangles does
- * not split (their entries grow with the leaves). Writes 4^d to `leaves` for the scan. */
+ * not split (their entries grow with the leaves). Writes 4^d to `leaves` for the scan. Reads
+ * the coarse lists by tile (leaf = tile there), not tile_leaf, which it rewrites. */
 __kernel void bin_depth(__global const uint* tile_offset, __global const uint* tile_count,
                         uint ntiles, __global const int4* bb, VmGrid g, __global const uint* list,
                         __global uint* tile_leaf, __global uint* leaves) {
@@ -172,22 +173,27 @@ __kernel void bin_depth(__global const uint* tile_offset, __global const uint* t
       }
     }
   }
-  tile_leaf[t] = best;
+  tile_leaf[t] = t << 4 | best; /* the first leaf as if no tile split (bin_pack) */
   leaves[t] = 1u << (2 * best);
 }
 
-/* Every tile its own single leaf (depth 0, leaf index = tile index): the map the coarse pass
- * bins with. */
-__kernel void leaf_identity(uint ntiles, __global uint* tile_leaf) {
+/* Zeroes the n leaves' counts and fill cursors and, for the coarse pass (identity set), makes
+ * every tile its own single leaf (depth 0, leaf index = tile index): one launch, not three. */
+__kernel void leaf_init(uint n, uint identity, __global uint* tile_leaf, __global uint* count,
+                        __global uint* cursor) {
   uint t = get_global_id(0);
-  if (t < ntiles) tile_leaf[t] = t << 4;
+  if (t >= n) return;
+  if (identity) tile_leaf[t] = t << 4;
+  count[t] = 0;
+  cursor[t] = 0;
 }
 
-/* Packs each tile's first leaf (the scan of the leaf counts) with its depth. */
+/* Packs each tile's first leaf (the scan of the leaf counts) with its depth. Only when some
+ * tile split: else every tile's first leaf is its own index, as bin_depth wrote it. */
 __kernel void bin_pack(uint ntiles, __global const uint* leaf_first_of, __global uint* tile_leaf) {
   uint t = get_global_id(0);
   if (t >= ntiles) return;
-  tile_leaf[t] |= leaf_first_of[t] << 4;
+  tile_leaf[t] = leaf_depth(tile_leaf[t]) | leaf_first_of[t] << 4;
 }
 
 /* Per item: counts (fill = 0) or fills (fill = 1, with keys) the lists of the leaves its box

@@ -121,101 +121,139 @@ inline uint clip_queue_length(__global const uint* state, uint resume) {
   return state[VM_CLIP_STOP] && !resume ? 0u : state[VM_CLIP_NQ];
 }
 
-/* One round over a grid of `grid` items (the host's bound; clip_apply keeps the queue within it):
- * items past the device-side queue length write zero counts, for the scans over the grid.
- * resume: the host has made room after a stop, this round runs whatever the state says.
- * packed: one count per item, children + (finished << VM_CLIP_PACK_SHIFT), in next_count. */
-inline void clip_counts(__global uint* next_count, __global uint* done_count, uint i, uint packed,
-                        uint next, uint done) {
-  if (packed) {
-    next_count[i] = next | (done << VM_CLIP_PACK_SHIFT);
-  } else {
-    next_count[i] = next;
-    done_count[i] = done;
-  }
-}
-
-__kernel void clip_find(__global const VmFragMeta* meta, __global const VmLine* lines, uint grid,
-                        __global const uint* states, uint sc, uint resume, uint packed,
-                        __global const uint* cand_offset,
-                        __global const uint* cand_count, __global const uint* cand,
-                        __global const VmEdge* edges, __global uint* split_at,
-                        __global uint* next_count, __global uint* done_count,
-                        __global uint* status) {
-  uint i = get_global_id(0);
-  if (i >= grid) return;
+/* A round is two launches (issue 17) over a grid of `grid` items in work-groups of VM_SCAN_WG
+ * (the host's bound; clip_apply keeps the queue within it): clip_find finds each item's cut and
+ * scans the group's counts (children, finished) itself, writing each item's offset within its
+ * group and the group's totals (block_sums[2g], [2g + 1]); clip_apply sums the groups before
+ * its own and all of them, so no separate scan runs. Grids of more than VM_CLIP_FUSED_MAX items
+ * (more groups than one group can sum in a few loads an item) are not fused: find writes the
+ * counts, the host scans them (totals[VM_TOTAL_NEXT], [VM_TOTAL_DONE]) and apply reads those.
+ * Items past the device-side queue length count zero. resume: the host has made room after a
+ * stop, this round runs whatever the state says. */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_find(
+    __global const VmFragMeta* meta, __global const VmLine* lines, uint grid,
+    __global const uint* states, uint sc, uint resume, uint fused,
+    __global const uint* cand_offset, __global const uint* cand_count, __global const uint* cand,
+    __global const VmEdge* edges, __global uint* split_at, __global uint* next_count,
+    __global uint* done_count, __global uint* block_sums, __global uint* status) {
+  __local uint scan_n[VM_SCAN_WG], scan_d[VM_SCAN_WG];
+  const uint i = get_global_id(0), lid = get_local_id(0);
   const uint nq = clip_queue_length(states + sc * VM_CLIP_WORDS, resume);
-  if (i >= nq) {
-    split_at[i] = VM_NONE;
-    clip_counts(next_count, done_count, i, packed, 0, 0);
+  uint split = VM_NONE, children = 0, finished = 0;
+  VmFragMeta m;
+  m.nlines = 0;
+  if (i < grid && i < nq) m = meta[i];
+  if (m.nlines > 0) { /* (0: past the queue, or a root fragment outside its region, frag_init) */
+    __global const VmLine* L = lines + (size_t)i * VM_MAXL;
+    uint off = cand_offset[m.tri], n = cand_count[m.tri];
+    int sgn[VM_MAXL];
+    /* The fragment's box (from approximate vertices, widened by a grid unit: only a filter)
+     * lets most far-away segments go without the exact tests. */
+    double2 lo = (double2)(INFINITY, INFINITY), hi = (double2)(-INFINITY, -INFINITY);
+    {
+      Line3 first = line_of_vm(L[0]), cur = first;
+      for (uint j = 0; j < m.nlines; ++j) {
+        Line3 nxt = j + 1 == m.nlines ? first : line_of_vm(L[j + 1]);
+        double2 v = vertex_approx(cur, nxt);
+        lo = fmin(lo, v);
+        hi = fmax(hi, v);
+        cur = nxt;
+      }
+      lo -= (double2)(1.0, 1.0);
+      hi += (double2)(1.0, 1.0);
+    }
+    for (uint k = m.next; k < n; ++k) {
+      VmEdge E = edges[cand[off + k]];
+      if (!isinf(E.q0) &&
+          (fmax((double)E.x0, (double)E.x1) < lo.x || fmin((double)E.x0, (double)E.x1) > hi.x ||
+           fmax((double)E.y0, (double)E.y1) < lo.y || fmin((double)E.y0, (double)E.y1) > hi.y))
+        continue;
+      if (cuts(L, m.nlines, E, sgn)) {
+        VmLine cut = vm_line(edge_line(E));
+        uint np = split_side(L, m.nlines, sgn, 1, cut, 0, 0);
+        uint nn = split_side(L, m.nlines, sgn, -1, cut, 0, 0);
+        if (np > VM_MAXL || nn > VM_MAXL) atomic_or(status, VM_STATUS_LINES_OVERFLOW);
+        split = k;
+        children = 2;
+        break;
+      }
+    }
+    finished = split == VM_NONE;
+  }
+  if (i < grid) split_at[i] = split;
+  if (!fused) {
+    if (i < grid) {
+      next_count[i] = children;
+      done_count[i] = finished;
+    }
     return;
   }
-  VmFragMeta m = meta[i];
-  if (m.nlines == 0) { /* a root fragment outside its region (frag_init) */
-    split_at[i] = VM_NONE;
-    clip_counts(next_count, done_count, i, packed, 0, 0);
-    return;
+  /* The group's exclusive offsets (Hillis-Steele, both counts at once), as scan_blocks. */
+  scan_n[lid] = children;
+  scan_d[lid] = finished;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (uint o = 1; o < VM_SCAN_WG; o <<= 1) {
+    const uint tn = lid >= o ? scan_n[lid - o] : 0, td = lid >= o ? scan_d[lid - o] : 0;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    scan_n[lid] += tn;
+    scan_d[lid] += td;
+    barrier(CLK_LOCAL_MEM_FENCE);
   }
-  __global const VmLine* L = lines + (size_t)i * VM_MAXL;
-  uint off = cand_offset[m.tri], n = cand_count[m.tri];
-  int sgn[VM_MAXL];
-  /* The fragment's box (from approximate vertices, widened by a grid unit: only a filter) lets
-   * most far-away segments go without the exact tests. */
-  double2 lo = (double2)(INFINITY, INFINITY), hi = (double2)(-INFINITY, -INFINITY);
-  {
-    Line3 first = line_of_vm(L[0]), cur = first;
-    for (uint j = 0; j < m.nlines; ++j) {
-      Line3 nxt = j + 1 == m.nlines ? first : line_of_vm(L[j + 1]);
-      double2 v = vertex_approx(cur, nxt);
-      lo = fmin(lo, v);
-      hi = fmax(hi, v);
-      cur = nxt;
-    }
-    lo -= (double2)(1.0, 1.0);
-    hi += (double2)(1.0, 1.0);
+  if (i < grid) {
+    next_count[i] = scan_n[lid] - children;
+    done_count[i] = scan_d[lid] - finished;
   }
-  for (uint k = m.next; k < n; ++k) {
-    VmEdge E = edges[cand[off + k]];
-    if (!isinf(E.q0) &&
-        (fmax((double)E.x0, (double)E.x1) < lo.x || fmin((double)E.x0, (double)E.x1) > hi.x ||
-         fmax((double)E.y0, (double)E.y1) < lo.y || fmin((double)E.y0, (double)E.y1) > hi.y))
-      continue;
-    if (cuts(L, m.nlines, E, sgn)) {
-      VmLine cut = vm_line(edge_line(E));
-      uint np = split_side(L, m.nlines, sgn, 1, cut, 0, 0);
-      uint nn = split_side(L, m.nlines, sgn, -1, cut, 0, 0);
-      if (np > VM_MAXL || nn > VM_MAXL) atomic_or(status, VM_STATUS_LINES_OVERFLOW);
-      split_at[i] = k;
-      clip_counts(next_count, done_count, i, packed, 2, 0);
-      return;
-    }
+  if (lid == VM_SCAN_WG - 1) {
+    block_sums[2 * get_group_id(0)] = scan_n[lid];
+    block_sums[2 * get_group_id(0) + 1] = scan_d[lid];
   }
-  split_at[i] = VM_NONE;
-  clip_counts(next_count, done_count, i, packed, 0, 1);
 }
 
 /* Writes the round's children and finished fragments if both fit (the next round's grid
  * next_grid, the finished list's done_cap) and no child needs more than VM_MAXL lines; else the
- * round has no effect and the rounds stop,
- * the queue as it was. The state is in two copies: this round's (copy sc) and the next round's,
- * written by work-item 0 only; every item reads only this round's, so none sees a half-written
- * one. */
-__kernel void clip_apply(__global const VmFragMeta* meta, __global const VmLine* lines, uint grid,
-                         __global uint* states, uint sc, uint resume, uint packed,
-                         __global const uint* totals, uint next_grid, uint done_cap,
-                         __global const uint* cand_offset, __global const uint* cand,
-                         __global const VmEdge* edges, __global const uint* split_at,
-                         __global const uint* next_offset, __global const uint* done_offset,
-                         __global VmFragMeta* next_meta, __global VmLine* next_lines,
-                         __global VmFragMeta* done_meta, __global VmLine* done_lines) {
-  uint i = get_global_id(0);
+ * round has no effect and the rounds stop, the queue as it was. Fused (see clip_find): each
+ * group first sums the block totals, those before it (its base) and all (the round's counts);
+ * else next_offset / done_offset are global and the counts are in totals. The state is in two
+ * copies: this round's (copy sc) and the next round's, written by work-item 0 only; every item
+ * reads only this round's, so none sees a half-written one. */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_apply(
+    __global const VmFragMeta* meta, __global const VmLine* lines, uint grid,
+    __global uint* states, uint sc, uint resume, uint fused, __global const uint* totals,
+    __global const uint* block_sums, uint next_grid, uint done_cap,
+    __global const uint* cand_offset, __global const uint* cand, __global const VmEdge* edges,
+    __global const uint* split_at, __global const uint* next_offset,
+    __global const uint* done_offset, __global VmFragMeta* next_meta,
+    __global VmLine* next_lines, __global VmFragMeta* done_meta, __global VmLine* done_lines) {
+  __local uint4 sums[VM_SCAN_WG];
+  const uint i = get_global_id(0), lid = get_local_id(0), g = get_group_id(0);
+  uint nn, dn, base_n = 0, base_d = 0;
+  if (fused) {
+    /* (before: .x children, .y finished; all: .z, .w) */
+    const uint blocks = (grid + VM_SCAN_WG - 1) / VM_SCAN_WG;
+    uint4 acc = (uint4)(0, 0, 0, 0);
+    for (uint b = lid; b < blocks; b += VM_SCAN_WG) {
+      const uint bn = block_sums[2 * b], bd = block_sums[2 * b + 1];
+      if (b < g) acc.xy += (uint2)(bn, bd);
+      acc.zw += (uint2)(bn, bd);
+    }
+    sums[lid] = acc;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint o = VM_SCAN_WG / 2; o > 0; o >>= 1) {
+      if (lid < o) sums[lid] += sums[lid + o];
+      barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    base_n = sums[0].x;
+    base_d = sums[0].y;
+    nn = sums[0].z;
+    dn = sums[0].w;
+  } else {
+    nn = totals[VM_TOTAL_NEXT];
+    dn = totals[VM_TOTAL_DONE];
+  }
   if (i >= grid) return;
   __global const uint* state = states + sc * VM_CLIP_WORDS;
   __global uint* next_state = states + (sc ^ 1u) * VM_CLIP_WORDS;
   const uint nq = clip_queue_length(state, resume);
-  const uint tn = totals[VM_TOTAL_NEXT], pmask = (1u << VM_CLIP_PACK_SHIFT) - 1u;
-  const uint nn = packed ? tn & pmask : tn;
-  const uint dn = packed ? tn >> VM_CLIP_PACK_SHIFT : totals[VM_TOTAL_DONE];
   const uint done_base = state[VM_CLIP_DONE];
   const uint stopped = resume ? 0u : state[VM_CLIP_STOP];
   const uint stop = stopped ? stopped
@@ -238,7 +276,7 @@ __kernel void clip_apply(__global const VmFragMeta* meta, __global const VmLine*
   uint k = split_at[i];
   if (m.nlines == 0) return;
   if (k == VM_NONE) {
-    uint d = done_base + (packed ? next_offset[i] >> VM_CLIP_PACK_SHIFT : done_offset[i]);
+    uint d = done_base + base_d + done_offset[i];
     done_meta[d] = m;
     for (uint j = 0; j < m.nlines; ++j) done_lines[(size_t)d * VM_MAXL + j] = L[j];
     return;
@@ -246,7 +284,7 @@ __kernel void clip_apply(__global const VmFragMeta* meta, __global const VmLine*
   VmEdge E = edges[cand[cand_offset[m.tri] + k]];
   int sgn[VM_MAXL];
   cuts(L, m.nlines, E, sgn);
-  uint o = packed ? next_offset[i] & pmask : next_offset[i];
+  uint o = base_n + next_offset[i];
   Line3 LE = edge_line(E);
   VmLine cut = vm_line(LE), rev = vm_line(line_reversed(LE));
   VmFragMeta c = m;

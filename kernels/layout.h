@@ -105,7 +105,9 @@ typedef struct {
 #define VM_TOTAL_THIN 4    /* fragments thinner than the fine sample grid (occlusion.cl occlude) */
 #define VM_TOTAL_DEEP 5    /* tournaments of more than VM_TOUR_MAX triangles (occlude_deep) */
 #define VM_TOTAL_PAIRS 6   /* entangled pairs (crossings.cl cross_pairs, scan_to) */
-#define VM_TOTAL_SLOTS 7
+#define VM_TOTAL_SILHOUETTES 7 /* silhouette edges (silhouettes.cpp, scan_to) */
+#define VM_TOTAL_VISIBLE 8     /* visible fragments, when none was thin or deep (occlusion.cpp) */
+#define VM_TOTAL_SLOTS 9
 
 /* Status flags a kernel can raise in totals[VM_TOTAL_STATUS] (read back by the host). */
 #define VM_STATUS_LINES_OVERFLOW 1u
@@ -126,11 +128,10 @@ typedef struct {
 #define VM_CLIP_WORDS 8
 #define VM_CLIP_STOP_QUEUE 1u /* the children did not fit the next round's grid */
 #define VM_CLIP_STOP_DONE 2u  /* the finished fragments did not fit the finished list */
-/* A round over at most VM_CLIP_PACK_MAX items scans its counts once, packed as children +
- * (finished << VM_CLIP_PACK_SHIFT): at most 2 * 32767 children and 32767 finished, so neither
- * prefix sum leaves its half of the word. */
-#define VM_CLIP_PACK_SHIFT 16
-#define VM_CLIP_PACK_MAX 32767u
+/* A round over at most VM_CLIP_FUSED_MAX items is two launches: clip_find scans each group's
+ * counts, clip_apply sums the groups' totals (at most 16 loads an item); above, the counts are
+ * scanned between them. */
+#define VM_CLIP_FUSED_MAX (4096u * VM_SCAN_WG)
 #define VM_CLIP_STOP_LINES 3u /* a child needs more than VM_MAXL lines (VM_STATUS_LINES_OVERFLOW) */
 
 /* Crossing pairs a screen triangle keeps in its inline scratch slots in the first traversal
@@ -141,6 +142,9 @@ typedef struct {
 #define VM_SCAN_WG 256
 #define VM_SCAN_PER_ITEM 8
 #define VM_SCAN_BLOCK (VM_SCAN_WG * VM_SCAN_PER_ITEM)
+/* Blocks up to which scan_finish adds the block sums in the second launch (each group sums the
+ * ones before it: at most 16 loads an item); above, they are scanned recursively. */
+#define VM_SCAN_FINISH_MAX 4096
 
 /* Implicit surfaces (issue 19, implicit.cl): a tape clause on slots. op is implicit::Op's value
  * (core/implicit.h; VM_IOP_COPY added by shortening: out = a); Const keeps its float's bits in a.
@@ -199,16 +203,14 @@ static_assert(sizeof(VmGrid) == 16, "VmGrid layout");
 /* The host reads the totals as VM_TOTAL_SLOTS words, launches scan_blocks with VM_SCAN_WG items
  * a group (its reqd_work_group_size) and VM_SCAN_BLOCK counts a group, and sizes the pair
  * scratch by VM_PAIRS_INLINE. */
-static_assert(VM_TOTAL_STATUS == 0 && VM_TOTAL_SLOTS == 7, "totals slots 0..6");
-static_assert(VM_TOTAL_DEEP == VM_TOTAL_THIN + 1, "occlusion reads both in one read");
+static_assert(VM_TOTAL_STATUS == 0 && VM_TOTAL_SLOTS == 9, "totals slots 0..8");
+static_assert(VM_TOTAL_DEEP == VM_TOTAL_THIN + 1 && VM_TOTAL_VISIBLE > VM_TOTAL_DEEP,
+              "occlusion reads thin, deep and visible in one read");
 static_assert(VM_SCAN_BLOCK == VM_SCAN_WG * VM_SCAN_PER_ITEM &&
                   (VM_SCAN_WG & (VM_SCAN_WG - 1)) == 0,
               "scan blocks of a power-of-two work-group");
 static_assert(VM_PAIRS_INLINE >= 1, "inline pair slots");
 static_assert(VM_CLIP_NDONE < VM_CLIP_WORDS, "clip state words");
-static_assert(2 * VM_CLIP_PACK_MAX < (1u << VM_CLIP_PACK_SHIFT) &&
-                  VM_CLIP_PACK_MAX < (1u << (32 - VM_CLIP_PACK_SHIFT)),
-              "packed clip counts fit their halves");
 #endif
 
 #endif

@@ -1,11 +1,17 @@
 /* Exclusive prefix sum of uint counts: the "scan" of count-scan-fill and of the Reyes work
- * queue's compaction. Two levels: scan_blocks scans VM_SCAN_BLOCK items per work-group and
- * writes each block's total; the host scans the block totals the same way (recursively) and
- * scan_add adds each block's offset. out[n] receives the grand total when n_total_slot is set. */
-/* VM_SCAN_WG, VM_SCAN_PER_ITEM and VM_SCAN_BLOCK: layout.h (the host launches by them). */
+ * queue's compaction, in one launch for at most VM_SCAN_BLOCK counts and two up to
+ * VM_SCAN_FINISH_MAX blocks (issue 17: each launch costs ~5.5 us on a GPU). scan_blocks scans
+ * VM_SCAN_BLOCK counts per work-group and writes each block's total to block_sums[sum_slot +
+ * group]: with one block that is the grand total, written straight into the caller's totals
+ * slot. scan_finish then adds to each block the sum of the blocks before it, which each
+ * work-group sums for itself (no second scan, no third launch), and its last group writes the
+ * grand total. Above VM_SCAN_FINISH_MAX blocks the host scans the block sums recursively and
+ * scan_add adds them. Integer sums: the offsets are the same however they are grouped. */
+/* VM_SCAN_WG, VM_SCAN_PER_ITEM, VM_SCAN_BLOCK and VM_SCAN_FINISH_MAX: layout.h (the host launches
+ * by them). */
 
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_blocks(
-    __global const uint* in, __global uint* out, uint n, __global uint* block_sums) {
+    __global const uint* in, __global uint* out, uint n, __global uint* block_sums, uint sum_slot) {
   __local uint partial[VM_SCAN_WG];
   uint lid = get_local_id(0);
   uint base = get_group_id(0) * VM_SCAN_BLOCK + lid * VM_SCAN_PER_ITEM;
@@ -31,16 +37,42 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_block
     if (i < n) out[i] = run;
     run += v[k];
   }
-  if (lid == VM_SCAN_WG - 1) block_sums[get_group_id(0)] = partial[lid];
+  if (lid == VM_SCAN_WG - 1) block_sums[sum_slot + get_group_id(0)] = partial[lid];
+}
+
+/* Group g (of nblocks, g > 0 adds) adds the sum of block_sums[0..g) to block g's offsets; the
+ * last group writes the grand total to total[slot]. */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_finish(
+    __global uint* out, uint n, __global const uint* block_sums, uint nblocks,
+    __global uint* total, uint slot) {
+  __local uint partial[VM_SCAN_WG];
+  const uint lid = get_local_id(0), g = get_group_id(0);
+  uint sum = 0;
+  for (uint b = lid; b < g; b += VM_SCAN_WG) sum += block_sums[b];
+  partial[lid] = sum;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (uint off = VM_SCAN_WG / 2; off > 0; off >>= 1) {
+    if (lid < off) partial[lid] += partial[lid + off];
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  const uint base = partial[0];
+  if (g > 0)
+    for (uint k = 0; k < VM_SCAN_PER_ITEM; ++k) {
+      const uint i = g * VM_SCAN_BLOCK + k * VM_SCAN_WG + lid;
+      if (i < n) out[i] += base;
+    }
+  if (g + 1 == nblocks && lid == 0) total[slot] = base + block_sums[g];
+}
+
+/* Zeroes n words of a and of b: two fills in one launch. */
+__kernel void zero_words2(uint n, __global uint* a, __global uint* b) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  a[i] = 0;
+  b[i] = 0;
 }
 
 __kernel void scan_add(__global uint* out, uint n, __global const uint* block_offsets) {
   uint i = get_global_id(0);
   if (i < n) out[i] += block_offsets[i / VM_SCAN_BLOCK];
-}
-
-/* Writes counts[n-1] + offsets[n-1] (the total) to total[slot]; n > 0. */
-__kernel void scan_total(__global const uint* counts, __global const uint* offsets, uint n,
-                         __global uint* total, uint slot) {
-  if (get_global_id(0) == 0) total[slot] = n ? offsets[n - 1] + counts[n - 1] : 0;
 }

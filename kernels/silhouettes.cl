@@ -62,6 +62,17 @@ inline uint key_hash(EdgeKey k) {
  * (every edge from the third on folds in itself and the first two). Usual edges (two triangles)
  * cost one or two compare-and-swaps, not one per counter. All start at 0 but slot_min
  * (0xffffffff). */
+/* The table's four arrays as edge_insert expects them, in one launch (issue 17: not four fills). */
+__kernel void edge_table_clear(uint size, __global uint* table, __global uint* second,
+                               __global uint* many, __global uint* slot_min) {
+  uint i = get_global_id(0);
+  if (i >= size) return;
+  table[i] = 0;
+  second[i] = 0;
+  many[i] = 0;
+  slot_min[i] = 0xffffffffu;
+}
+
 __kernel void edge_insert(__global const VmScreenTri* tris, uint nedges, __global uint* table,
                           uint mask, __global uint* slot_of_edge, __global uint* second,
                           __global uint* many, __global uint* slot_min, __global uint* status) {

@@ -2,9 +2,13 @@
  * triangle, run twice: clip_count sizes the output, clip_fill writes it at the scanned offsets.
  * Both run the same deterministic code, so the counts match by construction. */
 
+/* Item 0 also zeroes the frame's four depth exponents (depth_exponents, clip_cells): one launch,
+ * not a fill besides. */
 __kernel void transform_vertices(__global const float* pos, uint nv, __constant double* m,
-                                 __global double4* clip) {
+                                 __global double4* clip, __global int* depth_ex) {
   uint i = get_global_id(0);
+  if (i == 0)
+    for (int k = 0; k < 4; ++k) depth_ex[k] = 0;
   if (i >= nv) return;
   double x = pos[3 * i], y = pos[3 * i + 1], z = pos[3 * i + 2];
   /* column-major 4x4, as OpenGL */
@@ -312,8 +316,10 @@ __kernel void clip_fill(__global const uint* idx, uint ntri, __global const doub
                         __global const uint* mesh_cull, uint width, uint height, int ortho,
                         int4 region, __global const ushort4* boxes, int use_boxes,
                         __global const uint* offsets, __global VmScreenTri* out,
-                        __global float* bary_out, int want_bary) {
+                        __global float* bary_out, int want_bary, __global uint* totals) {
   uint t = get_global_id(0);
+  if (t == 0) /* the region's totals (layout.h VM_TOTAL_*), zeroed here: one launch less */
+    for (int k = 0; k < VM_TOTAL_SLOTS; ++k) totals[k] = 0;
   if (t >= ntri) return;
   if (!box_meets(boxes, use_boxes, t, region)) return;
   VmGrid none = {0, 0, 0, 0};

@@ -11,17 +11,17 @@ namespace {
 
 constexpr Stage kStage = Stage::Bin;
 
-// Counts, scans and fills the lists of the leaves given by lv.tile_leaf (lv.leaves of them).
+// Counts, scans and fills the lists of the leaves given by lv.tile_leaf (lv.leaves of them);
+// identity: the coarse pass, whose map leaf_init writes (every tile one leaf).
 void fill_leaves(ClRuntime& rt, cl::Buffer& bb, uint32_t n, const VmGrid& g, Leaves& lv,
-                 cl::Buffer& count) {
+                 cl::Buffer& count, cl_uint identity) {
   count = rt.alloc(size_t(lv.leaves) * 4, "leaf counts");
   lv.offset = rt.alloc(size_t(lv.leaves) * 4, "leaf offsets");
-  rt.fill_u32(count, 0, lv.leaves, kStage);
+  cl::Buffer cursor = rt.alloc(size_t(lv.leaves) * 4, "leaf cursors");
+  rt.launch(kStage, "leaf_init", lv.leaves, lv.leaves, identity, lv.tile_leaf, count, cursor);
   rt.launch(kStage, "leaf_bin", n, bb, n, g, lv.tile_leaf, count, count, count, count, cl_int(0));
   lv.entries = rt.scan(kStage, count, lv.offset, lv.leaves);
   lv.list = rt.alloc(std::max<size_t>(lv.entries, 1) * 4, "leaf lists");
-  cl::Buffer cursor = rt.alloc(size_t(lv.leaves) * 4, "leaf cursors");
-  rt.fill_u32(cursor, 0, lv.leaves, kStage);
   rt.launch(kStage, "leaf_bin", n, bb, n, g, lv.tile_leaf, count, lv.offset, cursor, lv.list,
             cl_int(1));
 }
@@ -36,18 +36,17 @@ Leaves bin_leaves(ClRuntime& rt, cl::Buffer& bb, uint32_t n, const VmGrid& g) {
   cl::Buffer count;
   lv.tile_leaf = rt.alloc(size_t(ntiles) * 4, "tile leaves");
   lv.leaves = ntiles;
-  rt.launch(kStage, "leaf_identity", ntiles, ntiles, lv.tile_leaf);
-  fill_leaves(rt, bb, n, g, lv, count);
+  fill_leaves(rt, bb, n, g, lv, count, 1);
   // The map is rewritten only after the last use of the coarse one (the queue is in order).
   cl::Buffer per_tile = rt.alloc(size_t(ntiles) * 4, "leaves per tile");
   cl::Buffer first = rt.alloc(size_t(ntiles) * 4, "first leaf per tile");
   rt.launch(kStage, "bin_depth", ntiles, lv.offset, count, ntiles, bb, g, lv.list, lv.tile_leaf,
             per_tile);
   const uint32_t leaves = rt.scan(kStage, per_tile, first, ntiles);
-  rt.launch(kStage, "bin_pack", ntiles, ntiles, first, lv.tile_leaf);
   if (leaves != ntiles) {  // some tile split: bin again into the leaves (else the map is the same)
+    rt.launch(kStage, "bin_pack", ntiles, ntiles, first, lv.tile_leaf);
     lv.leaves = leaves;
-    fill_leaves(rt, bb, n, g, lv, count);
+    fill_leaves(rt, bb, n, g, lv, count, 0);
   }
   lv.class_start = rt.alloc(size_t(lv.leaves) * sizeof(cl_uint4), "leaf class starts");
   rt.launch(kStage, "leaf_sort_classes", ntiles, ntiles, lv.tile_leaf, lv.offset, count, lv.list,

@@ -1,6 +1,7 @@
 #include "core/stages/clip.h"
 
 #include <algorithm>
+#include <vector>
 
 namespace vismap::stages {
 
@@ -8,8 +9,8 @@ namespace {
 
 // Rounds run per read-back after the first. The queue length lives on the device (VM_CLIP_*
 // state, clip.cl), so a batch of rounds needs no host decision in between; a round after the
-// queue has emptied costs its launches (find, the scans, apply: 6-10) over a grid of items that
-// leave at once. Measured queues (1024^2): the bunny shrinks from 7,650 after round 1 to 0 in 11
+// queue has emptied costs its launches (find and apply: 2) over a grid of items that leave at
+// once. Measured queues (1024^2): the bunny shrinks from 7,650 after round 1 to 0 in 11
 // more rounds, the teapot in 17, the Cornell box with the armadillo in 53 (growing 492 -> 1,420
 // in rounds 8-16). Four rounds per read wastes at most three rounds' launches a frame and saves
 // three reads in four: on the issue-17 GPU model a read (17 us) is three launches (5.5 us), so a
@@ -63,35 +64,45 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
     out.lines = l2;
     done_cap = cap;
   };
-  cl::Buffer split_at, ncount, dcount, noff, doff;
-  uint32_t scratch = 0;
-  // A round over `grid` items of q[qi], in two halves: find (the cuts, the scans of the counts:
-  // one, packed, for a grid of at most VM_CLIP_PACK_MAX; returns whether packed)
-  // and apply, which writes the children to q[qi ^ 1] if they fit next_grid (else the rounds
-  // stop, clip.cl). resume: run even though the state says stopped (the host made room).
+  cl::Buffer split_at, ncount, dcount, noff, doff, block_sums;
+  uint32_t scratch = 0, count_cap = 0;
+  // A round over `grid` items of q[qi], in two halves: find (the cuts and, for a grid of at
+  // most VM_CLIP_FUSED_MAX, each work-group's scan of its counts; above, the counts scanned
+  // into totals by two scans; returns whether fused) and apply, which writes the children to
+  // q[qi ^ 1] if they fit next_grid (else the rounds stop, clip.cl). resume: run even though the
+  // state says stopped (the host made room).
   auto find = [&](uint32_t qi, uint32_t grid, cl_uint resume) {
     // Under a budget: this round's, as it needs; else reused while it is at most 4x the grid
     // (the first round's, sized for every screen triangle, is not kept for the small ones).
+    const cl_uint fused = grid <= VM_CLIP_FUSED_MAX;
     if (grid > scratch || budget.limited() || grid < scratch / 4) {
+      const size_t groups = (size_t(grid) + VM_SCAN_WG - 1) / VM_SCAN_WG;
       split_at = rt.alloc(size_t(grid) * 4, "split edges");
-      ncount = rt.alloc(size_t(grid) * 4, "queue counts");
-      dcount = rt.alloc(size_t(grid) * 4, "done counts");
       noff = rt.alloc(size_t(grid) * 4, "queue offsets");
       doff = rt.alloc(size_t(grid) * 4, "done offsets");
+      block_sums = rt.alloc(groups * 8, "clip group totals");
       scratch = grid;
     }
-    const cl_uint packed = grid <= VM_CLIP_PACK_MAX;
-    rt.launch(kStage, "clip_find", grid, q[qi].meta, q[qi].lines, grid, state, sc, resume, packed,
-              cand.offset, cand.count, cand.list, ce.edges, split_at, ncount, dcount, totals);
-    rt.scan_to(kStage, ncount, noff, grid, totals, VM_TOTAL_NEXT);
-    if (!packed) rt.scan_to(kStage, dcount, doff, grid, totals, VM_TOTAL_DONE);
-    return packed;
+    if (!fused && (count_cap < grid || budget.limited())) {
+      ncount = rt.alloc(size_t(grid) * 4, "queue counts");
+      dcount = rt.alloc(size_t(grid) * 4, "done counts");
+      count_cap = grid;
+    }
+    rt.launch_grouped(kStage, "clip_find", grid, VM_SCAN_WG, q[qi].meta, q[qi].lines, grid, state,
+                      sc, resume, fused, cand.offset, cand.count, cand.list, ce.edges, split_at,
+                      fused ? noff : ncount, fused ? doff : dcount, block_sums, totals);
+    if (!fused) {
+      rt.scan_to(kStage, ncount, noff, grid, totals, VM_TOTAL_NEXT);
+      rt.scan_to(kStage, dcount, doff, grid, totals, VM_TOTAL_DONE);
+    }
+    return fused;
   };
   auto apply = [&](uint32_t qi, uint32_t grid, uint32_t next_grid, cl_uint resume,
-                   cl_uint packed) {
-    rt.launch(kStage, "clip_apply", grid, q[qi].meta, q[qi].lines, grid, state, sc, resume, packed,
-              totals, next_grid, done_cap, cand.offset, cand.list, ce.edges, split_at, noff, doff,
-              q[qi ^ 1].meta, q[qi ^ 1].lines, out.meta, out.lines);
+                   cl_uint fused) {
+    rt.launch_grouped(kStage, "clip_apply", grid, VM_SCAN_WG, q[qi].meta, q[qi].lines, grid, state,
+                      sc, resume, fused, totals, block_sums, next_grid, done_cap, cand.offset,
+                      cand.list, ce.edges, split_at, noff, doff, q[qi ^ 1].meta, q[qi ^ 1].lines,
+                      out.meta, out.lines);
     sc ^= 1;
   };
   auto check_status = [](const uint32_t* tot) {
@@ -111,13 +122,23 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
     // once.
     const uint32_t room = std::min(q[0].cap, q[1].cap);
     if (out.rounds == 0 || budget.limited() || resume || room < nq) {
-      const cl_uint packed = find(live, nq, resume);
+      const cl_uint fused = find(live, nq, resume);
       uint32_t tot[VM_TOTAL_SLOTS];
-      rt.read(kStage, totals, 0, sizeof tot, tot);
+      uint32_t nn = 0, dn = 0;
+      if (fused) {  // the round's counts: the sum of its groups' totals
+        std::vector<uint32_t> sums(2 * ((size_t(nq) + VM_SCAN_WG - 1) / VM_SCAN_WG));
+        rt.read_async(kStage, totals, 0, sizeof tot, tot);
+        rt.read(kStage, block_sums, 0, sums.size() * 4, sums.data());
+        for (size_t g = 0; g < sums.size(); g += 2) {
+          nn += sums[g];
+          dn += sums[g + 1];
+        }
+      } else {
+        rt.read(kStage, totals, 0, sizeof tot, tot);
+        nn = tot[VM_TOTAL_NEXT];
+        dn = tot[VM_TOTAL_DONE];
+      }
       if (!check_status(tot)) return ClipStatus::LinesOverflow;
-      const uint32_t pmask = (1u << VM_CLIP_PACK_SHIFT) - 1;
-      const uint32_t nn = packed ? tot[VM_TOTAL_NEXT] & pmask : tot[VM_TOTAL_NEXT];
-      const uint32_t dn = packed ? tot[VM_TOTAL_NEXT] >> VM_CLIP_PACK_SHIFT : tot[VM_TOTAL_DONE];
       const bool grow = uint64_t(out.count) + dn > done_cap;
       const uint32_t cap = grow ? std::max<uint32_t>(done_cap + done_cap / 2, out.count + dn) : 0;
       // Held at once: the finished list (old and new while it grows), this round's queue and
@@ -130,7 +151,7 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
       // Under a budget the next queue is what it needs; otherwise room for a batch to grow.
       if (budget.limited() || next.cap < nn)
         next = alloc_queue(budget.limited() ? nn : uint32_t(std::min<uint64_t>(growth * uint64_t(nn), UINT32_MAX)));
-      apply(live, nq, next.cap, resume, packed);  // cannot stop: the host made room for this round
+      apply(live, nq, next.cap, resume, fused);  // cannot stop: the host made room for this round
       out.count += dn;
       ++out.rounds;
       nq = nn;
@@ -145,8 +166,8 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
     } else {
       const uint32_t grid = uint32_t(std::min<uint64_t>(growth * uint64_t(nq), room));
       for (uint32_t r = 0; r < kRoundsPerRead; ++r) {
-        const cl_uint packed = find(live ^ (r & 1), grid, 0);
-        apply(live ^ (r & 1), grid, grid, 0, packed);
+        const cl_uint fused = find(live ^ (r & 1), grid, 0);
+        apply(live ^ (r & 1), grid, grid, 0, fused);
       }
       uint32_t tot[VM_TOTAL_SLOTS], st[VM_CLIP_WORDS];
       rt.read_async(kStage, totals, 0, sizeof tot, tot);

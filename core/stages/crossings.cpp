@@ -37,8 +37,9 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
     cx.pair_line = rt.alloc(P1 * sizeof(VmLine), "pairs");
     // Triangles whose pairs fit their slots are copied; after an overflow the others traverse
     // again, straight into the compact arrays.
-    rt.launch(kStage, "cross_compact", S, S, cx.pcount, cx.poffset, scr_o, scr_rel, scr_line,
-              cx.pair_t, cx.pair_o, cx.pair_rel, cx.pair_line);
+    if (cx.pairs > 0)  // (with none, nothing to copy, and no overflow)
+      rt.launch(kStage, "cross_compact", S, S, cx.pcount, cx.poffset, scr_o, scr_rel, scr_line,
+                cx.pair_t, cx.pair_o, cx.pair_rel, cx.pair_line);
     if (status & VM_STATUS_PAIRS_OVERFLOW)
       rt.launch(kStage, "cross_pairs_fill", S, s.tris, S, tb.bb, tb.qr, tb.grid, lv.tile_leaf,
                 lv.offset, lv.class_start, lv.list, cx.pcount, cx.poffset, cx.pair_t, cx.pair_o,
@@ -55,9 +56,8 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
   if (P == 0) {
     // Every entry comes from a pair (its own lines and partner edges, incoming pairs, the lines
     // of two partners): with none, every count and offset is 0, known without the scans and
-    // their two reads (the bunny: 10 launches and 2 reads of its frame).
-    rt.fill_u32(cx.entry_count, 0, S, kStage);
-    rt.fill_u32(cx.entry_offset, 0, S, kStage);
+    // their two reads (the bunny: 10 launches and 2 reads of its frame); both zeroed in one.
+    rt.launch(kStage, "zero_words2", S, S, cx.entry_count, cx.entry_offset);
     cx.entries = 0;
     return budget.allows_more(rt, 0);
   }

@@ -16,9 +16,11 @@ Visibility decide_visibility(ClRuntime& rt, const Fragments& fr, const ScreenSet
   rt.launch(kStage, "occlude", nd, fr.meta, fr.lines, nd, s.tris, tb.bb, tb.grid, lv.tile_leaf,
             lv.offset, lv.class_start, lv.list, ce.edges, ce.silhouettes, cx.entry_offset,
             cx.entry_count, ce.partner, v.visible, totals);
-  // Thin fragments and deep tournaments, counted by occlude, in one read.
-  static_assert(VM_TOTAL_DEEP == VM_TOTAL_THIN + 1, "read together");
-  uint32_t counts[2];
+  // Thin fragments and deep tournaments, counted by occlude, and the visible count in one read:
+  // the scan is right unless a fragment was thin or deep (their passes change the visibility,
+  // and it is scanned again after them).
+  rt.scan_to(kStage, v.visible, v.offset, nd, totals, VM_TOTAL_VISIBLE);
+  uint32_t counts[VM_TOTAL_VISIBLE - VM_TOTAL_THIN + 1];
   rt.read(kStage, totals, VM_TOTAL_THIN * 4, sizeof counts, counts);
   v.thin = counts[0];
   if (v.thin > 0) {  // cells thinner than the fine sample grid: decided at exact rational points
@@ -40,7 +42,8 @@ Visibility decide_visibility(ClRuntime& rt, const Fragments& fr, const ScreenSet
               lv.tile_leaf, lv.offset, lv.class_start, lv.list, ce.edges, ce.silhouettes,
               cx.entry_offset, cx.entry_count, ce.partner, room, scratch, total, v.visible);
   }
-  v.count = rt.scan(kStage, v.visible, v.offset, nd);
+  v.count = v.thin || v.deep ? rt.scan(kStage, v.visible, v.offset, nd)
+                             : counts[VM_TOTAL_VISIBLE - VM_TOTAL_THIN];
   return v;
 }
 

@@ -4,9 +4,8 @@
 
 namespace vismap::stages {
 
-Silhouettes find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals) {
+void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Silhouettes& sil) {
   constexpr Stage kStage = Stage::Silhouettes;
-  Silhouettes sil;
   const uint32_t nedges = 3 * s.count;
   sil.edges_in = nedges;
   sil.flags = rt.alloc(size_t(nedges) * 4, "edge flags");
@@ -18,20 +17,18 @@ Silhouettes find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& tota
   cl::Buffer many = rt.alloc(size_t(table_size) * 4, "edge hash shared flags");
   cl::Buffer slot_min = rt.alloc(size_t(table_size) * 4, "edge slot min");
   cl::Buffer slot_of_edge = rt.alloc(size_t(nedges) * 4, "edge slots");
-  rt.fill_u32(table, 0, table_size, kStage);
-  rt.fill_u32(second, 0, table_size, kStage);
-  rt.fill_u32(many, 0, table_size, kStage);
-  rt.fill_u32(slot_min, 0xffffffffu, table_size, kStage);
+  rt.launch(kStage, "edge_table_clear", table_size, table_size, table, second, many, slot_min);
   rt.launch(kStage, "edge_insert", nedges, s.tris, nedges, table, table_size - 1, slot_of_edge,
             second, many, slot_min, totals);
   rt.launch(kStage, "edge_classify", nedges, s.tris, nedges, slot_of_edge, table, second, many,
             slot_min, sil.flags);
-  sil.count = rt.scan(kStage, sil.flags, sil.offsets, nedges);
-  return sil;
+  rt.scan_to(kStage, sil.flags, sil.offsets, nedges, totals, VM_TOTAL_SILHOUETTES);
+  rt.read_async(kStage, totals, VM_TOTAL_SILHOUETTES * 4, 4, &sil.count);
 }
 
 ClipEdges emit_silhouettes(ClRuntime& rt, const ScreenSet& s, const Silhouettes& sil,
                            uint32_t crossing_entries) {
+  rt.complete_reads(Stage::Silhouettes);  // sil.count (a blocking read since has done it)
   ClipEdges ce;
   ce.silhouettes = sil.count;
   ce.crossings = crossing_entries;

@@ -1,5 +1,7 @@
 #include "core/stages/transform.h"
 
+#include <algorithm>
+
 namespace vismap::stages {
 
 // Back faces are culled only where that cannot change the picture: a closed, consistently
@@ -36,14 +38,15 @@ Frame begin_frame(ClRuntime& rt, const SceneBuffers& sb, const Scene& scene, con
   f.mat = rt.upload(std::vector<double>(vp.begin(), vp.end()), "view-projection");
   f.mesh_cull = rt.upload(cull_modes(scene, sb.closed, cam), "cull modes");
   f.clip = rt.alloc(size_t(sb.nv) * sizeof(cl_double4), "clip-space vertices");
-  rt.launch(stage, "transform_vertices", sb.nv, sb.pos, sb.nv, f.mat, f.clip);
+  f.depth_ex = rt.alloc(4 * sizeof(cl_int), "depth exponents");  // zeroed by transform_vertices
+  f.totals = rt.alloc(VM_TOTAL_SLOTS * 4, "totals");              // zeroed by clip_fill
+  rt.launch(stage, "transform_vertices", std::max<uint32_t>(sb.nv, 1), sb.pos, sb.nv, f.mat,
+            f.clip, f.depth_ex);
   f.counts = rt.alloc(size_t(sb.ntri) * 4, "clip counts");
   f.offsets = rt.alloc(size_t(sb.ntri) * 4, "clip offsets");
   f.ortho = cam.projection == Camera::Projection::Orthographic ? 1 : 0;
   f.full = {{0, 0, cl_int(cam.width * VM_GRID_SCALE), cl_int(cam.height * VM_GRID_SCALE)}};
   f.boxes = rt.alloc(16, "triangle boxes");  // plan_buckets fills it for buckets
-  f.depth_ex = rt.alloc(4 * sizeof(cl_int), "depth exponents");
-  rt.fill_u32(f.depth_ex, 0, 4, stage);
   return f;
 }
 
@@ -63,7 +66,7 @@ ScreenSet fill_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl
   const cl_int want = bary ? 1 : 0;
   rt.launch(stage, "clip_fill", sb.ntri, sb.idx, sb.ntri, fr.clip, sb.tri_mesh, sb.tri_local,
             fr.mesh_cull, fr.W, fr.H, fr.ortho, region, fr.boxes, fr.use_boxes, fr.offsets, s.tris,
-            s.bary, want);
+            s.bary, want, fr.totals);
   return s;
 }
 

@@ -32,6 +32,9 @@ struct Frame {
   // has noted every screen triangle (buckets), else per screen set.
   cl::Buffer depth_ex;
   bool depth_ex_done = false;
+  // The region's VM_TOTAL_* words (counts and status flags the kernels raise), zeroed by
+  // fill_screen for each region.
+  cl::Buffer totals;
   cl_int4 full{};
 };
 
@@ -50,7 +53,8 @@ Frame begin_frame(ClRuntime& rt, const SceneBuffers& sb, const Scene& scene, con
 // Sizes the region's screen triangles (the frame's counts and offsets); returns S.
 uint32_t count_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl_int4& region,
                       Stage stage);
-// Writes the S triangles counted by count_screen, with barycentrics when `bary`.
+// Writes the S triangles counted by count_screen, with barycentrics when `bary`, and zeroes
+// fr.totals.
 ScreenSet fill_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl_int4& region,
                       uint32_t S, bool bary, Stage stage);
 // The depth planes snapped to integers over one 2^k (snap_depth_planes): crossing lines between
