@@ -14,7 +14,7 @@ namespace vismap::stages {
 struct Silhouettes {
   cl::Buffer flags, offsets;  // per screen-triangle edge (3 S): silhouette or not, its place
   uint32_t edges_in = 0;      // 3 S
-  uint32_t count = 0;         // E: read without blocking, valid from emit_silhouettes on
+  uint32_t count = 0;         // E: read without blocking, set by emit_silhouettes
 };
 
 // The clipping edges of a region: E silhouette edges, then X crossing entries (crossings.cpp);
@@ -25,13 +25,12 @@ struct ClipEdges {
 };
 
 // Classifies the edges (a full hash table raises VM_STATUS_HASH_FULL in totals). Their count
-// lands in totals[VM_TOTAL_SILHOUETTES] and is read into sil.count without a blocking read of its
-// own (nothing needs it before the clipping edges are allocated), so `sil` must stay where it is
-// until emit_silhouettes.
+// lands in totals[VM_TOTAL_SILHOUETTES] and is read into rt.host_word(0) without a blocking read
+// of its own (nothing needs it before the clipping edges are allocated).
 void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Silhouettes& sil);
-// Allocates the E + X clipping edges (after the count's read has completed) and writes the E
-// silhouette edges.
-ClipEdges emit_silhouettes(ClRuntime& rt, const ScreenSet& s, const Silhouettes& sil,
+// Sets sil.count (after the count's read has completed), allocates the E + X clipping edges and
+// writes the E silhouette edges.
+ClipEdges emit_silhouettes(ClRuntime& rt, const ScreenSet& s, Silhouettes& sil,
                            uint32_t crossing_entries);
 
 }  // namespace vismap::stages
