@@ -83,9 +83,9 @@ class ClRuntime {
   // Makes every earlier read_async complete: free when a blocking read (or collect_profile) came
   // after the last of them, else one wait for the queue, counted as a blocking read of `stage`.
   void complete_reads(Stage stage);
-  // Host words owned by the runtime for read_async targets that must outlive the caller's frame
-  // (a stage that throws before the next blocking read leaves no read into freed memory).
-  uint32_t* host_word(size_t i) { return &host_words_.at(i); }
+  // A host word owned by the runtime, for a read_async target that must outlive the caller's
+  // frame (a stage that throws before the next blocking read leaves no read into freed memory).
+  uint32_t* host_word() { return &host_word_; }
   // Device-side copy, recorded as a launch of `stage` ("copy") that moves 2 x bytes.
   void copy(Stage stage, const cl::Buffer& src, cl::Buffer& dst, size_t bytes);
   uint32_t host_syncs() const { return syncs_; }
@@ -171,7 +171,7 @@ class ClRuntime {
   uint64_t peak_ = 0;
   uint32_t syncs_ = 0;
   bool async_pending_ = false;  // a read_async not yet followed by a blocking read
-  std::array<uint32_t, 4> host_words_{};
+  uint32_t host_word_ = 0;
   uint64_t pending_bytes_ = 0;  // buffer sizes of the launch being set up
   uint64_t write_bytes_ = 0;
   std::array<uint32_t, kStageCount> stage_syncs_{};

@@ -188,17 +188,12 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_find(
     }
     return;
   }
-  /* The group's exclusive offsets (Hillis-Steele, both counts at once), as scan_blocks. */
+  /* The group's exclusive offsets (scan.cl's group scan of each count). */
   scan_n[lid] = children;
   scan_d[lid] = finished;
   barrier(CLK_LOCAL_MEM_FENCE);
-  for (uint o = 1; o < VM_SCAN_WG; o <<= 1) {
-    const uint tn = lid >= o ? scan_n[lid - o] : 0, td = lid >= o ? scan_d[lid - o] : 0;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    scan_n[lid] += tn;
-    scan_d[lid] += td;
-    barrier(CLK_LOCAL_MEM_FENCE);
-  }
+  vm_group_scan(scan_n, lid);
+  vm_group_scan(scan_d, lid);
   if (i < grid) {
     next_count[i] = scan_n[lid] - children;
     done_count[i] = scan_d[lid] - finished;

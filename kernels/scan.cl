@@ -10,6 +10,17 @@
 /* VM_SCAN_WG, VM_SCAN_PER_ITEM, VM_SCAN_BLOCK and VM_SCAN_FINISH_MAX: layout.h (the host launches
  * by them). */
 
+/* Inclusive scan of a work-group's VM_SCAN_WG values in a (Hillis-Steele), in place; every item
+ * of the group calls it, after a barrier that follows its write of a[lid]. */
+inline void vm_group_scan(__local uint* a, uint lid) {
+  for (uint off = 1; off < VM_SCAN_WG; off <<= 1) {
+    uint t = lid >= off ? a[lid - off] : 0;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    a[lid] += t;
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+}
+
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_blocks(
     __global const uint* in, __global uint* out, uint n, __global uint* block_sums, uint sum_slot) {
   __local uint partial[VM_SCAN_WG];
@@ -24,13 +35,7 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_block
   }
   partial[lid] = sum;
   barrier(CLK_LOCAL_MEM_FENCE);
-  /* Hillis-Steele inclusive scan of the per-item sums. */
-  for (uint off = 1; off < VM_SCAN_WG; off <<= 1) {
-    uint t = lid >= off ? partial[lid - off] : 0;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    partial[lid] += t;
-    barrier(CLK_LOCAL_MEM_FENCE);
-  }
+  vm_group_scan(partial, lid); /* of the per-item sums */
   uint run = partial[lid] - sum; /* exclusive */
   for (int k = 0; k < VM_SCAN_PER_ITEM; ++k) {
     uint i = base + k;

@@ -23,13 +23,13 @@ void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Sil
   rt.launch(kStage, "edge_classify", nedges, s.tris, nedges, slot_of_edge, table, second, many,
             slot_min, sil.flags);
   rt.scan_to(kStage, sil.flags, sil.offsets, nedges, totals, VM_TOTAL_SILHOUETTES);
-  rt.read_async(kStage, totals, VM_TOTAL_SILHOUETTES * 4, 4, rt.host_word(0));
+  rt.read_async(kStage, totals, VM_TOTAL_SILHOUETTES * 4, 4, rt.host_word());
 }
 
 ClipEdges emit_silhouettes(ClRuntime& rt, const ScreenSet& s, Silhouettes& sil,
                            uint32_t crossing_entries) {
   rt.complete_reads(Stage::Silhouettes);  // the count (a blocking read since has done it)
-  sil.count = *rt.host_word(0);
+  sil.count = *rt.host_word();
   ClipEdges ce;
   ce.silhouettes = sil.count;
   ce.crossings = crossing_entries;

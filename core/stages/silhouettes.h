@@ -25,7 +25,7 @@ struct ClipEdges {
 };
 
 // Classifies the edges (a full hash table raises VM_STATUS_HASH_FULL in totals). Their count
-// lands in totals[VM_TOTAL_SILHOUETTES] and is read into rt.host_word(0) without a blocking read
+// lands in totals[VM_TOTAL_SILHOUETTES] and is read into rt.host_word() without a blocking read
 // of its own (nothing needs it before the clipping edges are allocated).
 void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Silhouettes& sil);
 // Sets sil.count (after the count's read has completed), allocates the E + X clipping edges and
