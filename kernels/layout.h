@@ -114,21 +114,25 @@ typedef struct {
 #define VM_STATUS_HASH_FULL 2u
 #define VM_STATUS_PAIRS_OVERFLOW 4u
 
-/* The clip rounds' queue state on the device (clip.cl), so that several rounds run per read-back:
- * two copies of VM_CLIP_WORDS words; round r reads copy r % 2 and its clip_apply writes the other.
- * STOP: 0 while running, else the VM_CLIP_STOP_* reason the rounds stopped at (the queue is left
- * as it was, for the host to grow the lists and go on); NEXT and DONE: the last round's counts,
- * or those that did not fit. */
+/* The clip passes' queue state on the device (clip.cl), so that several passes run per
+ * read-back: two copies of VM_CLIP_WORDS words; pass p reads copy p % 2 and its clip_apply writes
+ * the other. STOP: 0 while running, else the VM_CLIP_STOP_* reason the passes stopped at (the
+ * queue is left as it was, for the host to grow the lists and go on). */
 #define VM_CLIP_NQ 0     /* fragments in the queue */
 #define VM_CLIP_DONE 1   /* finished fragments so far (the finished list's length) */
-#define VM_CLIP_STOP 2   /* 0, or why the rounds stopped */
-#define VM_CLIP_ROUNDS 3 /* rounds that ran on a non-empty queue, since the host set the state */
-#define VM_CLIP_NEXT 4   /* the last round's children */
-#define VM_CLIP_NDONE 5  /* the last round's finished fragments */
+#define VM_CLIP_STOP 2   /* 0, or why the passes stopped */
+#define VM_CLIP_ROUNDS 3 /* rounds (levels of splits) that ran on fragments since the host set it */
+#define VM_CLIP_PASSES 4 /* passes that ran on a non-empty queue (each swaps the queue's buffers) */
 #define VM_CLIP_WORDS 8
-#define VM_CLIP_STOP_QUEUE 1u /* the children did not fit the next round's grid */
+/* A pass runs up to VM_CLIP_LEVELS rounds, the children of all but the last kept in private
+ * memory (clip.cl clip_walk): each item records the cuts of a binary tree of VM_CLIP_NODES nodes
+ * and counts VM_CLIP_COUNTS numbers (the last level's children, each level's finished). */
+#define VM_CLIP_LEVELS 3
+#define VM_CLIP_NODES ((1 << VM_CLIP_LEVELS) - 1)
+#define VM_CLIP_COUNTS (VM_CLIP_LEVELS + 1)
+#define VM_CLIP_STOP_QUEUE 1u /* the children did not fit the next pass's grid */
 #define VM_CLIP_STOP_DONE 2u  /* the finished fragments did not fit the finished list */
-/* A round over at most VM_CLIP_FUSED_MAX items is two launches: clip_find scans each group's
+/* A pass over at most VM_CLIP_FUSED_MAX items is two launches: clip_find scans each group's
  * counts, clip_apply sums the groups' totals (at most 16 loads an item); above, the counts are
  * scanned between them. */
 #define VM_CLIP_FUSED_MAX (4096u * VM_SCAN_WG)
@@ -210,7 +214,8 @@ static_assert(VM_SCAN_BLOCK == VM_SCAN_WG * VM_SCAN_PER_ITEM &&
                   (VM_SCAN_WG & (VM_SCAN_WG - 1)) == 0,
               "scan blocks of a power-of-two work-group");
 static_assert(VM_PAIRS_INLINE >= 1, "inline pair slots");
-static_assert(VM_CLIP_NDONE < VM_CLIP_WORDS, "clip state words");
+static_assert(VM_CLIP_PASSES < VM_CLIP_WORDS, "clip state words");
+static_assert(VM_CLIP_COUNTS == 4, "clip.cl packs and sums a pass's counts as four words");
 #endif
 
 #endif

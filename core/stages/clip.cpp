@@ -7,15 +7,31 @@ namespace vismap::stages {
 
 namespace {
 
-// Rounds run per read-back after the first. The queue length lives on the device (VM_CLIP_*
-// state, clip.cl), so a batch of rounds needs no host decision in between; a round after the
-// queue has emptied costs its launches (find and apply: 2) over a grid of items that leave at
-// once. Measured queues (1024^2): the bunny shrinks from 7,650 after round 1 to 0 in 11
-// more rounds, the teapot in 17, the Cornell box with the armadillo in 53 (growing 492 -> 1,420
-// in rounds 8-16). Four rounds per read wastes at most three rounds' launches a frame and saves
-// three reads in four: on the issue-17 GPU model a read (17 us) is three launches (5.5 us), so a
-// longer batch would pay more in idle rounds than it saves; on PoCL a read is ~50 us.
-constexpr uint32_t kRoundsPerRead = 4;
+// Passes run per read-back after the first; a pass (clip_find and clip_apply: two launches)
+// runs VM_CLIP_LEVELS rounds. The queue length lives on the device (VM_CLIP_* state, clip.cl),
+// so a batch of passes needs no host decision in between; a pass after the queue has emptied
+// costs its launches over a grid of items that leave at once. Measured queues (1024^2): the
+// bunny shrinks from 7,650 after round 1 to 0 in 11 more rounds, the teapot in 17, the Cornell
+// box with the armadillo in 53 (growing 492 -> 1,420 in rounds 8-16). Two passes (six rounds)
+// per read waste at most one pass's launches a frame: on the issue-17 GPU model a read (17 us)
+// is three launches (5.5 us), so a longer batch would pay more in idle passes than it saves.
+constexpr uint32_t kPassesPerRead = 2;
+
+// Scratch words a pass holds per item: its cuts, its children's offset, each level's finished
+// offsets, and the counts of an unfused pass.
+constexpr uint64_t kScratchBytes = 4 * (VM_CLIP_NODES + 1 + VM_CLIP_LEVELS + 2);
+
+// Rounds a pass ran, from its counts: level 0 on a non-empty queue, level l > 0 on the
+// fragments level l - 1 split (level l's finished, and half of level l + 1's, the last level's
+// being the children).
+uint32_t rounds_of_pass(uint32_t levels, uint32_t nq, uint32_t children, const uint32_t* done) {
+  uint32_t ran = nq > 0, nodes = children;
+  for (uint32_t l = levels - 1; l > 0; --l) {
+    nodes = done[l] + nodes / 2;
+    ran += nodes > 0;
+  }
+  return ran;
+}
 
 struct Queue {
   cl::Buffer meta, lines;
@@ -66,21 +82,22 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
   };
   cl::Buffer split_at, ncount, dcount, noff, doff, block_sums;
   uint32_t scratch = 0, count_cap = 0;
-  // A round over `grid` items of q[qi], in two halves: find (the cuts and, for a grid of at
-  // most VM_CLIP_FUSED_MAX, each work-group's scan of its counts; above, the counts scanned
-  // into totals by two scans; returns whether fused) and apply, which writes the children to
-  // q[qi ^ 1] if they fit next_grid (else the rounds stop, clip.cl). resume: run even though the
-  // state says stopped (the host made room).
+  // A pass over `grid` items of q[qi], in two halves: find (the cuts and, for a grid of at
+  // most VM_CLIP_FUSED_MAX, each work-group's scan of its counts; above, one level, its counts
+  // scanned into totals by two scans; returns the levels) and apply, which writes the children
+  // to q[qi ^ 1] if they fit next_grid (else the passes stop, clip.cl). resume: run even though
+  // the state says stopped (the host made room).
   auto find = [&](uint32_t qi, uint32_t grid, cl_uint resume) {
-    // Under a budget: this round's, as it needs; else reused while it is at most 4x the grid
-    // (the first round's, sized for every screen triangle, is not kept for the small ones).
+    // Under a budget: this pass's, as it needs; else reused while it is at most 4x the grid
+    // (the first pass's, sized for every screen triangle, is not kept for the small ones).
     const cl_uint fused = grid <= VM_CLIP_FUSED_MAX;
+    const cl_uint levels = fused ? VM_CLIP_LEVELS : 1;
     if (grid > scratch || budget.limited() || grid < scratch / 4) {
       const size_t groups = (size_t(grid) + VM_SCAN_WG - 1) / VM_SCAN_WG;
-      split_at = rt.alloc(size_t(grid) * 4, "split edges");
+      split_at = rt.alloc(size_t(grid) * VM_CLIP_NODES * 4, "split edges");
       noff = rt.alloc(size_t(grid) * 4, "queue offsets");
-      doff = rt.alloc(size_t(grid) * 4, "done offsets");
-      block_sums = rt.alloc(groups * 8, "clip group totals");
+      doff = rt.alloc(size_t(grid) * VM_CLIP_LEVELS * 4, "done offsets");
+      block_sums = rt.alloc(groups * VM_CLIP_COUNTS * 4, "clip group totals");
       scratch = grid;
     }
     if (!fused && (count_cap < grid || budget.limited())) {
@@ -89,71 +106,76 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
       count_cap = grid;
     }
     rt.launch_grouped(kStage, "clip_find", grid, VM_SCAN_WG, q[qi].meta, q[qi].lines, grid, state,
-                      sc, resume, fused, cand.offset, cand.count, cand.list, ce.edges, split_at,
-                      fused ? noff : ncount, fused ? doff : dcount, block_sums, totals);
+                      sc, resume, fused, levels, cand.offset, cand.count, cand.list, ce.edges,
+                      split_at, fused ? noff : ncount, fused ? doff : dcount, block_sums, totals);
     if (!fused) {
       rt.scan_to(kStage, ncount, noff, grid, totals, VM_TOTAL_NEXT);
       rt.scan_to(kStage, dcount, doff, grid, totals, VM_TOTAL_DONE);
     }
-    return fused;
+    return levels;
   };
   auto apply = [&](uint32_t qi, uint32_t grid, uint32_t next_grid, cl_uint resume,
-                   cl_uint fused) {
+                   cl_uint levels) {
+    const cl_uint fused = grid <= VM_CLIP_FUSED_MAX;  // as find's
     rt.launch_grouped(kStage, "clip_apply", grid, VM_SCAN_WG, q[qi].meta, q[qi].lines, grid, state,
-                      sc, resume, fused, totals, block_sums, next_grid, done_cap, cand.offset,
-                      cand.list, ce.edges, split_at, noff, doff, q[qi ^ 1].meta, q[qi ^ 1].lines,
-                      out.meta, out.lines);
+                      sc, resume, fused, levels, totals, block_sums, next_grid, done_cap,
+                      cand.offset, cand.list, ce.edges, split_at, noff, doff, q[qi ^ 1].meta,
+                      q[qi ^ 1].lines, out.meta, out.lines);
     sc ^= 1;
   };
   auto check_status = [](const uint32_t* tot) {
     if (tot[VM_TOTAL_STATUS] & VM_STATUS_HASH_FULL) throw DeviceError("edge hash table full");
     return (tot[VM_TOTAL_STATUS] & VM_STATUS_LINES_OVERFLOW) == 0;
   };
-  bool resume = false;  // the rounds stopped for room, which the next (exact) round makes
-  // A batch's grid is `growth` times the queue it starts from: 2, doubled (up to 16) each time
-  // the children outgrew it (a folded surface's queue can grow 1.5x a round).
-  uint32_t growth = 2;
+  bool resume = false;  // the passes stopped for room, which the next (exact) pass makes
+  // A batch's grid is `growth` times the queue it starts from: 4, doubled (up to 16) each time
+  // the children outgrew it (a pass of three rounds can grow the queue 8x; a folded surface's
+  // grows 1.5x a round).
+  uint32_t growth = 4;
+  uint32_t passes = 0;  // that ran on a non-empty queue (VM_CLIP_PASSES): each swaps the queue
   while (nq > 0) {
     deadline.check(kStage);
-    // An exact round (the first, every round under a budget, after a stop) reads its counts
+    // An exact pass (the first, every pass under a budget, after a stop) reads its counts
     // before placing its children and sizes the next queue from them; otherwise a batch runs
-    // kRoundsPerRead rounds over a grid of `growth` times the queue it starts from (the queue
+    // kPassesPerRead passes over a grid of `growth` times the queue it starts from (the queue
     // shrinks on the bench scenes after the first round; it may grow up to the grid), read back
     // once.
     const uint32_t room = std::min(q[0].cap, q[1].cap);
-    if (out.rounds == 0 || budget.limited() || resume || room < nq) {
-      const cl_uint fused = find(live, nq, resume);
+    if (passes == 0 || budget.limited() || resume || room < nq) {
+      const cl_uint levels = find(live, nq, resume);
       uint32_t tot[VM_TOTAL_SLOTS];
-      uint32_t nn = 0, dn = 0;
-      if (fused) {  // the round's counts: the sum of its groups' totals
-        std::vector<uint32_t> sums(2 * ((size_t(nq) + VM_SCAN_WG - 1) / VM_SCAN_WG));
+      uint32_t nn = 0, dn = 0, done[VM_CLIP_LEVELS] = {};
+      if (nq <= VM_CLIP_FUSED_MAX) {  // fused: the pass's counts are its groups' totals
+        std::vector<uint32_t> sums(VM_CLIP_COUNTS * ((size_t(nq) + VM_SCAN_WG - 1) / VM_SCAN_WG));
         rt.read_async(kStage, totals, 0, sizeof tot, tot);
         rt.read(kStage, block_sums, 0, sums.size() * 4, sums.data());
-        for (size_t g = 0; g < sums.size(); g += 2) {
+        for (size_t g = 0; g < sums.size(); g += VM_CLIP_COUNTS) {
           nn += sums[g];
-          dn += sums[g + 1];
+          for (uint32_t l = 0; l < VM_CLIP_LEVELS; ++l) done[l] += sums[g + 1 + l];
         }
       } else {
         rt.read(kStage, totals, 0, sizeof tot, tot);
         nn = tot[VM_TOTAL_NEXT];
-        dn = tot[VM_TOTAL_DONE];
+        done[0] = tot[VM_TOTAL_DONE];
       }
+      for (uint32_t d : done) dn += d;
       if (!check_status(tot)) return ClipStatus::LinesOverflow;
       const bool grow = uint64_t(out.count) + dn > done_cap;
       const uint32_t cap = grow ? std::max<uint32_t>(done_cap + done_cap / 2, out.count + dn) : 0;
-      // Held at once: the finished list (old and new while it grows), this round's queue and
-      // its five words per item, and the next round's queue.
+      // Held at once: the finished list (old and new while it grows), this pass's queue and
+      // its scratch, and the next pass's queue.
       const uint64_t held =
-          before + (uint64_t(done_cap) + cap + nq + nn) * per_fragment + 20ull * nq;
+          before + (uint64_t(done_cap) + cap + nq + nn) * per_fragment + kScratchBytes * nq;
       if (!budget.allows(held)) return ClipStatus::OverBudget;
       if (grow) grow_done(out.count + dn);
       Queue& next = q[live ^ 1];
       // Under a budget the next queue is what it needs; otherwise room for a batch to grow.
       if (budget.limited() || next.cap < nn)
         next = alloc_queue(budget.limited() ? nn : uint32_t(std::min<uint64_t>(growth * uint64_t(nn), UINT32_MAX)));
-      apply(live, nq, next.cap, resume, fused);  // cannot stop: the host made room for this round
+      apply(live, nq, next.cap, resume, levels);  // cannot stop: the host made room for it
       out.count += dn;
-      ++out.rounds;
+      out.rounds += rounds_of_pass(levels, nq, nn, done);
+      ++passes;
       nq = nn;
       live ^= 1;
       resume = false;
@@ -165,15 +187,16 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
         spare = alloc_queue(uint32_t(std::min<uint64_t>(want, UINT32_MAX)));
     } else {
       const uint32_t grid = uint32_t(std::min<uint64_t>(growth * uint64_t(nq), room));
-      for (uint32_t r = 0; r < kRoundsPerRead; ++r) {
-        const cl_uint fused = find(live ^ (r & 1), grid, 0);
-        apply(live ^ (r & 1), grid, grid, 0, fused);
+      for (uint32_t p = 0; p < kPassesPerRead; ++p) {
+        const cl_uint levels = find(live ^ (p & 1), grid, 0);
+        apply(live ^ (p & 1), grid, grid, 0, levels);
       }
       uint32_t tot[VM_TOTAL_SLOTS], st[VM_CLIP_WORDS];
       rt.read_async(kStage, totals, 0, sizeof tot, tot);
       rt.read(kStage, state, size_t(sc) * VM_CLIP_WORDS * 4, sizeof st, st);
       if (!check_status(tot)) return ClipStatus::LinesOverflow;
-      live ^= (st[VM_CLIP_ROUNDS] - out.rounds) & 1;
+      live ^= (st[VM_CLIP_PASSES] - passes) & 1;
+      passes = st[VM_CLIP_PASSES];
       out.rounds = st[VM_CLIP_ROUNDS];
       out.count = st[VM_CLIP_DONE];
       nq = st[VM_CLIP_NQ];
