@@ -363,6 +363,28 @@ void ClRuntime::scan_to(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, ui
   scan_level(stage, counts, offsets, n, totals, slot);
 }
 
+ClRuntime::GroupSums ClRuntime::group_sums(uint32_t n, const char* what) {
+  GroupSums g;
+  g.groups = static_cast<uint32_t>((uint64_t(n) + VM_SCAN_WG - 1) / VM_SCAN_WG);
+  g.sums = alloc(std::max<size_t>(g.groups, 1) * sizeof(uint32_t), what);
+  g.bases = g.groups > VM_SCAN_FINISH_MAX ? alloc(g.groups * sizeof(uint32_t), what) : g.sums;
+  return g;
+}
+
+void ClRuntime::group_bases(Stage stage, GroupSums& g) {
+  if (g.groups > VM_SCAN_FINISH_MAX) scan_level(stage, g.sums, g.bases, g.groups, scratch_total_, 0u);
+}
+
+uint32_t ClRuntime::group_total(Stage stage, GroupSums& g) {
+  if (g.groups == 0) return 0;
+  group_bases(stage, g);
+  std::vector<uint32_t> sums(g.groups);
+  read(stage, g.sums, 0, sums.size() * sizeof(uint32_t), sums.data());
+  uint32_t total = 0;
+  for (uint32_t v : sums) total += v;
+  return total;
+}
+
 uint32_t ClRuntime::scan(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
   if (n == 0) return 0;
   scan_level(stage, counts, offsets, n, scratch_total_, 0u);

@@ -83,9 +83,13 @@ class ClRuntime {
   // Makes every earlier read_async complete: free when a blocking read (or collect_profile) came
   // after the last of them, else one wait for the queue, counted as a blocking read of `stage`.
   void complete_reads(Stage stage);
-  // A host word owned by the runtime, for a read_async target that must outlive the caller's
-  // frame (a stage that throws before the next blocking read leaves no read into freed memory).
-  uint32_t* host_word() { return &host_word_; }
+  // Host words owned by the runtime (resized to n), for a read_async target that must outlive
+  // the caller's frame (a stage that throws before the next blocking read leaves no read into
+  // freed memory). One user at a time: the silhouettes' group totals.
+  std::vector<uint32_t>& host_words(size_t n) {
+    host_words_.resize(n);
+    return host_words_;
+  }
   // Device-side copy, recorded as a launch of `stage` ("copy") that moves 2 x bytes.
   void copy(Stage stage, const cl::Buffer& src, cl::Buffer& dst, size_t bytes);
   uint32_t host_syncs() const { return syncs_; }
@@ -98,6 +102,20 @@ class ClRuntime {
   // Same, without reading back: the total lands in totals[slot].
   void scan_to(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n, cl::Buffer& totals,
                uint32_t slot);
+  // A fused scan's work-group totals (scan.cl vm_group_offset, vm_group_base; issue 17): a
+  // producer over n items in work-groups of VM_SCAN_WG writes each item's offset within its
+  // group and each group's total; its consumer, over the same items and groups, adds the totals
+  // of the groups before its own, so no scan launch runs between them. A consumer takes
+  // (sums, bases, groups); groups 0 means the offsets are already global.
+  struct GroupSums {
+    cl::Buffer sums, bases;  // bases: the scan of sums, above VM_SCAN_FINISH_MAX groups
+    uint32_t groups = 0;
+  };
+  GroupSums group_sums(uint32_t n, const char* what);
+  // Above VM_SCAN_FINISH_MAX groups, scans the totals into bases (2-4 launches); else nothing.
+  void group_bases(Stage stage, GroupSums& g);
+  // The producer's total: group_bases, then one blocking read of the group totals, summed here.
+  uint32_t group_total(Stage stage, GroupSums& g);
 
   // Profiling: per-stage event times since the last collect (waits for the queue).
   // bytes: the launches' modelled device traffic, each launch counting the sizes of the
@@ -171,7 +189,7 @@ class ClRuntime {
   uint64_t peak_ = 0;
   uint32_t syncs_ = 0;
   bool async_pending_ = false;  // a read_async not yet followed by a blocking read
-  uint32_t host_word_ = 0;
+  std::vector<uint32_t> host_words_;
   uint64_t pending_bytes_ = 0;  // buffer sizes of the launch being set up
   uint64_t write_bytes_ = 0;
   std::array<uint32_t, kStageCount> stage_syncs_{};

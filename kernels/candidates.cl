@@ -73,27 +73,46 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
 
 /* A triangle's candidates: first its crossing lines (edges[nsil + cross_offset[t] ...]), then
  * the silhouette edges in front of it. */
-__kernel void cand_count(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
-                         __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
-                         __global const uint* tile_leaf, __global const uint* leaf_offset,
-                         __global const uint4* class_start, __global const uint* leaf_list,
-                         __global const uint* cross_count, __global uint* counts) {
-  uint t = get_global_id(0);
-  if (t >= ntris) return;
-  counts[t] = cross_count[t] + candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_leaf,
-                                             leaf_offset, class_start, leaf_list, 0);
+/* Each triangle's count, and its offset within the work-group (scan.cl's fused scan; the
+ * group's total to group_sums). */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cand_count(
+    __global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
+    __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
+    __global const uint* tile_leaf, __global const uint* leaf_offset,
+    __global const uint4* class_start, __global const uint* leaf_list,
+    __global const uint* cross_count, __global uint* counts, __global uint* offsets,
+    __global uint* group_sums) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint t = get_global_id(0);
+  const uint count = t < ntris ? cross_count[t] + candidates_of(t, tris, tri_bb, edges, edge_bb, g,
+                                                                tile_leaf, leaf_offset,
+                                                                class_start, leaf_list, 0)
+                               : 0;
+  const uint offset = vm_group_offset(count, tmp, group_sums);
+  if (t < ntris) {
+    counts[t] = count;
+    offsets[t] = offset;
+  }
 }
 
-__kernel void cand_fill(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
-                        __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
-                        __global const uint* tile_leaf, __global const uint* leaf_offset,
-                        __global const uint4* class_start, __global const uint* leaf_list,
-                        __global const uint* cross_offset, __global const uint* cross_count,
-                        uint nsil, __global const uint* offsets, __global uint* cand) {
-  uint t = get_global_id(0);
+/* Fills each list at the group's base plus cand_count's offset, and makes the offsets global
+ * (the clip rounds read them by triangle). */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cand_fill(
+    __global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
+    __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
+    __global const uint* tile_leaf, __global const uint* leaf_offset,
+    __global const uint4* class_start, __global const uint* leaf_list,
+    __global const uint* cross_offset, __global const uint* cross_count, uint nsil,
+    __global uint* offsets, __global const uint* group_sums, __global const uint* group_bases,
+    uint groups, __global uint* cand) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint t = get_global_id(0);
+  const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
   if (t >= ntris) return;
+  const uint o = base + offsets[t];
+  offsets[t] = o;
   uint nc = cross_count[t];
-  for (uint k = 0; k < nc; ++k) cand[offsets[t] + k] = nsil + cross_offset[t] + k;
+  for (uint k = 0; k < nc; ++k) cand[o + k] = nsil + cross_offset[t] + k;
   candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_leaf, leaf_offset, class_start, leaf_list,
-                cand + offsets[t] + nc);
+                cand + o + nc);
 }

@@ -224,19 +224,30 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
   return count;
 }
 
-__kernel void cross_pairs(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
-                          __global const double2* tri_qr, VmGrid g, __global const uint* tile_leaf,
-                          __global const uint* leaf_offset, __global const uint4* class_start,
-                          __global const uint* leaf_list, __global uint* counts,
-                          __global uint* scr_o, __global uint* scr_rel, __global VmLine* scr_line,
-                          __global uint* status) {
-  uint t = get_global_id(0);
-  if (t >= ntris) return;
-  size_t s = (size_t)t * VM_PAIRS_INLINE;
-  uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start, leaf_list,
-                    VM_PAIRS_INLINE, scr_o + s, scr_rel + s, scr_line + s);
-  counts[t] = c;
-  if (c > VM_PAIRS_INLINE) atomic_or(status, VM_STATUS_PAIRS_OVERFLOW);
+/* Each triangle's pairs into its inline slots, their count, and its offset within the
+ * work-group with the group's total (scan.cl's fused scan; cross_compact makes the offsets
+ * global). */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cross_pairs(
+    __global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
+    __global const double2* tri_qr, VmGrid g, __global const uint* tile_leaf,
+    __global const uint* leaf_offset, __global const uint4* class_start,
+    __global const uint* leaf_list, __global uint* counts, __global uint* offsets,
+    __global uint* group_sums, __global uint* scr_o, __global uint* scr_rel,
+    __global VmLine* scr_line, __global uint* status) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint t = get_global_id(0);
+  uint c = 0;
+  if (t < ntris) {
+    size_t s = (size_t)t * VM_PAIRS_INLINE;
+    c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start, leaf_list,
+                 VM_PAIRS_INLINE, scr_o + s, scr_rel + s, scr_line + s);
+    if (c > VM_PAIRS_INLINE) atomic_or(status, VM_STATUS_PAIRS_OVERFLOW);
+  }
+  const uint o = vm_group_offset(c, tmp, group_sums);
+  if (t < ntris) {
+    counts[t] = c;
+    offsets[t] = o;
+  }
 }
 
 /* Only after an overflow, and only for the triangles whose pairs did not fit their slots (the
@@ -257,14 +268,20 @@ __kernel void cross_pairs_fill(__global const VmScreenTri* tris, uint ntris,
   for (uint k = 0; k < c; ++k) pair_t[o + k] = t;
 }
 
-__kernel void cross_compact(uint ntris, __global const uint* counts, __global const uint* offsets,
-                            __global const uint* scr_o, __global const uint* scr_rel,
-                            __global const VmLine* scr_line, __global uint* pair_t,
-                            __global uint* pair_o, __global uint* pair_rel,
-                            __global VmLine* pair_line) {
-  uint t = get_global_id(0);
+/* Makes cross_pairs' offsets global (adding the group's base), and copies the pairs that fit
+ * their slots there. */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cross_compact(
+    uint ntris, __global const uint* counts, __global uint* offsets,
+    __global const uint* group_sums, __global const uint* group_bases, uint groups,
+    __global const uint* scr_o, __global const uint* scr_rel, __global const VmLine* scr_line,
+    __global uint* pair_t, __global uint* pair_o, __global uint* pair_rel,
+    __global VmLine* pair_line) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint t = get_global_id(0);
+  const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
   if (t >= ntris) return;
-  uint c = counts[t], o = offsets[t];
+  const uint c = counts[t], o = base + offsets[t];
+  offsets[t] = o;
   if (c > VM_PAIRS_INLINE) return; /* cross_pairs_fill writes these */
   size_t s = (size_t)t * VM_PAIRS_INLINE;
   for (uint k = 0; k < c; ++k) {

@@ -349,24 +349,21 @@ inline uint visible_by_tournament(uint tri, const VmScreenTri* t, const VmSample
   return wins_cycle(ids, nc, tris, s, edges, nsil, cross_offset, cross_count, partner) ? 1 : 0;
 }
 
-/* visible[i] = 1 when no screen triangle covers fragment i's interior point in front of it;
- * 0 when one does; VM_VISIBLE_THIN (counted in status[VM_TOTAL_THIN]) when the fragment is thinner
- * than the fine grid, for occlude_thin() to decide. */
-__kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* lines, uint n,
-                      __global const VmScreenTri* tris, __global const int4* tri_bb, VmGrid g,
-                      __global const uint* tile_leaf, __global const uint* leaf_offset,
-                      __global const uint4* class_start, __global const uint* tile_list,
-                      __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
-                      __global const uint* cross_count, __global const uint* partner,
-                      __global uint* visible, __global uint* status) {
-  uint i = get_global_id(0);
-  if (i >= n) return;
+/* 1 when no screen triangle covers fragment i's interior point in front of it; 0 when one
+ * does; VM_VISIBLE_THIN (counted in status[VM_TOTAL_THIN]) when the fragment is thinner than the
+ * fine grid, for occlude_thin() to decide. */
+inline uint occlude_one(uint i, __global const VmFragMeta* meta, __global const VmLine* lines,
+                        __global const VmScreenTri* tris, __global const int4* tri_bb, VmGrid g,
+                        __global const uint* tile_leaf, __global const uint* leaf_offset,
+                        __global const uint4* class_start, __global const uint* tile_list,
+                        __global const VmEdge* edges, uint nsil,
+                        __global const uint* cross_offset, __global const uint* cross_count,
+                        __global const uint* partner, __global uint* status) {
   VmFragMeta m = meta[i];
   long px, py;
   if (!interior_point(lines + (size_t)i * VM_MAXL, m.nlines, &px, &py)) {
-    visible[i] = VM_VISIBLE_THIN;
     atomic_inc(&status[VM_TOTAL_THIN]);
-    return;
+    return VM_VISIBLE_THIN;
   }
   const VmSample s = sample_fine(px, py);
   VmScreenTri t = tris[m.tri];
@@ -391,8 +388,7 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
     uint v = visible_by_tournament(m.tri, &t, &s, tris, tri_bb, tile_list + off, cnt, edges, nsil,
                                    cross_offset, cross_count, partner, VM_VISIBLE_DEEP);
     if (v == VM_VISIBLE_DEEP) atomic_inc(&status[VM_TOTAL_DEEP]);
-    visible[i] = v;
-    return;
+    return v;
   }
   /* (Written out rather than through competes(): PoCL compiles this hot loop 3x slower that
    * way.) */
@@ -404,12 +400,33 @@ __kernel void occlude(__global const VmFragMeta* meta, __global const VmLine* li
     if (!covers(&tris[o], px, py)) continue;
     VmScreenTri ot = tris[o];
     if (ot.mesh == t.mesh && ot.tri == t.tri) continue; /* pieces of one source never overlap */
-    if (hides(m.tri, o, &t, &ot, &s, edges, nsil, cross_offset, cross_count, partner)) {
-      visible[i] = 0;
-      return;
-    }
+    if (hides(m.tri, o, &t, &ot, &s, edges, nsil, cross_offset, cross_count, partner)) return 0;
   }
-  visible[i] = 1;
+  return 1;
+}
+
+/* visible[i] as occlude_one, and the visible fragments' offsets within the work-group with
+ * the group's total (scan.cl's fused scan, emit_visible adding the bases): right when no
+ * fragment was thin or deep; else the host scans again after their passes. */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void occlude(
+    __global const VmFragMeta* meta, __global const VmLine* lines, uint n,
+    __global const VmScreenTri* tris, __global const int4* tri_bb, VmGrid g,
+    __global const uint* tile_leaf, __global const uint* leaf_offset,
+    __global const uint4* class_start, __global const uint* tile_list,
+    __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
+    __global const uint* cross_count, __global const uint* partner, __global uint* visible,
+    __global uint* offsets, __global uint* group_sums, __global uint* status) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint i = get_global_id(0);
+  const uint v = i < n ? occlude_one(i, meta, lines, tris, tri_bb, g, tile_leaf, leaf_offset,
+                                     class_start, tile_list, edges, nsil, cross_offset,
+                                     cross_count, partner, status)
+                       : 0;
+  const uint o = vm_group_offset(v, tmp, group_sums);
+  if (i < n) {
+    visible[i] = v;
+    offsets[i] = o;
+  }
 }
 
 /* The fragments occlude() left VM_VISIBLE_THIN: decided the same way at an exact rational

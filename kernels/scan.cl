@@ -45,6 +45,23 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_block
   if (lid == VM_SCAN_WG - 1) block_sums[sum_slot + get_group_id(0)] = partial[lid];
 }
 
+/* The sum of sums[0..g) by the whole work-group (every item calls it: barriers), at most
+ * VM_SCAN_FINISH_MAX / VM_SCAN_WG = 16 loads an item; tmp is free again on return. */
+inline uint vm_sum_before(__global const uint* sums, uint g, __local uint* tmp) {
+  const uint lid = get_local_id(0);
+  uint sum = 0;
+  for (uint b = lid; b < g; b += VM_SCAN_WG) sum += sums[b];
+  tmp[lid] = sum;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (uint off = VM_SCAN_WG / 2; off > 0; off >>= 1) {
+    if (lid < off) tmp[lid] += tmp[lid + off];
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  const uint total = tmp[0];
+  barrier(CLK_LOCAL_MEM_FENCE);
+  return total;
+}
+
 /* Group g (of nblocks, g > 0 adds) adds the sum of block_sums[0..g) to block g's offsets; the
  * last group writes the grand total to total[slot]. */
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_finish(
@@ -52,21 +69,38 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_finis
     __global uint* total, uint slot) {
   __local uint partial[VM_SCAN_WG];
   const uint lid = get_local_id(0), g = get_group_id(0);
-  uint sum = 0;
-  for (uint b = lid; b < g; b += VM_SCAN_WG) sum += block_sums[b];
-  partial[lid] = sum;
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (uint off = VM_SCAN_WG / 2; off > 0; off >>= 1) {
-    if (lid < off) partial[lid] += partial[lid + off];
-    barrier(CLK_LOCAL_MEM_FENCE);
-  }
-  const uint base = partial[0];
+  const uint base = vm_sum_before(block_sums, g, partial);
   if (g > 0)
     for (uint k = 0; k < VM_SCAN_PER_ITEM; ++k) {
       const uint i = g * VM_SCAN_BLOCK + k * VM_SCAN_WG + lid;
       if (i < n) out[i] += base;
     }
   if (g + 1 == nblocks && lid == 0) total[slot] = base + block_sums[g];
+}
+
+/* Fused count and fill (issue 17): a producer kernel, launched in work-groups of VM_SCAN_WG,
+ * scans its group's counts itself (vm_group_offset: the item's offset within its group; the
+ * group's total to sums[g]), and its consumer, launched over the same items and groups, adds
+ * the group's base (vm_group_base), so no scan launch runs between them (ClRuntime::GroupSums
+ * on the host). Every item of the group calls each (barriers); tmp is free again on return. */
+inline uint vm_group_offset(uint count, __local uint* tmp, __global uint* sums) {
+  const uint lid = get_local_id(0);
+  tmp[lid] = count;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  vm_group_scan(tmp, lid);
+  const uint inclusive = tmp[lid];
+  if (lid == VM_SCAN_WG - 1) sums[get_group_id(0)] = inclusive;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  return inclusive - count;
+}
+
+/* The totals of the groups before this one: summed here for at most VM_SCAN_FINISH_MAX groups,
+ * else bases[g] (the host's scan of sums); 0 when groups is 0 (the offsets are global). */
+inline uint vm_group_base(__global const uint* sums, __global const uint* bases, uint groups,
+                          __local uint* tmp) {
+  if (groups == 0) return 0;
+  if (groups > VM_SCAN_FINISH_MAX) return bases[get_group_id(0)];
+  return vm_sum_before(sums, get_group_id(0), tmp);
 }
 
 /* Zeroes n words of a and of b: two fills in one launch. */

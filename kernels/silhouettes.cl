@@ -105,40 +105,51 @@ inline void opposite_vertex(__global const VmScreenTri* tris, uint e, long* x, l
   *y = tris[t].y[k2];
 }
 
-/* flags[e] = 1 when edge e is the representative (lowest id) of a silhouette edge. */
-__kernel void edge_classify(__global const VmScreenTri* tris, uint nedges,
-                            __global const uint* slot_of_edge, __global const uint* table,
-                            __global const uint* second, __global const uint* many,
-                            __global const uint* slot_min, __global uint* flags) {
-  uint e = get_global_id(0);
-  if (e >= nedges) return;
+/* 1 when edge e is the representative (lowest id) of a silhouette edge. */
+inline uint is_silhouette(__global const VmScreenTri* tris, uint e,
+                          __global const uint* slot_of_edge, __global const uint* table,
+                          __global const uint* second, __global const uint* many,
+                          __global const uint* slot_min) {
   uint s = slot_of_edge[e];
-  if (many[s]) { /* three or more: a silhouette, kept once */
-    flags[e] = slot_min[s] == e;
-    return;
-  }
+  if (many[s]) return slot_min[s] == e; /* three or more: a silhouette, kept once */
   uint a = table[s] - 1, b = second[s];
-  if (b == 0) { /* one triangle: a boundary edge */
-    flags[e] = 1;
-    return;
-  }
+  if (b == 0) return 1; /* one triangle: a boundary edge */
   b -= 1;
-  if (min(a, b) != e) {
-    flags[e] = 0;
-    return;
-  }
+  if (min(a, b) != e) return 0;
   EdgeKey key = edge_key(tris, e);
   long ax, ay, bx, by;
   opposite_vertex(tris, a, &ax, &ay);
   opposite_vertex(tris, b, &bx, &by);
   long sa = orient_points(key.x0, key.y0, key.x1, key.y1, ax, ay);
   long sb = orient_points(key.x0, key.y0, key.x1, key.y1, bx, by);
-  flags[e] = (sa > 0 && sb < 0) || (sa < 0 && sb > 0) ? 0 : 1;
+  return (sa > 0 && sb < 0) || (sa < 0 && sb > 0) ? 0 : 1;
 }
 
-__kernel void edge_emit(__global const VmScreenTri* tris, uint nedges, __global const uint* flags,
-                        __global const uint* offsets, __global VmEdge* edges) {
-  uint e = get_global_id(0);
+/* flags[e] as is_silhouette, and the silhouettes' offsets within the work-group with the
+ * group's total (scan.cl's fused scan; edge_emit adds the bases). */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void edge_classify(
+    __global const VmScreenTri* tris, uint nedges, __global const uint* slot_of_edge,
+    __global const uint* table, __global const uint* second, __global const uint* many,
+    __global const uint* slot_min, __global uint* flags, __global uint* offsets,
+    __global uint* group_sums) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint e = get_global_id(0);
+  const uint f = e < nedges ? is_silhouette(tris, e, slot_of_edge, table, second, many, slot_min)
+                            : 0;
+  const uint o = vm_group_offset(f, tmp, group_sums);
+  if (e < nedges) {
+    flags[e] = f;
+    offsets[e] = o;
+  }
+}
+
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void edge_emit(
+    __global const VmScreenTri* tris, uint nedges, __global const uint* flags,
+    __global const uint* offsets, __global const uint* group_sums,
+    __global const uint* group_bases, uint groups, __global VmEdge* edges) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint e = get_global_id(0);
+  const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
   if (e >= nedges || !flags[e]) return;
   EdgeKey key = edge_key(tris, e);
   VmEdge out;
@@ -148,5 +159,5 @@ __kernel void edge_emit(__global const VmScreenTri* tris, uint nedges, __global 
   out.y1 = key.y1;
   out.q0 = as_double(key.q0);
   out.q1 = as_double(key.q1);
-  edges[offsets[e]] = out;
+  edges[base + offsets[e]] = out;
 }

@@ -297,34 +297,44 @@ inline bool box_meets(__global const ushort4* boxes, int use_boxes, uint t, int4
          (int)b.w * VM_GRID_SCALE > region.y && (int)b.y * VM_GRID_SCALE < region.w;
 }
 
-__kernel void clip_count(__global const uint* idx, uint ntri, __global const double4* clip,
-                         __global const uint* tri_mesh, __global const uint* tri_local,
-                         __global const uint* mesh_cull, uint width, uint height, int ortho,
-                         int4 region, __global const ushort4* boxes, int use_boxes,
-                         __global uint* counts) {
-  uint t = get_global_id(0);
-  if (t >= ntri) return;
+/* Counts each triangle's screen triangles and scans them within the work-group (scan.cl's fused
+ * scan): offsets[t] within the group, the group's total to group_sums. */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_count(
+    __global const uint* idx, uint ntri, __global const double4* clip,
+    __global const uint* tri_mesh, __global const uint* tri_local,
+    __global const uint* mesh_cull, uint width, uint height, int ortho, int4 region,
+    __global const ushort4* boxes, int use_boxes, __global uint* offsets,
+    __global uint* group_sums) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint t = get_global_id(0);
   VmGrid none = {0, 0, 0, 0};
-  counts[t] = box_meets(boxes, use_boxes, t, region)
-                  ? clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height,
-                                  ortho, region, 0, 0, 0, 0, none, 0, 0, 0)
-                  : 0;
+  const uint count = t < ntri && box_meets(boxes, use_boxes, t, region)
+                         ? clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width,
+                                         height, ortho, region, 0, 0, 0, 0, none, 0, 0, 0)
+                         : 0;
+  const uint offset = vm_group_offset(count, tmp, group_sums);
+  if (t < ntri) offsets[t] = offset;
 }
 
-__kernel void clip_fill(__global const uint* idx, uint ntri, __global const double4* clip,
-                        __global const uint* tri_mesh, __global const uint* tri_local,
-                        __global const uint* mesh_cull, uint width, uint height, int ortho,
-                        int4 region, __global const ushort4* boxes, int use_boxes,
-                        __global const uint* offsets, __global VmScreenTri* out,
-                        __global float* bary_out, int want_bary, __global uint* totals) {
-  uint t = get_global_id(0);
+/* Writes them at the group's base (scan.cl vm_group_base) plus clip_count's offsets. */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_fill(
+    __global const uint* idx, uint ntri, __global const double4* clip,
+    __global const uint* tri_mesh, __global const uint* tri_local,
+    __global const uint* mesh_cull, uint width, uint height, int ortho, int4 region,
+    __global const ushort4* boxes, int use_boxes, __global const uint* offsets,
+    __global const uint* group_sums, __global const uint* group_bases, uint groups,
+    __global VmScreenTri* out, __global float* bary_out, int want_bary,
+    __global uint* totals) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint t = get_global_id(0);
+  const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
   if (t == 0) /* the region's totals (layout.h VM_TOTAL_*), zeroed here: one launch less */
     for (int k = 0; k < VM_TOTAL_SLOTS; ++k) totals[k] = 0;
   if (t >= ntri) return;
   if (!box_meets(boxes, use_boxes, t, region)) return;
   VmGrid none = {0, 0, 0, 0};
   clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho, region, 1,
-                offsets[t], out, want_bary ? bary_out : 0, none, 0, 0, 0);
+                base + offsets[t], out, want_bary ? bary_out : 0, none, 0, 0, 0);
 }
 
 /* For planning buckets: per-cell counts of the screen triangles whose box touches each cell

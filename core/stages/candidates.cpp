@@ -12,14 +12,16 @@ bool find_candidates(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, 
   const Leaves& lv = eb.leaves;
   c.count = rt.alloc(size_t(S) * 4, "candidate counts");
   c.offset = rt.alloc(size_t(S) * 4, "candidate offsets");
-  rt.launch(kStage, "cand_count", S, s.tris, S, tb.bb, ce.edges, eb.bb, eb.grid, lv.tile_leaf,
-            lv.offset, lv.class_start, lv.list, cx.entry_count, c.count);
-  c.total = rt.scan(kStage, c.count, c.offset, S);
+  ClRuntime::GroupSums g = rt.group_sums(S, "candidate group totals");
+  rt.launch_grouped(kStage, "cand_count", S, VM_SCAN_WG, s.tris, S, tb.bb, ce.edges, eb.bb,
+                    eb.grid, lv.tile_leaf, lv.offset, lv.class_start, lv.list, cx.entry_count,
+                    c.count, c.offset, g.sums);
+  c.total = rt.group_total(kStage, g);
   if (!budget.allows_more(rt, size_t(c.total) * 4)) return false;
   c.list = rt.alloc(std::max<size_t>(c.total, 1) * 4, "candidates");
-  rt.launch(kStage, "cand_fill", S, s.tris, S, tb.bb, ce.edges, eb.bb, eb.grid, lv.tile_leaf,
-            lv.offset, lv.class_start, lv.list, cx.entry_offset, cx.entry_count, ce.silhouettes,
-            c.offset, c.list);
+  rt.launch_grouped(kStage, "cand_fill", S, VM_SCAN_WG, s.tris, S, tb.bb, ce.edges, eb.bb,
+                    eb.grid, lv.tile_leaf, lv.offset, lv.class_start, lv.list, cx.entry_offset,
+                    cx.entry_count, ce.silhouettes, c.offset, g.sums, g.bases, g.groups, c.list);
   return true;
 }
 

@@ -1,6 +1,6 @@
 // Stage candidates (kernels/candidates.cl): per screen triangle, the clipping edges that may cut
 // it: its crossing entries, then the silhouette edges through the edge leaves that pass the exact
-// side tests and a conservative depth test (count, scan, fill).
+// side tests and a conservative depth test (count, fill: the scan fused into both, scan.cl).
 #pragma once
 
 #include <cstdint>

@@ -20,14 +20,14 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
     cl::Buffer scr_o = rt.alloc(size_t(S) * VM_PAIRS_INLINE * 4, "pair scratch");
     cl::Buffer scr_rel = rt.alloc(size_t(S) * VM_PAIRS_INLINE * 4, "pair scratch");
     cl::Buffer scr_line = rt.alloc(size_t(S) * VM_PAIRS_INLINE * sizeof(VmLine), "pair scratch");
-    rt.launch(kStage, "cross_pairs", S, s.tris, S, tb.bb, tb.qr, tb.grid, lv.tile_leaf, lv.offset,
-              lv.class_start, lv.list, cx.pcount, scr_o, scr_rel, scr_line, totals);
-    // The pair count and the overflow flag in one read.
-    rt.scan_to(kStage, cx.pcount, cx.poffset, S, totals, VM_TOTAL_PAIRS);
-    uint32_t tot[VM_TOTAL_SLOTS];
-    rt.read(kStage, totals, 0, sizeof tot, tot);
-    cx.pairs = tot[VM_TOTAL_PAIRS];
-    const uint32_t status = tot[VM_TOTAL_STATUS];
+    ClRuntime::GroupSums g = rt.group_sums(S, "pair group totals");
+    rt.launch_grouped(kStage, "cross_pairs", S, VM_SCAN_WG, s.tris, S, tb.bb, tb.qr, tb.grid,
+                      lv.tile_leaf, lv.offset, lv.class_start, lv.list, cx.pcount, cx.poffset,
+                      g.sums, scr_o, scr_rel, scr_line, totals);
+    // The pair count (its work-groups' totals) and the overflow flag in one read.
+    uint32_t status = 0;
+    rt.read_async(kStage, totals, VM_TOTAL_STATUS * 4, 4, &status);
+    cx.pairs = rt.group_total(kStage, g);
     const size_t P1 = std::max<size_t>(cx.pairs, 1);
     // The pair arrays, then per triangle 3 incoming-pair words and 2 entry words, and the list.
     if (!budget.allows_more(rt, P1 * (12 + sizeof(VmLine)) + size_t(S) * 20 + P1 * 4)) return false;
@@ -35,11 +35,12 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
     cx.pair_o = rt.alloc(P1 * 4, "pairs");
     cx.pair_rel = rt.alloc(P1 * 4, "pairs");
     cx.pair_line = rt.alloc(P1 * sizeof(VmLine), "pairs");
-    // Triangles whose pairs fit their slots are copied; after an overflow the others traverse
-    // again, straight into the compact arrays.
-    if (cx.pairs > 0)  // (with none, nothing to copy, and no overflow)
-      rt.launch(kStage, "cross_compact", S, S, cx.pcount, cx.poffset, scr_o, scr_rel, scr_line,
-                cx.pair_t, cx.pair_o, cx.pair_rel, cx.pair_line);
+    // Triangles whose pairs fit their slots are copied (and the offsets made global); after an
+    // overflow the others traverse again, straight into the compact arrays.
+    if (cx.pairs > 0)  // (with none, nothing to copy, no overflow, and no offset is read)
+      rt.launch_grouped(kStage, "cross_compact", S, VM_SCAN_WG, S, cx.pcount, cx.poffset, g.sums,
+                        g.bases, g.groups, scr_o, scr_rel, scr_line, cx.pair_t, cx.pair_o,
+                        cx.pair_rel, cx.pair_line);
     if (status & VM_STATUS_PAIRS_OVERFLOW)
       rt.launch(kStage, "cross_pairs_fill", S, s.tris, S, tb.bb, tb.qr, tb.grid, lv.tile_leaf,
                 lv.offset, lv.class_start, lv.list, cx.pcount, cx.poffset, cx.pair_t, cx.pair_o,

@@ -13,15 +13,17 @@ Visibility decide_visibility(ClRuntime& rt, const Fragments& fr, const ScreenSet
   Visibility v;
   v.visible = rt.alloc(std::max<size_t>(nd, 1) * 4, "visibility");
   v.offset = rt.alloc(std::max<size_t>(nd, 1) * 4, "visible offsets");
-  rt.launch(kStage, "occlude", nd, fr.meta, fr.lines, nd, s.tris, tb.bb, tb.grid, lv.tile_leaf,
-            lv.offset, lv.class_start, lv.list, ce.edges, ce.silhouettes, cx.entry_offset,
-            cx.entry_count, ce.partner, v.visible, totals);
+  v.groups = rt.group_sums(nd, "visible group totals");
+  rt.launch_grouped(kStage, "occlude", nd, VM_SCAN_WG, fr.meta, fr.lines, nd, s.tris, tb.bb,
+                    tb.grid, lv.tile_leaf, lv.offset, lv.class_start, lv.list, ce.edges,
+                    ce.silhouettes, cx.entry_offset, cx.entry_count, ce.partner, v.visible,
+                    v.offset, v.groups.sums, totals);
   // Thin fragments and deep tournaments, counted by occlude, and the visible count in one read:
-  // the scan is right unless a fragment was thin or deep (their passes change the visibility,
-  // and it is scanned again after them).
-  rt.scan_to(kStage, v.visible, v.offset, nd, totals, VM_TOTAL_VISIBLE);
-  uint32_t counts[VM_TOTAL_VISIBLE - VM_TOTAL_THIN + 1];
-  rt.read(kStage, totals, VM_TOTAL_THIN * 4, sizeof counts, counts);
+  // occlude's fused scan is right unless a fragment was thin or deep (their passes change the
+  // visibility, and it is scanned again after them).
+  uint32_t counts[2];
+  rt.read_async(kStage, totals, VM_TOTAL_THIN * 4, sizeof counts, counts);
+  const uint32_t fused_count = rt.group_total(kStage, v.groups);
   v.thin = counts[0];
   if (v.thin > 0) {  // cells thinner than the fine sample grid: decided at exact rational points
     rt.launch(kStage, "occlude_thin", nd, fr.meta, fr.lines, nd, s.tris, tb.bb, tb.grid,
@@ -42,8 +44,12 @@ Visibility decide_visibility(ClRuntime& rt, const Fragments& fr, const ScreenSet
               lv.tile_leaf, lv.offset, lv.class_start, lv.list, ce.edges, ce.silhouettes,
               cx.entry_offset, cx.entry_count, ce.partner, room, scratch, total, v.visible);
   }
-  v.count = v.thin || v.deep ? rt.scan(kStage, v.visible, v.offset, nd)
-                             : counts[VM_TOTAL_VISIBLE - VM_TOTAL_THIN];
+  if (v.thin || v.deep) {
+    v.count = rt.scan(kStage, v.visible, v.offset, nd);
+    v.groups.groups = 0;  // the offsets are global
+  } else {
+    v.count = fused_count;
+  }
   return v;
 }
 

@@ -19,6 +19,7 @@ namespace vismap::stages {
 
 struct Visibility {
   cl::Buffer visible, offset;  // per fragment: 1 when visible, and its place among the visible
+  ClRuntime::GroupSums groups;  // offset is within these work-groups (groups 0: global)
   uint32_t count = 0;          // V
   uint32_t thin = 0;           // fragments thinner than the fine grid (decided at exact points)
   uint32_t deep = 0;           // tournaments of more than VM_TOUR_MAX triangles (occlude_deep)

@@ -20,23 +20,27 @@ void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Sil
   rt.launch(kStage, "edge_table_clear", table_size, table_size, table, second, many, slot_min);
   rt.launch(kStage, "edge_insert", nedges, s.tris, nedges, table, table_size - 1, slot_of_edge,
             second, many, slot_min, totals);
-  rt.launch(kStage, "edge_classify", nedges, s.tris, nedges, slot_of_edge, table, second, many,
-            slot_min, sil.flags);
-  rt.scan_to(kStage, sil.flags, sil.offsets, nedges, totals, VM_TOTAL_SILHOUETTES);
-  rt.read_async(kStage, totals, VM_TOTAL_SILHOUETTES * 4, 4, rt.host_word());
+  sil.groups = rt.group_sums(nedges, "edge group totals");
+  rt.launch_grouped(kStage, "edge_classify", nedges, VM_SCAN_WG, s.tris, nedges, slot_of_edge,
+                    table, second, many, slot_min, sil.flags, sil.offsets, sil.groups.sums);
+  rt.group_bases(kStage, sil.groups);
+  std::vector<uint32_t>& sums = rt.host_words(sil.groups.groups);
+  rt.read_async(kStage, sil.groups.sums, 0, sums.size() * 4, sums.data());
 }
 
 ClipEdges emit_silhouettes(ClRuntime& rt, const ScreenSet& s, Silhouettes& sil,
                            uint32_t crossing_entries) {
   rt.complete_reads(Stage::Silhouettes);  // the count (a blocking read since has done it)
-  sil.count = *rt.host_word();
+  sil.count = 0;
+  for (uint32_t v : rt.host_words(sil.groups.groups)) sil.count += v;
   ClipEdges ce;
   ce.silhouettes = sil.count;
   ce.crossings = crossing_entries;
   ce.edges = rt.alloc((size_t(sil.count) + crossing_entries) * sizeof(VmEdge), "clipping edges");
   ce.partner = rt.alloc(std::max<size_t>(crossing_entries, 1) * 4, "crossing partners");
-  rt.launch(Stage::Silhouettes, "edge_emit", sil.edges_in, s.tris, sil.edges_in, sil.flags,
-            sil.offsets, ce.edges);
+  const ClRuntime::GroupSums& g = sil.groups;
+  rt.launch_grouped(Stage::Silhouettes, "edge_emit", sil.edges_in, VM_SCAN_WG, s.tris,
+                    sil.edges_in, sil.flags, sil.offsets, g.sums, g.bases, g.groups, ce.edges);
   return ce;
 }
 

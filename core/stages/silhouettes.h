@@ -13,6 +13,7 @@ namespace vismap::stages {
 
 struct Silhouettes {
   cl::Buffer flags, offsets;  // per screen-triangle edge (3 S): silhouette or not, its place
+  ClRuntime::GroupSums groups;  // offsets are within these work-groups (scan.cl's fused scan)
   uint32_t edges_in = 0;      // 3 S
   uint32_t count = 0;         // E: read without blocking, set by emit_silhouettes
 };
@@ -24,9 +25,9 @@ struct ClipEdges {
   uint32_t silhouettes = 0, crossings = 0;
 };
 
-// Classifies the edges (a full hash table raises VM_STATUS_HASH_FULL in totals). Their count
-// lands in totals[VM_TOTAL_SILHOUETTES] and is read into rt.host_word() without a blocking read
-// of its own (nothing needs it before the clipping edges are allocated).
+// Classifies the edges (a full hash table raises VM_STATUS_HASH_FULL in totals). Their work-groups'
+// counts are read into rt.host_words() without a blocking read of their own (nothing needs the
+// count before the clipping edges are allocated).
 void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Silhouettes& sil);
 // Sets sil.count (after the count's read has completed), allocates the E + X clipping edges and
 // writes the E silhouette edges.

@@ -42,8 +42,8 @@ Frame begin_frame(ClRuntime& rt, const SceneBuffers& sb, const Scene& scene, con
   f.totals = rt.alloc(VM_TOTAL_SLOTS * 4, "totals");              // zeroed by clip_fill
   rt.launch(stage, "transform_vertices", std::max<uint32_t>(sb.nv, 1), sb.pos, sb.nv, f.mat,
             f.clip, f.depth_ex);
-  f.counts = rt.alloc(size_t(sb.ntri) * 4, "clip counts");
   f.offsets = rt.alloc(size_t(sb.ntri) * 4, "clip offsets");
+  f.screen_groups = rt.group_sums(sb.ntri, "clip group totals");
   f.ortho = cam.projection == Camera::Projection::Orthographic ? 1 : 0;
   f.full = {{0, 0, cl_int(cam.width * VM_GRID_SCALE), cl_int(cam.height * VM_GRID_SCALE)}};
   f.boxes = rt.alloc(16, "triangle boxes");  // plan_buckets fills it for buckets
@@ -52,9 +52,10 @@ Frame begin_frame(ClRuntime& rt, const SceneBuffers& sb, const Scene& scene, con
 
 uint32_t count_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl_int4& region,
                       Stage stage) {
-  rt.launch(stage, "clip_count", sb.ntri, sb.idx, sb.ntri, fr.clip, sb.tri_mesh, sb.tri_local,
-            fr.mesh_cull, fr.W, fr.H, fr.ortho, region, fr.boxes, fr.use_boxes, fr.counts);
-  return rt.scan(stage, fr.counts, fr.offsets, sb.ntri);
+  rt.launch_grouped(stage, "clip_count", sb.ntri, VM_SCAN_WG, sb.idx, sb.ntri, fr.clip,
+                    sb.tri_mesh, sb.tri_local, fr.mesh_cull, fr.W, fr.H, fr.ortho, region, fr.boxes,
+                    fr.use_boxes, fr.offsets, fr.screen_groups.sums);
+  return rt.group_total(stage, fr.screen_groups);
 }
 
 ScreenSet fill_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl_int4& region,
@@ -64,9 +65,11 @@ ScreenSet fill_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl
   s.tris = rt.alloc(std::max<size_t>(S, 1) * sizeof(VmScreenTri), "screen triangles");
   s.bary = rt.alloc(bary ? std::max<size_t>(S, 1) * 9 * sizeof(float) : 16, "screen barycentrics");
   const cl_int want = bary ? 1 : 0;
-  rt.launch(stage, "clip_fill", sb.ntri, sb.idx, sb.ntri, fr.clip, sb.tri_mesh, sb.tri_local,
-            fr.mesh_cull, fr.W, fr.H, fr.ortho, region, fr.boxes, fr.use_boxes, fr.offsets, s.tris,
-            s.bary, want, fr.totals);
+  const ClRuntime::GroupSums& g = fr.screen_groups;
+  rt.launch_grouped(stage, "clip_fill", sb.ntri, VM_SCAN_WG, sb.idx, sb.ntri, fr.clip,
+                    sb.tri_mesh, sb.tri_local, fr.mesh_cull, fr.W, fr.H, fr.ortho, region, fr.boxes,
+                    fr.use_boxes, fr.offsets, g.sums, g.bases, g.groups, s.tris, s.bary, want,
+                    fr.totals);
   return s;
 }
 

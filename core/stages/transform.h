@@ -22,11 +22,12 @@ struct SceneBuffers {
 };
 
 // Per frame, before any region: the camera's matrix and cull modes, the clip-space vertices, the
-// per-input-triangle count and offset buffers, the whole screen as a region, and (buckets only)
-// each input triangle's box in pixels.
+// per-input-triangle offsets (within their work-group) and the groups' totals, the whole screen
+// as a region, and (buckets only) each input triangle's box in pixels.
 struct Frame {
   uint32_t W = 0, H = 0;
-  cl::Buffer mat, mesh_cull, clip, counts, offsets, boxes;
+  cl::Buffer mat, mesh_cull, clip, offsets, boxes;
+  ClRuntime::GroupSums screen_groups;  // clip_count -> clip_fill (a fused scan)
   cl_int ortho = 0, use_boxes = 0;
   // The depth-plane exponent reductions (depth_exponents): over the whole frame once clip_cells
   // has noted every screen triangle (buckets), else per screen set.
@@ -50,7 +51,7 @@ std::vector<uint32_t> cull_modes(const Scene& scene, const std::vector<int8_t>& 
 
 Frame begin_frame(ClRuntime& rt, const SceneBuffers& sb, const Scene& scene, const Camera& cam,
                   Stage stage);
-// Sizes the region's screen triangles (the frame's counts and offsets); returns S.
+// Sizes the region's screen triangles (the frame's offsets and group totals); returns S.
 uint32_t count_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl_int4& region,
                       Stage stage);
 // Writes the S triangles counted by count_screen, with barycentrics when `bary`, and zeroes
