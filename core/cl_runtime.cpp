@@ -338,6 +338,10 @@ void ClRuntime::scan_level(Stage stage, cl::Buffer& counts, cl::Buffer& offsets,
     launch_grouped(stage, "scan_blocks", VM_SCAN_WG, VM_SCAN_WG, counts, offsets, n, total, slot);
     return;
   }
+  if (n <= VM_SCAN_SMALL_MAX) {  // one launch of one work-group, block after block
+    launch_grouped(stage, "scan_small", VM_SCAN_WG, VM_SCAN_WG, counts, offsets, n, total, slot);
+    return;
+  }
   cl::Buffer sums = alloc(blocks * sizeof(uint32_t), "scan block sums");
   launch_grouped(stage, "scan_blocks", size_t(blocks) * VM_SCAN_WG, VM_SCAN_WG, counts, offsets, n,
                  sums, 0u);

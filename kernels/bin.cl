@@ -5,23 +5,8 @@
  * Every leaf's list is sorted, so everything downstream is deterministic whatever order the
  * atomics ran in. */
 
-/* Also each triangle's nearness range, so pair tests can reject by depth before loading it. */
-__kernel void tri_bbox(__global const VmScreenTri* tris, uint n, __global int4* bb,
-                       __global double2* qr) {
-  uint i = get_global_id(0);
-  if (i >= n) return;
-  VmScreenTri t = tris[i];
-  bb[i] = (int4)(min(min(t.x[0], t.x[1]), t.x[2]), min(min(t.y[0], t.y[1]), t.y[2]),
-                 max(max(t.x[0], t.x[1]), t.x[2]), max(max(t.y[0], t.y[1]), t.y[2]));
-  qr[i] = (double2)(fmin(fmin(t.q[0], t.q[1]), t.q[2]), fmax(fmax(t.q[0], t.q[1]), t.q[2]));
-}
-
-__kernel void edge_bbox(__global const VmEdge* edges, uint n, __global int4* bb) {
-  uint i = get_global_id(0);
-  if (i >= n) return;
-  VmEdge e = edges[i];
-  bb[i] = (int4)(min(e.x0, e.x1), min(e.y0, e.y1), max(e.x0, e.x1), max(e.y0, e.y1));
-}
+/* (The boxes binned here are written where their items are: the screen triangles' and their
+ * depth ranges by snap_depth_planes, transform.cl; the silhouette edges' by edge_emit.) */
 
 /* Tiles are powers of two wide: a shift, not a division, in the hottest loops. */
 inline int tile_coord(int v, int shift, int count) {
@@ -143,13 +128,10 @@ inline uint box_class(int4 tr, int4 lr, int tx, int ty, int lx, int ly) {
  * e(d) the entries the tile's items would have at depth d (an item is listed in every leaf its
  * box touches): per-leaf overhead + entries + pair visits, the last as if the entries spread
  * evenly, e(d)^2 / 4^d. An uncrowded tile stays one leaf; a tile under a few big triangles does
- * not split (their entries grow with the leaves). Writes 4^d to `leaves` for the scan. Reads
- * the coarse lists by tile (leaf = tile there), not tile_leaf, which it rewrites. */
-__kernel void bin_depth(__global const uint* tile_offset, __global const uint* tile_count,
-                        uint ntiles, __global const int4* bb, VmGrid g, __global const uint* list,
-                        __global uint* tile_leaf, __global uint* leaves) {
-  uint t = get_global_id(0);
-  if (t >= ntiles) return;
+ * not split (their entries grow with the leaves). Reads the coarse lists by tile (leaf = tile
+ * there), not tile_leaf, which it rewrites. */
+inline uint best_depth(uint t, __global const uint* tile_offset, __global const uint* tile_count,
+                       __global const int4* bb, VmGrid g, __global const uint* list) {
   int tx = (int)(t % (uint)g.tiles_x), ty = (int)(t / (uint)g.tiles_x);
   uint n = tile_count[t], off = tile_offset[t];
   uint best = 0;
@@ -173,8 +155,24 @@ __kernel void bin_depth(__global const uint* tile_offset, __global const uint* t
       }
     }
   }
-  tile_leaf[t] = t << 4 | best; /* the first leaf as if no tile split (bin_pack) */
-  leaves[t] = 1u << (2 * best);
+  return best;
+}
+
+/* Each tile's depth, its 4^d leaves scanned within the work-group (scan.cl's fused scan: the
+ * tile's first leaf within the group to first_leaf, the group's total to group_sums; bin_pack
+ * adds the bases). */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void bin_depth(
+    __global const uint* tile_offset, __global const uint* tile_count, uint ntiles,
+    __global const int4* bb, VmGrid g, __global const uint* list, __global uint* tile_leaf,
+    __global uint* first_leaf, __global uint* group_sums) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint t = get_global_id(0);
+  const uint best = t < ntiles ? best_depth(t, tile_offset, tile_count, bb, g, list) : 0;
+  const uint first = vm_group_offset(t < ntiles ? 1u << (2 * best) : 0, tmp, group_sums);
+  if (t < ntiles) {
+    tile_leaf[t] = t << 4 | best; /* the first leaf as if no tile split (bin_pack) */
+    first_leaf[t] = first;
+  }
 }
 
 /* Zeroes the n leaves' counts and fill cursors and, for the coarse pass (identity set), makes
@@ -188,12 +186,16 @@ __kernel void leaf_init(uint n, uint identity, __global uint* tile_leaf, __globa
   cursor[t] = 0;
 }
 
-/* Packs each tile's first leaf (the scan of the leaf counts) with its depth. Only when some
- * tile split: else every tile's first leaf is its own index, as bin_depth wrote it. */
-__kernel void bin_pack(uint ntiles, __global const uint* leaf_first_of, __global uint* tile_leaf) {
-  uint t = get_global_id(0);
+/* Packs each tile's first leaf (bin_depth's offset plus its group's base) with its depth. Only
+ * when some tile split: else every tile's first leaf is its own index, as bin_depth wrote it. */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void bin_pack(
+    uint ntiles, __global const uint* first_leaf, __global const uint* group_sums,
+    __global const uint* group_bases, uint groups, __global uint* tile_leaf) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint t = get_global_id(0);
+  const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
   if (t >= ntiles) return;
-  tile_leaf[t] = leaf_depth(tile_leaf[t]) | leaf_first_of[t] << 4;
+  tile_leaf[t] = leaf_depth(tile_leaf[t]) | (base + first_leaf[t]) << 4;
 }
 
 /* Per item: counts (fill = 0) or fills (fill = 1, with keys) the lists of the leaves its box

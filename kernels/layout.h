@@ -146,6 +146,8 @@ typedef struct {
 /* Blocks up to which scan_finish adds the block sums in the second launch (each group sums the
  * ones before it: at most 16 loads an item); above, they are scanned recursively. */
 #define VM_SCAN_FINISH_MAX 4096
+/* Counts up to which one work-group scans them alone in one launch (scan_small: 64 an item). */
+#define VM_SCAN_SMALL_MAX (VM_SCAN_WG * 64)
 
 /* Implicit surfaces (issue 19, implicit.cl): a tape clause on slots. op is implicit::Op's value
  * (core/implicit.h; VM_IOP_COPY added by shortening: out = a); Const keeps its float's bits in a.

@@ -62,6 +62,29 @@ inline uint vm_sum_before(__global const uint* sums, uint g, __local uint* tmp) 
   return total;
 }
 
+/* At most VM_SCAN_SMALL_MAX counts in one launch of one work-group: each item sums a run of
+ * ceil(n / VM_SCAN_WG) counts, the group scans the sums, and each item writes its run's offsets;
+ * the total to total[slot]. Where scan_blocks and scan_finish would be two launches (~5.5 us
+ * each on a GPU), two passes over at most 64 KiB in one group. */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_small(
+    __global const uint* in, __global uint* out, uint n, __global uint* total, uint slot) {
+  __local uint partial[VM_SCAN_WG];
+  const uint lid = get_local_id(0), run_len = (n + VM_SCAN_WG - 1) / VM_SCAN_WG;
+  const uint begin = min(n, lid * run_len), end = min(n, begin + run_len);
+  uint sum = 0;
+  for (uint i = begin; i < end; ++i) sum += in[i];
+  partial[lid] = sum;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  vm_group_scan(partial, lid);
+  uint run = partial[lid] - sum; /* exclusive */
+  for (uint i = begin; i < end; ++i) {
+    const uint c = in[i];
+    out[i] = run;
+    run += c;
+  }
+  if (lid == VM_SCAN_WG - 1) total[slot] = partial[lid];
+}
+
 /* Group g (of nblocks, g > 0 adds) adds the sum of block_sums[0..g) to block g's offsets; the
  * last group writes the grand total to total[slot]. */
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_finish(

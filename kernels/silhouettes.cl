@@ -146,7 +146,7 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void edge_class
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void edge_emit(
     __global const VmScreenTri* tris, uint nedges, __global const uint* flags,
     __global const uint* offsets, __global const uint* group_sums,
-    __global const uint* group_bases, uint groups, __global VmEdge* edges) {
+    __global const uint* group_bases, uint groups, __global VmEdge* edges, __global int4* bb) {
   __local uint tmp[VM_SCAN_WG];
   const uint e = get_global_id(0);
   const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
@@ -160,4 +160,7 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void edge_emit(
   out.q0 = as_double(key.q0);
   out.q1 = as_double(key.q1);
   edges[base + offsets[e]] = out;
+  /* its box, for binning on the edge grid (bin.cpp bin_edges) */
+  bb[base + offsets[e]] = (int4)(min(out.x0, out.x1), min(out.y0, out.y1), max(out.x0, out.x1),
+                                 max(out.y0, out.y1));
 }

@@ -2,7 +2,7 @@
  * triangle, run twice: clip_count sizes the output, clip_fill writes it at the scanned offsets.
  * Both run the same deterministic code, so the counts match by construction. */
 
-/* Item 0 also zeroes the frame's four depth exponents (depth_exponents, clip_cells): one launch,
+/* Item 0 also zeroes the frame's four depth exponents (clip_fill, clip_cells): one launch,
  * not a fill besides. */
 __kernel void transform_vertices(__global const float* pos, uint nv, __constant double* m,
                                  __global double4* clip, __global int* depth_ex) {
@@ -125,15 +125,8 @@ inline void note_depth_exponents(const VmScreenTri* t, int ortho, __global int* 
   }
 }
 
-/* Without buckets, over the screen triangles; under --memory-budget clip_cells notes every
- * screen triangle of the frame instead, so that all buckets share one k. */
-__kernel void depth_exponents(__global const VmScreenTri* tris, uint n, int ortho,
-                              __global int* ex) {
-  uint i = get_global_id(0);
-  if (i >= n) return;
-  VmScreenTri t = tris[i];
-  note_depth_exponents(&t, ortho, ex);
-}
+/* (Noted by clip_fill as it writes the screen triangles; under --memory-budget clip_cells notes
+ * every screen triangle of the frame instead, so that all buckets share one k.) */
 
 inline int depth_exponent(__global const int* ex) {
   int slopes = VM_PLANE_BIAS - ex[0], fidelity = ex[1] - VM_PLANE_BIAS,
@@ -141,29 +134,42 @@ inline int depth_exponent(__global const int* ex) {
   return clamp(min(values, max(slopes, fidelity)), -1000, 1000);
 }
 
-__kernel void snap_depth_planes(__global VmScreenTri* tris, uint n, __global const int* ex) {
-  uint i = get_global_id(0);
-  if (i >= n) return;
-  int k = depth_exponent(ex);
-  VmScreenTri t = tris[i];
+/* t's depth plane snapped to integers over 2^k; false (t as it was) when it cannot be. */
+inline bool snap_plane(VmScreenTri* tp, int k) {
+  VmScreenTri t = *tp;
   DepthPlane p = depth_plane(&t);
   double A = rint(ldexp(p.gx, k)), B = rint(ldexp(p.gy, k)), N0 = rint(ldexp(t.q[0], k));
   const double slope_lim = (double)(1L << VM_PLANE_SLOPE_BITS);
   const long value_lim = 1L << VM_PLANE_VALUE_BITS;
-  if (!(fabs(A) <= slope_lim && fabs(B) <= slope_lim && fabs(N0) <= (double)value_lim)) return;
+  if (!(fabs(A) <= slope_lim && fabs(B) <= slope_lim && fabs(N0) <= (double)value_lim))
+    return false;
   long a = (long)A, b = (long)B, N[3];
   N[0] = (long)N0;
   for (int j = 1; j < 3; ++j) {
     N[j] = N[0] + a * (long)(t.x[j] - t.x[0]) + b * (long)(t.y[j] - t.y[0]);
-    if (N[j] > value_lim || N[j] < -value_lim) return;
+    if (N[j] > value_lim || N[j] < -value_lim) return false;
   }
   for (int j = 0; j < 3; ++j) t.q[j] = ldexp((double)N[j], -k); /* exact: |N| <= 2^52 */
   t.plane_k = k;
   /* What crossings.cl will read back must be this plane, or the triangle stays free (the
    * reference takes plane_k as the promise of an exact line). */
   long ra, rb, rc;
-  if (!int_plane(&t, &ra, &rb, &rc) || ra != a || rb != b) return;
-  tris[i] = t;
+  if (!int_plane(&t, &ra, &rb, &rc) || ra != a || rb != b) return false;
+  *tp = t;
+  return true;
+}
+
+/* Each screen triangle's plane snapped (snap_plane), then its box and nearness range for the
+ * binning (bin.cl), so pair tests can reject by depth before loading it. */
+__kernel void snap_depth_planes(__global VmScreenTri* tris, uint n, __global const int* ex,
+                                __global int4* bb, __global double2* qr) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  VmScreenTri t = tris[i];
+  if (snap_plane(&t, depth_exponent(ex))) tris[i] = t;
+  bb[i] = (int4)(min(min(t.x[0], t.x[1]), t.x[2]), min(min(t.y[0], t.y[1]), t.y[2]),
+                 max(max(t.x[0], t.x[1]), t.x[2]), max(max(t.y[0], t.y[1]), t.y[2]));
+  qr[i] = (double2)(fmin(fmin(t.q[0], t.q[1]), t.q[2]), fmax(fmax(t.q[0], t.q[1]), t.q[2]));
 }
 
 #define VM_CLIP_MAXV 9
@@ -316,7 +322,9 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_count
   if (t < ntri) offsets[t] = offset;
 }
 
-/* Writes them at the group's base (scan.cl vm_group_base) plus clip_count's offsets. */
+/* Writes them at the group's base (scan.cl vm_group_base) plus clip_count's offsets, noting
+ * their depth exponents into depth_ex when note_ex is set (a frame without buckets, whose one
+ * region is the screen: the exponents of all its screen triangles). */
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_fill(
     __global const uint* idx, uint ntri, __global const double4* clip,
     __global const uint* tri_mesh, __global const uint* tri_local,
@@ -324,7 +332,7 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_fill(
     __global const ushort4* boxes, int use_boxes, __global const uint* offsets,
     __global const uint* group_sums, __global const uint* group_bases, uint groups,
     __global VmScreenTri* out, __global float* bary_out, int want_bary,
-    __global uint* totals) {
+    __global int* depth_ex, int note_ex, __global uint* totals) {
   __local uint tmp[VM_SCAN_WG];
   const uint t = get_global_id(0);
   const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
@@ -334,7 +342,8 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_fill(
   if (!box_meets(boxes, use_boxes, t, region)) return;
   VmGrid none = {0, 0, 0, 0};
   clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho, region, 1,
-                base + offsets[t], out, want_bary ? bary_out : 0, none, 0, 0, 0);
+                base + offsets[t], out, want_bary ? bary_out : 0, none, 0, 0,
+                note_ex ? depth_ex : 0);
 }
 
 /* For planning buckets: per-cell counts of the screen triangles whose box touches each cell

@@ -38,13 +38,14 @@ Leaves bin_leaves(ClRuntime& rt, cl::Buffer& bb, uint32_t n, const VmGrid& g) {
   lv.leaves = ntiles;
   fill_leaves(rt, bb, n, g, lv, count, 1);
   // The map is rewritten only after the last use of the coarse one (the queue is in order).
-  cl::Buffer per_tile = rt.alloc(size_t(ntiles) * 4, "leaves per tile");
   cl::Buffer first = rt.alloc(size_t(ntiles) * 4, "first leaf per tile");
-  rt.launch(kStage, "bin_depth", ntiles, lv.offset, count, ntiles, bb, g, lv.list, lv.tile_leaf,
-            per_tile);
-  const uint32_t leaves = rt.scan(kStage, per_tile, first, ntiles);
+  ClRuntime::GroupSums groups = rt.group_sums(ntiles, "leaf group totals");
+  rt.launch_grouped(kStage, "bin_depth", ntiles, VM_SCAN_WG, lv.offset, count, ntiles, bb, g,
+                    lv.list, lv.tile_leaf, first, groups.sums);
+  const uint32_t leaves = rt.group_total(kStage, groups);
   if (leaves != ntiles) {  // some tile split: bin again into the leaves (else the map is the same)
-    rt.launch(kStage, "bin_pack", ntiles, ntiles, first, lv.tile_leaf);
+    rt.launch_grouped(kStage, "bin_pack", ntiles, VM_SCAN_WG, ntiles, first, groups.sums,
+                      groups.bases, groups.groups, lv.tile_leaf);
     lv.leaves = leaves;
     fill_leaves(rt, bb, n, g, lv, count, 0);
   }
@@ -69,9 +70,8 @@ Grids choose_grids(uint32_t tile_pixels, uint32_t W, uint32_t H, uint32_t S) {
 TriangleBins bin_triangles(ClRuntime& rt, const ScreenSet& s, const VmGrid& fine) {
   TriangleBins tb;
   tb.grid = fine;
-  tb.bb = rt.alloc(size_t(s.count) * sizeof(cl_int4), "triangle boxes");
-  tb.qr = rt.alloc(size_t(s.count) * sizeof(cl_double2), "triangle depth ranges");
-  rt.launch(kStage, "tri_bbox", s.count, s.tris, s.count, tb.bb, tb.qr);
+  tb.bb = s.bb;  // written by snap_depth_planes
+  tb.qr = s.qr;
   tb.leaves = bin_leaves(rt, tb.bb, s.count, fine);
   return tb;
 }
@@ -79,10 +79,8 @@ TriangleBins bin_triangles(ClRuntime& rt, const ScreenSet& s, const VmGrid& fine
 EdgeBins bin_edges(ClRuntime& rt, const ClipEdges& ce, const VmGrid& edge) {
   EdgeBins eb;
   eb.grid = edge;
-  const uint32_t E = ce.silhouettes;
-  eb.bb = rt.alloc(std::max<size_t>(E, 1) * sizeof(cl_int4), "edge boxes");
-  rt.launch(kStage, "edge_bbox", E, ce.edges, E, eb.bb);
-  eb.leaves = bin_leaves(rt, eb.bb, E, edge);
+  eb.bb = ce.bb;  // written by edge_emit
+  eb.leaves = bin_leaves(rt, eb.bb, ce.silhouettes, edge);
   return eb;
 }
 

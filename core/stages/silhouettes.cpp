@@ -38,9 +38,11 @@ ClipEdges emit_silhouettes(ClRuntime& rt, const ScreenSet& s, Silhouettes& sil,
   ce.crossings = crossing_entries;
   ce.edges = rt.alloc((size_t(sil.count) + crossing_entries) * sizeof(VmEdge), "clipping edges");
   ce.partner = rt.alloc(std::max<size_t>(crossing_entries, 1) * 4, "crossing partners");
+  ce.bb = rt.alloc(std::max<size_t>(sil.count, 1) * sizeof(cl_int4), "edge boxes");
   const ClRuntime::GroupSums& g = sil.groups;
   rt.launch_grouped(Stage::Silhouettes, "edge_emit", sil.edges_in, VM_SCAN_WG, s.tris,
-                    sil.edges_in, sil.flags, sil.offsets, g.sums, g.bases, g.groups, ce.edges);
+                    sil.edges_in, sil.flags, sil.offsets, g.sums, g.bases, g.groups, ce.edges,
+                    ce.bb);
   return ce;
 }
 

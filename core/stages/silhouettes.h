@@ -19,9 +19,10 @@ struct Silhouettes {
 };
 
 // The clipping edges of a region: E silhouette edges, then X crossing entries (crossings.cpp);
-// partner[x] is the screen triangle a crossing entry comes from.
+// partner[x] is the screen triangle a crossing entry comes from; bb: the E silhouette edges'
+// boxes (int4, grid units), written with them.
 struct ClipEdges {
-  cl::Buffer edges, partner;
+  cl::Buffer edges, partner, bb;
   uint32_t silhouettes = 0, crossings = 0;
 };
 

@@ -69,16 +69,15 @@ ScreenSet fill_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl
   rt.launch_grouped(stage, "clip_fill", sb.ntri, VM_SCAN_WG, sb.idx, sb.ntri, fr.clip,
                     sb.tri_mesh, sb.tri_local, fr.mesh_cull, fr.W, fr.H, fr.ortho, region, fr.boxes,
                     fr.use_boxes, fr.offsets, g.sums, g.bases, g.groups, s.tris, s.bary, want,
-                    fr.totals);
+                    fr.depth_ex, cl_int(fr.depth_ex_done ? 0 : 1), fr.totals);
+  fr.depth_ex_done = true;  // (zeroed by begin_frame; noted by clip_cells under buckets)
   return s;
 }
 
 void snap_depths(ClRuntime& rt, Frame& fr, ScreenSet& s, Stage stage) {
-  if (!fr.depth_ex_done) {  // zeroed by begin_frame
-    rt.launch(stage, "depth_exponents", s.count, s.tris, s.count, fr.ortho, fr.depth_ex);
-    fr.depth_ex_done = true;
-  }
-  rt.launch(stage, "snap_depth_planes", s.count, s.tris, s.count, fr.depth_ex);
+  s.bb = rt.alloc(std::max<size_t>(s.count, 1) * sizeof(cl_int4), "triangle boxes");
+  s.qr = rt.alloc(std::max<size_t>(s.count, 1) * sizeof(cl_double2), "triangle depth ranges");
+  rt.launch(stage, "snap_depth_planes", s.count, s.tris, s.count, fr.depth_ex, s.bb, s.qr);
 }
 
 }  // namespace vismap::stages

@@ -29,8 +29,8 @@ struct Frame {
   cl::Buffer mat, mesh_cull, clip, offsets, boxes;
   ClRuntime::GroupSums screen_groups;  // clip_count -> clip_fill (a fused scan)
   cl_int ortho = 0, use_boxes = 0;
-  // The depth-plane exponent reductions (depth_exponents): over the whole frame once clip_cells
-  // has noted every screen triangle (buckets), else per screen set.
+  // The depth-plane exponent reductions (note_depth_exponents): over the whole frame once
+  // clip_cells has noted every screen triangle (buckets), else by the first clip_fill.
   cl::Buffer depth_ex;
   bool depth_ex_done = false;
   // The region's VM_TOTAL_* words (counts and status flags the kernels raise), zeroed by
@@ -39,9 +39,10 @@ struct Frame {
   cl_int4 full{};
 };
 
-// The S screen triangles of one region; bary (9 floats each) only when asked for.
+// The S screen triangles of one region; bary (9 floats each) only when asked for; their boxes
+// (int4, grid units) and nearness ranges (double2), written by snap_depths.
 struct ScreenSet {
-  cl::Buffer tris, bary;
+  cl::Buffer tris, bary, bb, qr;
   uint32_t count = 0;
 };
 
@@ -60,7 +61,7 @@ ScreenSet fill_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl
                       uint32_t S, bool bary, Stage stage);
 // The depth planes snapped to integers over one 2^k (snap_depth_planes): crossing lines between
 // them are then exact. After the silhouette hash, whose keys are the transformed depths shared by
-// mesh neighbours.
+// mesh neighbours. Also writes s.bb and s.qr (the binning's boxes and nearness ranges).
 void snap_depths(ClRuntime& rt, Frame& fr, ScreenSet& s, Stage stage);
 
 }  // namespace vismap::stages
