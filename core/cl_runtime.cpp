@@ -389,6 +389,10 @@ uint32_t ClRuntime::group_total(Stage stage, GroupSums& g) {
   return total;
 }
 
+void ClRuntime::scan_offsets(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
+  if (n > 0) scan_level(stage, counts, offsets, n, scratch_total_, 0u);
+}
+
 uint32_t ClRuntime::scan(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {
   if (n == 0) return 0;
   scan_level(stage, counts, offsets, n, scratch_total_, 0u);

@@ -99,6 +99,8 @@ class ClRuntime {
 
   // Exclusive scan of n counts into offsets (device), returning the total (one read back).
   uint32_t scan(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n);
+  // The offsets only, for a caller that knows the total (no read back).
+  void scan_offsets(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n);
   // Same, without reading back: the total lands in totals[slot].
   void scan_to(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n, cl::Buffer& totals,
                uint32_t slot);

@@ -250,6 +250,17 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cross_pair
   }
 }
 
+/* Pair p's crossing line rounded with the best of VM_SNAP_SEARCH values of n (kept out of the
+ * pair traversal, whose hot loop it would slow down; done as the pairs are compacted). */
+inline void refine_pair(uint p, __global const VmScreenTri* tris, __global const uint* pair_t,
+                        __global const uint* pair_o, __global const uint* pair_rel,
+                        __global VmLine* pair_line) {
+  if (pair_rel[p] != VM_REL_CROSS) return;
+  VmScreenTri a = tris[pair_t[p]], b = tris[pair_o[p]];
+  VmLine line;
+  if (pair_relation(&a, &b, &line, VM_SNAP_SEARCH) == VM_REL_CROSS) pair_line[p] = line;
+}
+
 /* Only after an overflow, and only for the triangles whose pairs did not fit their slots (the
  * others are copied by cross_compact): the same traversal, straight into the compact arrays. */
 __kernel void cross_pairs_fill(__global const VmScreenTri* tris, uint ntris,
@@ -266,14 +277,15 @@ __kernel void cross_pairs_fill(__global const VmScreenTri* tris, uint ntris,
   uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start, leaf_list,
                     0xffffffffu, pair_o + o, pair_rel + o, pair_line + o);
   for (uint k = 0; k < c; ++k) pair_t[o + k] = t;
+  for (uint k = 0; k < c; ++k) refine_pair(o + k, tris, pair_t, pair_o, pair_rel, pair_line);
 }
 
 /* Makes cross_pairs' offsets global (adding the group's base), and copies the pairs that fit
- * their slots there. */
+ * their slots there, refining their lines (refine_pair). */
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cross_compact(
-    uint ntris, __global const uint* counts, __global uint* offsets,
-    __global const uint* group_sums, __global const uint* group_bases, uint groups,
-    __global const uint* scr_o, __global const uint* scr_rel, __global const VmLine* scr_line,
+    uint ntris, __global const VmScreenTri* tris, __global const uint* counts,
+    __global uint* offsets, __global const uint* group_sums, __global const uint* group_bases,
+    uint groups, __global const uint* scr_o, __global const uint* scr_rel, __global const VmLine* scr_line,
     __global uint* pair_t, __global uint* pair_o, __global uint* pair_rel,
     __global VmLine* pair_line) {
   __local uint tmp[VM_SCAN_WG];
@@ -289,20 +301,10 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cross_comp
     pair_o[o + k] = scr_o[s + k];
     pair_rel[o + k] = scr_rel[s + k];
     pair_line[o + k] = scr_line[s + k];
+    refine_pair(o + k, tris, pair_t, pair_o, pair_rel, pair_line);
   }
 }
 
-/* The crossing lines of the compacted pairs, rounded with the best of VM_SNAP_SEARCH values of
- * n (kept out of the pair traversal, whose hot loop it would slow down). */
-__kernel void cross_refine(uint npairs, __global const VmScreenTri* tris,
-                           __global const uint* pair_t, __global const uint* pair_o,
-                           __global const uint* pair_rel, __global VmLine* pair_line) {
-  uint p = get_global_id(0);
-  if (p >= npairs || pair_rel[p] != VM_REL_CROSS) return;
-  VmScreenTri a = tris[pair_t[p]], b = tris[pair_o[p]];
-  VmLine line;
-  if (pair_relation(&a, &b, &line, VM_SNAP_SEARCH) == VM_REL_CROSS) pair_line[p] = line;
-}
 
 /* The pairs where a triangle is the higher member ("incoming"), as per-triangle lists. */
 __kernel void cross_in_count(uint npairs, __global const uint* pair_o, __global uint* in_count) {
@@ -513,14 +515,12 @@ __kernel void cross_in_sort(uint ntris, __global const uint* in_count,
 }
 
 /* Per triangle: counts its clipping entries (its pairs' and its triple-point entries). */
-__kernel void cross_entry_count(uint ntris, __global const VmScreenTri* tris,
-                                __global const uint* out_count, __global const uint* out_offset,
-                                __global const uint* in_count, __global const uint* in_offset,
-                                __global const uint* in_list, __global const uint* pair_t,
-                                __global const uint* pair_o, __global const uint* pair_rel,
-                                __global const VmLine* pair_line, __global uint* ent_count) {
-  uint x = get_global_id(0);
-  if (x >= ntris) return;
+inline uint entries_of(uint x, __global const VmScreenTri* tris,
+                       __global const uint* out_count, __global const uint* out_offset,
+                       __global const uint* in_count, __global const uint* in_offset,
+                       __global const uint* in_list, __global const uint* pair_t,
+                       __global const uint* pair_o, __global const uint* pair_rel,
+                       __global const VmLine* pair_line) {
   __global const uint* a = in_list + in_offset[x];
   int n = (int)in_count[x];
   uint c = 0;
@@ -528,7 +528,27 @@ __kernel void cross_entry_count(uint ntris, __global const VmScreenTri* tris,
   for (int k = 0; k < n; ++k) c += pair_entries(pair_rel[a[k]]);
   c += triple_lines(x, tris, out_count, out_offset, in_count, in_offset, in_list, pair_t, pair_o,
                     pair_rel, pair_line, 0, 0);
-  ent_count[x] = c;
+  return c;
+}
+
+/* Each triangle's entries counted, and its offset within the work-group with the group's total
+ * (scan.cl's fused scan; cross_entry_fill makes the offsets global). */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cross_entry_count(
+    uint ntris, __global const VmScreenTri* tris, __global const uint* out_count,
+    __global const uint* out_offset, __global const uint* in_count,
+    __global const uint* in_offset, __global const uint* in_list, __global const uint* pair_t,
+    __global const uint* pair_o, __global const uint* pair_rel, __global const VmLine* pair_line,
+    __global uint* ent_count, __global uint* ent_offset, __global uint* group_sums) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint x = get_global_id(0);
+  const uint c = x < ntris ? entries_of(x, tris, out_count, out_offset, in_count, in_offset,
+                                        in_list, pair_t, pair_o, pair_rel, pair_line)
+                           : 0;
+  const uint o = vm_group_offset(c, tmp, group_sums);
+  if (x < ntris) {
+    ent_count[x] = c;
+    ent_offset[x] = o;
+  }
 }
 
 /* Writes triangle x's entries: for a crossing pair, the snapped intersection line directed so
@@ -559,16 +579,21 @@ inline uint write_entries(uint x, uint p, bool lower, __global const VmScreenTri
   return m;
 }
 
-__kernel void cross_entry_fill(uint ntris, __global const VmScreenTri* tris,
-                               __global const uint* out_count, __global const uint* out_offset,
-                               __global const uint* in_count, __global const uint* in_offset,
-                               __global const uint* in_list, __global const uint* pair_t,
-                               __global const uint* pair_o, __global const uint* pair_rel,
-                               __global const VmLine* pair_line, __global const uint* ent_offset,
-                               uint nsil, __global VmEdge* edges, __global uint* partner) {
-  uint x = get_global_id(0);
+/* Writes each triangle's entries at its group's base plus cross_entry_count's offset, and makes
+ * the offsets global (candidates and occlusion read them by triangle). */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cross_entry_fill(
+    uint ntris, __global const VmScreenTri* tris, __global const uint* out_count,
+    __global const uint* out_offset, __global const uint* in_count,
+    __global const uint* in_offset, __global const uint* in_list, __global const uint* pair_t,
+    __global const uint* pair_o, __global const uint* pair_rel, __global const VmLine* pair_line,
+    __global uint* ent_offset, __global const uint* group_sums, __global const uint* group_bases,
+    uint groups, uint nsil, __global VmEdge* edges, __global uint* partner) {
+  __local uint tmp[VM_SCAN_WG];
+  const uint x = get_global_id(0);
+  const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
   if (x >= ntris) return;
-  uint w = ent_offset[x];
+  uint w = base + ent_offset[x];
+  ent_offset[x] = w;
   for (uint k = 0; k < out_count[x]; ++k)
     w += write_entries(x, out_offset[x] + k, true, tris, pair_t, pair_o, pair_rel, pair_line,
                        edges + nsil + w, partner + w);

@@ -7,15 +7,17 @@ namespace vismap::stages {
 
 namespace {
 
-// Passes run per read-back after the first; a pass (clip_find and clip_apply: two launches)
-// runs VM_CLIP_LEVELS rounds. The queue length lives on the device (VM_CLIP_* state, clip.cl),
+// Passes run per read-back after the first (doubled, up to kMaxPassesPerRead, while a batch
+// shrinks the queue less than 4x: a long tail of small queues, as the teapot in its stadium's 90
+// rounds, then costs fewer reads); a pass (clip_find and clip_apply: two launches) runs
+// VM_CLIP_LEVELS rounds. The queue length lives on the device (VM_CLIP_* state, clip.cl),
 // so a batch of passes needs no host decision in between; a pass after the queue has emptied
 // costs its launches over a grid of items that leave at once. Measured queues (1024^2): the
 // bunny shrinks from 7,650 after round 1 to 0 in 11 more rounds, the teapot in 17, the Cornell
 // box with the armadillo in 53 (growing 492 -> 1,420 in rounds 8-16). Two passes (six rounds)
 // per read waste at most one pass's launches a frame: on the issue-17 GPU model a read (17 us)
 // is three launches (5.5 us), so a longer batch would pay more in idle passes than it saves.
-constexpr uint32_t kPassesPerRead = 2;
+constexpr uint32_t kPassesPerRead = 2, kMaxPassesPerRead = 8;
 
 // Scratch words a pass holds per item: its cuts, its children's offset, each level's finished
 // offsets, and the counts of an unfused pass.
@@ -133,11 +135,12 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
   // grows 1.5x a round).
   uint32_t growth = 4;
   uint32_t passes = 0;  // that ran on a non-empty queue (VM_CLIP_PASSES): each swaps the queue
+  uint32_t batch = kPassesPerRead;  // passes the next batch runs
   while (nq > 0) {
     deadline.check(kStage);
     // An exact pass (the first, every pass under a budget, after a stop) reads its counts
     // before placing its children and sizes the next queue from them; otherwise a batch runs
-    // kPassesPerRead passes over a grid of `growth` times the queue it starts from (the queue
+    // `batch` passes over a grid of `growth` times the queue it starts from (the queue
     // shrinks on the bench scenes after the first round; it may grow up to the grid), read back
     // once.
     const uint32_t room = std::min(q[0].cap, q[1].cap);
@@ -187,7 +190,14 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
         spare = alloc_queue(uint32_t(std::min<uint64_t>(want, UINT32_MAX)));
     } else {
       const uint32_t grid = uint32_t(std::min<uint64_t>(growth * uint64_t(nq), room));
-      for (uint32_t p = 0; p < kPassesPerRead; ++p) {
+      // Room in the finished list for one fragment an item a pass (at most 2^(levels - 1) = 4):
+      // a batch that fills the list stops, and costs its launches, a read and an exact pass to
+      // go on (the Cornell box with the armadillo finishes 2.4 fragments a screen triangle,
+      // against the 1.25 the list starts with); a growth is a copy (two launches).
+      const uint64_t reserve = uint64_t(out.count) + uint64_t(batch) * nq;
+      if (reserve > done_cap) grow_done(uint32_t(std::min<uint64_t>(reserve, UINT32_MAX)));
+      const uint32_t nq_before = nq;
+      for (uint32_t p = 0; p < batch; ++p) {
         const cl_uint levels = find(live ^ (p & 1), grid, 0);
         apply(live ^ (p & 1), grid, grid, 0, levels);
       }
@@ -202,6 +212,7 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
       nq = st[VM_CLIP_NQ];
       resume = st[VM_CLIP_STOP] != 0;
       if (st[VM_CLIP_STOP] == VM_CLIP_STOP_QUEUE) growth = std::min<uint32_t>(growth * 2, 16);
+      batch = uint64_t(nq) * 4 > nq_before ? std::min(2 * batch, kMaxPassesPerRead) : kPassesPerRead;
     }
     if (after_round) after_round(out.rounds);
   }

@@ -38,8 +38,8 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
     // Triangles whose pairs fit their slots are copied (and the offsets made global); after an
     // overflow the others traverse again, straight into the compact arrays.
     if (cx.pairs > 0)  // (with none, nothing to copy, no overflow, and no offset is read)
-      rt.launch_grouped(kStage, "cross_compact", S, VM_SCAN_WG, S, cx.pcount, cx.poffset, g.sums,
-                        g.bases, g.groups, scr_o, scr_rel, scr_line, cx.pair_t, cx.pair_o,
+      rt.launch_grouped(kStage, "cross_compact", S, VM_SCAN_WG, S, s.tris, cx.pcount, cx.poffset,
+                        g.sums, g.bases, g.groups, scr_o, scr_rel, scr_line, cx.pair_t, cx.pair_o,
                         cx.pair_rel, cx.pair_line);
     if (status & VM_STATUS_PAIRS_OVERFLOW)
       rt.launch(kStage, "cross_pairs_fill", S, s.tris, S, tb.bb, tb.qr, tb.grid, lv.tile_leaf,
@@ -47,7 +47,6 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
                 cx.pair_rel, cx.pair_line);
   }
   const uint32_t P = cx.pairs;
-  rt.launch(kStage, "cross_refine", P, P, s.tris, cx.pair_t, cx.pair_o, cx.pair_rel, cx.pair_line);
   cx.in_count = rt.alloc(size_t(S) * 4, "incoming pair counts");
   cx.in_offset = rt.alloc(size_t(S) * 4, "incoming pair offsets");
   cl::Buffer in_cursor = rt.alloc(size_t(S) * 4, "incoming pair cursors");
@@ -62,16 +61,16 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
     cx.entries = 0;
     return budget.allows_more(rt, 0);
   }
-  rt.fill_u32(cx.in_count, 0, S, kStage);
-  rt.fill_u32(in_cursor, 0, S, kStage);
+  rt.launch(kStage, "zero_words2", S, S, cx.in_count, in_cursor);
   rt.launch(kStage, "cross_in_count", P, P, cx.pair_o, cx.in_count);
-  rt.scan(kStage, cx.in_count, cx.in_offset, S);
+  rt.scan_offsets(kStage, cx.in_count, cx.in_offset, S);  // (their total is P)
   rt.launch(kStage, "cross_in_fill", P, P, cx.pair_o, cx.in_offset, in_cursor, cx.in_list);
   rt.launch(kStage, "cross_in_sort", S, S, cx.in_count, cx.in_offset, cx.in_list);
-  rt.launch(kStage, "cross_entry_count", S, S, s.tris, cx.pcount, cx.poffset, cx.in_count,
-            cx.in_offset, cx.in_list, cx.pair_t, cx.pair_o, cx.pair_rel, cx.pair_line,
-            cx.entry_count);
-  cx.entries = rt.scan(kStage, cx.entry_count, cx.entry_offset, S);
+  cx.entry_groups = rt.group_sums(S, "crossing entry group totals");
+  rt.launch_grouped(kStage, "cross_entry_count", S, VM_SCAN_WG, S, s.tris, cx.pcount, cx.poffset,
+                    cx.in_count, cx.in_offset, cx.in_list, cx.pair_t, cx.pair_o, cx.pair_rel,
+                    cx.pair_line, cx.entry_count, cx.entry_offset, cx.entry_groups.sums);
+  cx.entries = rt.group_total(kStage, cx.entry_groups);
   // The entries join the clipping edges (VmEdge and a partner each).
   return budget.allows_more(rt, size_t(cx.entries) * (sizeof(VmEdge) + 4));
 }
@@ -79,9 +78,11 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
 void emit_crossings(ClRuntime& rt, const ScreenSet& s, const Crossings& cx, ClipEdges& ce) {
   const uint32_t S = s.count;
   if (cx.entries == 0) return;  // nothing to write
-  rt.launch(kStage, "cross_entry_fill", S, S, s.tris, cx.pcount, cx.poffset, cx.in_count,
-            cx.in_offset, cx.in_list, cx.pair_t, cx.pair_o, cx.pair_rel, cx.pair_line,
-            cx.entry_offset, ce.silhouettes, ce.edges, ce.partner);
+  const ClRuntime::GroupSums& g = cx.entry_groups;
+  rt.launch_grouped(kStage, "cross_entry_fill", S, VM_SCAN_WG, S, s.tris, cx.pcount, cx.poffset,
+                    cx.in_count, cx.in_offset, cx.in_list, cx.pair_t, cx.pair_o, cx.pair_rel,
+                    cx.pair_line, cx.entry_offset, g.sums, g.bases, g.groups, ce.silhouettes,
+                    ce.edges, ce.partner);
 }
 
 }  // namespace vismap::stages

@@ -20,6 +20,7 @@ struct Crossings {
   cl::Buffer pair_t, pair_o, pair_rel, pair_line;  // per pair
   cl::Buffer in_count, in_offset, in_list;         // per triangle: pairs it is the upper member of
   cl::Buffer entry_count, entry_offset;            // per triangle: its clipping entries
+  ClRuntime::GroupSums entry_groups;  // entry_offset within these groups until emit_crossings
   uint32_t pairs = 0;                              // P
   uint32_t entries = 0;                            // X
 };
