@@ -9,7 +9,6 @@ void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Sil
   const uint32_t nedges = 3 * s.count;
   sil.edges_in = nedges;
   sil.flags = rt.alloc(size_t(nedges) * 4, "edge flags");
-  sil.offsets = rt.alloc(size_t(nedges) * 4, "edge offsets");
   // The hash table only lives to classify (memory freed early is memory reused later).
   const uint32_t table_size = next_pow2(uint64_t(nedges) * 2);
   cl::Buffer table = rt.alloc(size_t(table_size) * 4, "edge hash table");
@@ -17,12 +16,13 @@ void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Sil
   cl::Buffer many = rt.alloc(size_t(table_size) * 4, "edge hash shared flags");
   cl::Buffer slot_min = rt.alloc(size_t(table_size) * 4, "edge slot min");
   cl::Buffer slot_of_edge = rt.alloc(size_t(nedges) * 4, "edge slots");
-  rt.launch(kStage, "edge_table_clear", table_size, table_size, table, second, many, slot_min);
+  sil.groups = rt.group_sums(nedges, "edge group totals");
+  rt.launch(kStage, "edge_table_clear", table_size, table_size, table, second, many, slot_min,
+            sil.groups.sums, sil.groups.groups);
   rt.launch(kStage, "edge_insert", nedges, s.tris, nedges, table, table_size - 1, slot_of_edge,
             second, many, slot_min, totals);
-  sil.groups = rt.group_sums(nedges, "edge group totals");
-  rt.launch_grouped(kStage, "edge_classify", nedges, VM_SCAN_WG, s.tris, nedges, slot_of_edge,
-                    table, second, many, slot_min, sil.flags, sil.offsets, sil.groups.sums);
+  rt.launch(kStage, "edge_classify", nedges, s.tris, nedges, slot_of_edge, table, second, many,
+            slot_min, sil.flags, sil.groups.sums);
   rt.group_bases(kStage, sil.groups);
   std::vector<uint32_t>& sums = rt.host_words(sil.groups.groups);
   rt.read_async(kStage, sil.groups.sums, 0, sums.size() * 4, sums.data());
@@ -41,7 +41,7 @@ ClipEdges emit_silhouettes(ClRuntime& rt, const ScreenSet& s, Silhouettes& sil,
   ce.bb = rt.alloc(std::max<size_t>(sil.count, 1) * sizeof(cl_int4), "edge boxes");
   const ClRuntime::GroupSums& g = sil.groups;
   rt.launch_grouped(Stage::Silhouettes, "edge_emit", sil.edges_in, VM_SCAN_WG, s.tris,
-                    sil.edges_in, sil.flags, sil.offsets, g.sums, g.bases, g.groups, ce.edges,
+                    sil.edges_in, sil.flags, g.sums, g.bases, g.groups, ce.edges,
                     ce.bb);
   return ce;
 }

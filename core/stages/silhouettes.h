@@ -12,8 +12,8 @@
 namespace vismap::stages {
 
 struct Silhouettes {
-  cl::Buffer flags, offsets;  // per screen-triangle edge (3 S): silhouette or not, its place
-  ClRuntime::GroupSums groups;  // offsets are within these work-groups (scan.cl's fused scan)
+  cl::Buffer flags;             // per screen-triangle edge (3 S): silhouette or not
+  ClRuntime::GroupSums groups;  // silhouettes per VM_SCAN_WG edges (edge_classify's atomics)
   uint32_t edges_in = 0;      // 3 S
   uint32_t count = 0;         // E: read without blocking, set by emit_silhouettes
 };
