@@ -58,6 +58,39 @@ TEST(Stages, ScanMatchesHost) {
   }
 }
 
+// The fused scan (ClRuntime::GroupSums, scan.cl vm_group_offset / vm_group_base) through a real
+// producer and consumer, bin_depth and bin_pack: with no tile crowded every tile is one leaf, so
+// tile t's first leaf, its group's base plus its offset within the group, must be t. Up to 4,096
+// groups the consumer sums the groups before its own; above, it reads the bases the host
+// scanned (the path only a frame of over a million items takes).
+TEST(Stages, FusedScanPlacesEveryItem) {
+  ClRuntime& rt = runtime();
+  for (uint32_t n : {1u, 1000u, uint32_t(VM_SCAN_FINISH_MAX) * VM_SCAN_WG,
+                     uint32_t(VM_SCAN_FINISH_MAX) * VM_SCAN_WG + 1000}) {
+    std::vector<uint32_t> zeros(n, 0);
+    cl::Buffer offset = rt.upload(zeros, "tile offsets"), count = rt.upload(zeros, "tile counts");
+    cl::Buffer bb = rt.alloc(16, "boxes"), list = rt.alloc(16, "lists");
+    cl::Buffer tile_leaf = rt.alloc(size_t(n) * 4, "tile leaves");
+    cl::Buffer first = rt.alloc(size_t(n) * 4, "first leaves");
+    VmGrid g{8, 1024, cl_int((n + 1023) / 1024), 3};
+    ClRuntime::GroupSums groups = rt.group_sums(n, "groups");
+    rt.reset_profile();
+    rt.launch_grouped(Stage::Test, "bin_depth", n, VM_SCAN_WG, offset, count, n, bb, g, list,
+                      tile_leaf, first, groups.sums);
+    EXPECT_EQ(rt.group_total(Stage::Test, groups), n);
+    rt.launch_grouped(Stage::Test, "bin_pack", n, VM_SCAN_WG, n, first, groups.sums, groups.bases,
+                      groups.groups, tile_leaf);
+    const ClRuntime::StageTime t = rt.collect_profile()[size_t(Stage::Test)];
+    // producer, consumer, and the bases' scan above VM_SCAN_FINISH_MAX groups (scan_small)
+    EXPECT_EQ(t.launches, groups.groups > VM_SCAN_FINISH_MAX ? 3u : 2u) << n;
+    EXPECT_EQ(t.syncs, 1u) << n;
+    const std::vector<uint32_t> leaf = read<uint32_t>(rt, tile_leaf, n);
+    uint32_t wrong = 0;
+    for (uint32_t i = 0; i < n; ++i) wrong += leaf[i] != i << 4;
+    EXPECT_EQ(wrong, 0u) << n;
+  }
+}
+
 // Adaptive leaves (kernels/bin.cl): random boxes plus a crowd in one tile. Every leaf must list
 // exactly the boxes that touch it, ordered by (class, id) with the right class starts, the crowded
 // tile must split, and the class rule must hand every overlapping pair of boxes to exactly one
