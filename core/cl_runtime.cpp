@@ -164,6 +164,9 @@ void ClRuntime::build(uint32_t maxl) {
   if (maxl == maxl_ && program_()) return;
   const std::string source = program_source();
   std::string options = "-cl-std=CL1.2 -DVM_MAXL=" + std::to_string(maxl);
+  // A CPU device runs a work-group's items in loops between barriers (PoCL): there one item
+  // scans the group serially, two barriers instead of sixteen (scan.cl vm_group_scan).
+  if (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) options += " -DVM_SERIAL_GROUP_SCAN";
   if (const char* extra = std::getenv("VISMAP_CL_OPTIONS"); extra && *extra)
     options += std::string(" ") + extra;
   uint64_t key =

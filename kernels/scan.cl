@@ -13,12 +13,20 @@
 /* Inclusive scan of a work-group's VM_SCAN_WG values in a (Hillis-Steele), in place; every item
  * of the group calls it, after a barrier that follows its write of a[lid]. */
 inline void vm_group_scan(__local uint* a, uint lid) {
+#ifdef VM_SERIAL_GROUP_SCAN /* a CPU device (ClRuntime::build): one item, one barrier */
+  if (lid == 0) {
+    uint run = 0;
+    for (uint k = 0; k < VM_SCAN_WG; ++k) a[k] = run += a[k];
+  }
+  barrier(CLK_LOCAL_MEM_FENCE);
+#else
   for (uint off = 1; off < VM_SCAN_WG; off <<= 1) {
     uint t = lid >= off ? a[lid - off] : 0;
     barrier(CLK_LOCAL_MEM_FENCE);
     a[lid] += t;
     barrier(CLK_LOCAL_MEM_FENCE);
   }
+#endif
 }
 
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_blocks(
@@ -53,10 +61,16 @@ inline uint vm_sum_before(__global const uint* sums, uint g, __local uint* tmp) 
   for (uint b = lid; b < g; b += VM_SCAN_WG) sum += sums[b];
   tmp[lid] = sum;
   barrier(CLK_LOCAL_MEM_FENCE);
+#ifdef VM_SERIAL_GROUP_SCAN /* a CPU device: one item sums, one barrier */
+  if (lid == 0)
+    for (uint k = 1; k < VM_SCAN_WG; ++k) tmp[0] += tmp[k];
+  barrier(CLK_LOCAL_MEM_FENCE);
+#else
   for (uint off = VM_SCAN_WG / 2; off > 0; off >>= 1) {
     if (lid < off) tmp[lid] += tmp[lid + off];
     barrier(CLK_LOCAL_MEM_FENCE);
   }
+#endif
   const uint total = tmp[0];
   barrier(CLK_LOCAL_MEM_FENCE);
   return total;
