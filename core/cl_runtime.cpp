@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <numeric>
 #include <sstream>
 
 #include "core/error.h"
@@ -374,19 +375,23 @@ ClRuntime::GroupSums ClRuntime::group_sums(uint32_t n, const char* what) {
   GroupSums g;
   g.groups = static_cast<uint32_t>((uint64_t(n) + VM_SCAN_WG - 1) / VM_SCAN_WG);
   g.sums = alloc(std::max<size_t>(g.groups, 1) * sizeof(uint32_t), what);
-  g.bases = g.groups > VM_SCAN_FINISH_MAX ? alloc(g.groups * sizeof(uint32_t), what) : g.sums;
+  g.bases = alloc(std::max<size_t>(g.groups, 1) * sizeof(uint32_t), what);
   return g;
 }
 
-void ClRuntime::group_bases(Stage stage, GroupSums& g) {
-  if (g.groups > VM_SCAN_FINISH_MAX) scan_level(stage, g.sums, g.bases, g.groups, scratch_total_, 0u);
+void ClRuntime::set_bases(GroupSums& g, const std::vector<uint32_t>& sums) {
+  if (g.groups == 0) return;
+  std::vector<uint32_t>& bases = pending_writes_.emplace_back(g.groups);
+  std::exclusive_scan(sums.begin(), sums.begin() + g.groups, bases.begin(), 0u);
+  queue_.enqueueWriteBuffer(g.bases, CL_FALSE, 0, bases.size() * sizeof(uint32_t), bases.data());
+  write_bytes_ += bases.size() * sizeof(uint32_t);
 }
 
 uint32_t ClRuntime::group_total(Stage stage, GroupSums& g) {
   if (g.groups == 0) return 0;
-  group_bases(stage, g);
   std::vector<uint32_t> sums(g.groups);
   read(stage, g.sums, 0, sums.size() * sizeof(uint32_t), sums.data());
+  set_bases(g, sums);
   uint32_t total = 0;
   for (uint32_t v : sums) total += v;
   return total;
@@ -407,6 +412,7 @@ uint32_t ClRuntime::scan(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, u
 void ClRuntime::read(Stage stage, const cl::Buffer& b, size_t offset, size_t bytes, void* dst) {
   queue_.enqueueReadBuffer(b, CL_TRUE, offset, bytes, dst);
   async_pending_ = false;  // the queue is in order: every earlier read is done
+  pending_writes_.clear();  // and every earlier write
   ++syncs_;
   ++stage_syncs_[size_t(stage)];
   stage_transfer_[size_t(stage)] += bytes;
@@ -424,6 +430,7 @@ void ClRuntime::complete_reads(Stage stage) {
   if (!async_pending_) return;
   queue_.finish();
   async_pending_ = false;
+  pending_writes_.clear();
   ++syncs_;
   ++stage_syncs_[size_t(stage)];
 }
@@ -447,6 +454,7 @@ void ClRuntime::reset_profile() {
 ClRuntime::StageTimes ClRuntime::collect_profile() {
   queue_.finish();
   async_pending_ = false;
+  pending_writes_.clear();
   StageTimes out{};
   for (Launch& l : launches_) {
     cl_ulong s = l.event.getProfilingInfo<CL_PROFILING_COMMAND_START>();

@@ -106,18 +106,20 @@ class ClRuntime {
                uint32_t slot);
   // A fused scan's work-group totals (scan.cl vm_group_offset, vm_group_base; issue 17): a
   // producer over n items in work-groups of VM_SCAN_WG writes each item's offset within its
-  // group and each group's total; its consumer, over the same items and groups, adds the totals
-  // of the groups before its own, so no scan launch runs between them. A consumer takes
-  // (sums, bases, groups); groups 0 means the offsets are already global.
+  // group and each group's total; the host, which reads the totals for the count anyway, writes
+  // each group's base (the totals before it) without blocking; the consumer, over the same items
+  // and groups, adds its group's base, so no scan launch runs between them. A consumer takes
+  // (bases, groups); groups 0 means the offsets are already global.
   struct GroupSums {
-    cl::Buffer sums, bases;  // bases: the scan of sums, above VM_SCAN_FINISH_MAX groups
+    cl::Buffer sums, bases;
     uint32_t groups = 0;
   };
   GroupSums group_sums(uint32_t n, const char* what);
-  // Above VM_SCAN_FINISH_MAX groups, scans the totals into bases (2-4 launches); else nothing.
-  void group_bases(Stage stage, GroupSums& g);
-  // The producer's total: group_bases, then one blocking read of the group totals, summed here.
+  // The producer's total: one blocking read of the group totals, summed here, and the bases
+  // written (set_bases).
   uint32_t group_total(Stage stage, GroupSums& g);
+  // Writes g's bases from its groups' totals (read by the caller) without blocking.
+  void set_bases(GroupSums& g, const std::vector<uint32_t>& sums);
 
   // Profiling: per-stage event times since the last collect (waits for the queue).
   // bytes: the launches' modelled device traffic, each launch counting the sizes of the
@@ -192,6 +194,9 @@ class ClRuntime {
   uint32_t syncs_ = 0;
   bool async_pending_ = false;  // a read_async not yet followed by a blocking read
   std::vector<uint32_t> host_words_;
+  // Host data of non-blocking writes, kept until the queue has drained (a blocking read,
+  // complete_reads or collect_profile).
+  std::vector<std::vector<uint32_t>> pending_writes_;
   uint64_t pending_bytes_ = 0;  // buffer sizes of the launch being set up
   uint64_t write_bytes_ = 0;
   std::array<uint32_t, kStageCount> stage_syncs_{};

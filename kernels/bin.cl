@@ -189,11 +189,9 @@ __kernel void leaf_init(uint n, uint identity, __global uint* tile_leaf, __globa
 /* Packs each tile's first leaf (bin_depth's offset plus its group's base) with its depth. Only
  * when some tile split: else every tile's first leaf is its own index, as bin_depth wrote it. */
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void bin_pack(
-    uint ntiles, __global const uint* first_leaf, __global const uint* group_sums,
-    __global const uint* group_bases, uint groups, __global uint* tile_leaf) {
-  __local uint tmp[VM_SCAN_WG];
+    uint ntiles, __global const uint* first_leaf, __global const uint* group_bases, uint groups, __global uint* tile_leaf) {
   const uint t = get_global_id(0);
-  const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
+  const uint base = vm_group_base(group_bases, groups);
   if (t >= ntiles) return;
   tile_leaf[t] = leaf_depth(tile_leaf[t]) | (base + first_leaf[t]) << 4;
 }

@@ -103,11 +103,10 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cand_fill(
     __global const uint* tile_leaf, __global const uint* leaf_offset,
     __global const uint4* class_start, __global const uint* leaf_list,
     __global const uint* cross_offset, __global const uint* cross_count, uint nsil,
-    __global uint* offsets, __global const uint* group_sums, __global const uint* group_bases,
+    __global uint* offsets, __global const uint* group_bases,
     uint groups, __global uint* cand) {
-  __local uint tmp[VM_SCAN_WG];
   const uint t = get_global_id(0);
-  const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
+  const uint base = vm_group_base(group_bases, groups);
   if (t >= ntris) return;
   const uint o = base + offsets[t];
   offsets[t] = o;

@@ -284,13 +284,12 @@ __kernel void cross_pairs_fill(__global const VmScreenTri* tris, uint ntris,
  * their slots there, refining their lines (refine_pair). */
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cross_compact(
     uint ntris, __global const VmScreenTri* tris, __global const uint* counts,
-    __global uint* offsets, __global const uint* group_sums, __global const uint* group_bases,
+    __global uint* offsets, __global const uint* group_bases,
     uint groups, __global const uint* scr_o, __global const uint* scr_rel, __global const VmLine* scr_line,
     __global uint* pair_t, __global uint* pair_o, __global uint* pair_rel,
     __global VmLine* pair_line) {
-  __local uint tmp[VM_SCAN_WG];
   const uint t = get_global_id(0);
-  const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
+  const uint base = vm_group_base(group_bases, groups);
   if (t >= ntris) return;
   const uint c = counts[t], o = base + offsets[t];
   offsets[t] = o;
@@ -586,11 +585,10 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cross_entr
     __global const uint* out_offset, __global const uint* in_count,
     __global const uint* in_offset, __global const uint* in_list, __global const uint* pair_t,
     __global const uint* pair_o, __global const uint* pair_rel, __global const VmLine* pair_line,
-    __global uint* ent_offset, __global const uint* group_sums, __global const uint* group_bases,
+    __global uint* ent_offset, __global const uint* group_bases,
     uint groups, uint nsil, __global VmEdge* edges, __global uint* partner) {
-  __local uint tmp[VM_SCAN_WG];
   const uint x = get_global_id(0);
-  const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
+  const uint base = vm_group_base(group_bases, groups);
   if (x >= ntris) return;
   uint w = base + ent_offset[x];
   ent_offset[x] = w;

@@ -4,12 +4,10 @@
 
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void emit_visible(
     __global const VmFragMeta* meta, __global const VmLine* lines, uint n,
-    __global const uint* visible, __global const uint* offsets, __global const uint* group_sums,
-    __global const uint* group_bases, uint groups, __global const VmScreenTri* tris,
+    __global const uint* visible, __global const uint* offsets, __global const uint* group_bases, uint groups, __global const VmScreenTri* tris,
     __global VmFragMeta* out_meta, __global VmLine* out_lines, __global uint2* out_src) {
-  __local uint tmp[VM_SCAN_WG];
   const uint i = get_global_id(0);
-  const uint base = vm_group_base(group_sums, group_bases, groups, tmp); /* (occlude's scan) */
+  const uint base = vm_group_base(group_bases, groups); /* (occlude's scan) */
   if (i >= n || !visible[i]) return;
   uint o = base + offsets[i];
   VmFragMeta m = meta[i];

@@ -117,9 +117,11 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void scan_finis
 
 /* Fused count and fill (issue 17): a producer kernel, launched in work-groups of VM_SCAN_WG,
  * scans its group's counts itself (vm_group_offset: the item's offset within its group; the
- * group's total to sums[g]), and its consumer, launched over the same items and groups, adds
- * the group's base (vm_group_base), so no scan launch runs between them (ClRuntime::GroupSums
- * on the host). Every item of the group calls each (barriers); tmp is free again on return. */
+ * group's total to sums[g]); the host reads the groups' totals (it needs the count to size the
+ * output) and writes back each group's base, the totals before it (ClRuntime::GroupSums); the
+ * consumer, launched over the same items and groups, adds its group's base (vm_group_base), so no
+ * scan launch runs between them. Every item of the group calls vm_group_offset (barriers); tmp
+ * is free again on return. */
 inline uint vm_group_offset(uint count, __local uint* tmp, __global uint* sums) {
   const uint lid = get_local_id(0);
   tmp[lid] = count;
@@ -131,13 +133,10 @@ inline uint vm_group_offset(uint count, __local uint* tmp, __global uint* sums) 
   return inclusive - count;
 }
 
-/* The totals of the groups before this one: summed here for at most VM_SCAN_FINISH_MAX groups,
- * else bases[g] (the host's scan of sums); 0 when groups is 0 (the offsets are global). */
-inline uint vm_group_base(__global const uint* sums, __global const uint* bases, uint groups,
-                          __local uint* tmp) {
-  if (groups == 0) return 0;
-  if (groups > VM_SCAN_FINISH_MAX) return bases[get_group_id(0)];
-  return vm_sum_before(sums, get_group_id(0), tmp);
+/* The totals of the groups before this one, as the host wrote them; 0 when groups is 0 (the
+ * offsets are global). */
+inline uint vm_group_base(__global const uint* bases, uint groups) {
+  return groups ? bases[get_group_id(0)] : 0u;
 }
 
 /* Zeroes n words of a and of b: two fills in one launch. */

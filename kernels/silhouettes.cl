@@ -149,11 +149,10 @@ __kernel void edge_classify(__global const VmScreenTri* tris, uint nedges,
  * work-group scan of every edge's flag, ~8x on PoCL). */
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void edge_emit(
     __global const VmScreenTri* tris, uint nedges, __global const uint* flags,
-    __global const uint* group_sums, __global const uint* group_bases, uint groups,
+    __global const uint* group_bases, uint groups,
     __global VmEdge* edges, __global int4* bb) {
-  __local uint tmp[VM_SCAN_WG];
   const uint e = get_global_id(0);
-  const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
+  const uint base = vm_group_base(group_bases, groups);
   if (e >= nedges || !flags[e]) return;
   uint o = base;
   for (uint j = e - get_local_id(0); j < e; ++j) o += flags[j];

@@ -330,12 +330,11 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_fill(
     __global const uint* tri_mesh, __global const uint* tri_local,
     __global const uint* mesh_cull, uint width, uint height, int ortho, int4 region,
     __global const ushort4* boxes, int use_boxes, __global const uint* offsets,
-    __global const uint* group_sums, __global const uint* group_bases, uint groups,
+    __global const uint* group_bases, uint groups,
     __global VmScreenTri* out, __global float* bary_out, int want_bary,
     __global int* depth_ex, int note_ex, __global uint* totals) {
-  __local uint tmp[VM_SCAN_WG];
   const uint t = get_global_id(0);
-  const uint base = vm_group_base(group_sums, group_bases, groups, tmp);
+  const uint base = vm_group_base(group_bases, groups);
   if (t == 0) /* the region's totals (layout.h VM_TOTAL_*), zeroed here: one launch less */
     for (int k = 0; k < VM_TOTAL_SLOTS; ++k) totals[k] = 0;
   if (t >= ntri) return;

@@ -44,8 +44,8 @@ Leaves bin_leaves(ClRuntime& rt, cl::Buffer& bb, uint32_t n, const VmGrid& g) {
                     lv.list, lv.tile_leaf, first, groups.sums);
   const uint32_t leaves = rt.group_total(kStage, groups);
   if (leaves != ntiles) {  // some tile split: bin again into the leaves (else the map is the same)
-    rt.launch_grouped(kStage, "bin_pack", ntiles, VM_SCAN_WG, ntiles, first, groups.sums,
-                      groups.bases, groups.groups, lv.tile_leaf);
+    rt.launch_grouped(kStage, "bin_pack", ntiles, VM_SCAN_WG, ntiles, first, groups.bases,
+                      groups.groups, lv.tile_leaf);
     lv.leaves = leaves;
     fill_leaves(rt, bb, n, g, lv, count, 0);
   }

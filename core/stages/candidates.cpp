@@ -21,7 +21,7 @@ bool find_candidates(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, 
   c.list = rt.alloc(std::max<size_t>(c.total, 1) * 4, "candidates");
   rt.launch_grouped(kStage, "cand_fill", S, VM_SCAN_WG, s.tris, S, tb.bb, ce.edges, eb.bb,
                     eb.grid, lv.tile_leaf, lv.offset, lv.class_start, lv.list, cx.entry_offset,
-                    cx.entry_count, ce.silhouettes, c.offset, g.sums, g.bases, g.groups, c.list);
+                    cx.entry_count, ce.silhouettes, c.offset, g.bases, g.groups, c.list);
   return true;
 }
 

@@ -39,7 +39,7 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
     // overflow the others traverse again, straight into the compact arrays.
     if (cx.pairs > 0)  // (with none, nothing to copy, no overflow, and no offset is read)
       rt.launch_grouped(kStage, "cross_compact", S, VM_SCAN_WG, S, s.tris, cx.pcount, cx.poffset,
-                        g.sums, g.bases, g.groups, scr_o, scr_rel, scr_line, cx.pair_t, cx.pair_o,
+                        g.bases, g.groups, scr_o, scr_rel, scr_line, cx.pair_t, cx.pair_o,
                         cx.pair_rel, cx.pair_line);
     if (status & VM_STATUS_PAIRS_OVERFLOW)
       rt.launch(kStage, "cross_pairs_fill", S, s.tris, S, tb.bb, tb.qr, tb.grid, lv.tile_leaf,
@@ -81,7 +81,7 @@ void emit_crossings(ClRuntime& rt, const ScreenSet& s, const Crossings& cx, Clip
   const ClRuntime::GroupSums& g = cx.entry_groups;
   rt.launch_grouped(kStage, "cross_entry_fill", S, VM_SCAN_WG, S, s.tris, cx.pcount, cx.poffset,
                     cx.in_count, cx.in_offset, cx.in_list, cx.pair_t, cx.pair_o, cx.pair_rel,
-                    cx.pair_line, cx.entry_offset, g.sums, g.bases, g.groups, ce.silhouettes,
+                    cx.pair_line, cx.entry_offset, g.bases, g.groups, ce.silhouettes,
                     ce.edges, ce.partner);
 }
 

@@ -16,7 +16,7 @@ void read_visible(ClRuntime& rt, const Fragments& fr, const Visibility& vis, con
     cl::Buffer os = rt.alloc(size_t(V) * sizeof(cl_uint2), "visible sources");
     const ClRuntime::GroupSums& g = vis.groups;
     rt.launch_grouped(Stage::Emit, "emit_visible", fr.count, VM_SCAN_WG, fr.meta, fr.lines,
-                      fr.count, vis.visible, vis.offset, g.sums, g.bases, g.groups, s.tris, om, ol,
+                      fr.count, vis.visible, vis.offset, g.bases, g.groups, s.tris, om, ol,
                       os);
     rt.read_async(Stage::Emit, om, 0, size_t(V) * sizeof(VmFragMeta), vf.meta.data());
     rt.read_async(Stage::Emit, ol, 0, size_t(V) * L * sizeof(VmLine), vf.lines.data());

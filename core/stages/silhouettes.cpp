@@ -23,7 +23,6 @@ void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Sil
             second, many, slot_min, totals);
   rt.launch(kStage, "edge_classify", nedges, s.tris, nedges, slot_of_edge, table, second, many,
             slot_min, sil.flags, sil.groups.sums);
-  rt.group_bases(kStage, sil.groups);
   std::vector<uint32_t>& sums = rt.host_words(sil.groups.groups);
   rt.read_async(kStage, sil.groups.sums, 0, sums.size() * 4, sums.data());
 }
@@ -31,8 +30,10 @@ void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Sil
 ClipEdges emit_silhouettes(ClRuntime& rt, const ScreenSet& s, Silhouettes& sil,
                            uint32_t crossing_entries) {
   rt.complete_reads(Stage::Silhouettes);  // the count (a blocking read since has done it)
+  const std::vector<uint32_t>& sums = rt.host_words(sil.groups.groups);
   sil.count = 0;
-  for (uint32_t v : rt.host_words(sil.groups.groups)) sil.count += v;
+  for (uint32_t v : sums) sil.count += v;
+  rt.set_bases(sil.groups, sums);  // for edge_emit
   ClipEdges ce;
   ce.silhouettes = sil.count;
   ce.crossings = crossing_entries;
@@ -41,7 +42,7 @@ ClipEdges emit_silhouettes(ClRuntime& rt, const ScreenSet& s, Silhouettes& sil,
   ce.bb = rt.alloc(std::max<size_t>(sil.count, 1) * sizeof(cl_int4), "edge boxes");
   const ClRuntime::GroupSums& g = sil.groups;
   rt.launch_grouped(Stage::Silhouettes, "edge_emit", sil.edges_in, VM_SCAN_WG, s.tris,
-                    sil.edges_in, sil.flags, g.sums, g.bases, g.groups, ce.edges,
+                    sil.edges_in, sil.flags, g.bases, g.groups, ce.edges,
                     ce.bb);
   return ce;
 }

@@ -68,7 +68,7 @@ ScreenSet fill_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl
   const ClRuntime::GroupSums& g = fr.screen_groups;
   rt.launch_grouped(stage, "clip_fill", sb.ntri, VM_SCAN_WG, sb.idx, sb.ntri, fr.clip,
                     sb.tri_mesh, sb.tri_local, fr.mesh_cull, fr.W, fr.H, fr.ortho, region, fr.boxes,
-                    fr.use_boxes, fr.offsets, g.sums, g.bases, g.groups, s.tris, s.bary, want,
+                    fr.use_boxes, fr.offsets, g.bases, g.groups, s.tris, s.bary, want,
                     fr.depth_ex, cl_int(fr.depth_ex_done ? 0 : 1), fr.totals);
   fr.depth_ex_done = true;  // (zeroed by begin_frame; noted by clip_cells under buckets)
   return s;
