@@ -1,14 +1,16 @@
 /* Exclusive prefix sum of uint counts: the "scan" of count-scan-fill and of the Reyes work
- * queue's compaction, in one launch for at most VM_SCAN_BLOCK counts and two up to
- * VM_SCAN_FINISH_MAX blocks (issue 17: each launch costs ~5.5 us on a GPU). scan_blocks scans
+ * queue's compaction, in one launch for at most VM_SCAN_SMALL_MAX counts (scan_blocks for one
+ * block, scan_small for a few) and two up to VM_SCAN_FINISH_MAX blocks (issue 17: each launch
+ * costs ~5.5 us on a GPU); most count-and-fill pairs fuse it into their own kernels instead
+ * (vm_group_offset and vm_group_base, below). scan_blocks scans
  * VM_SCAN_BLOCK counts per work-group and writes each block's total to block_sums[sum_slot +
  * group]: with one block that is the grand total, written straight into the caller's totals
  * slot. scan_finish then adds to each block the sum of the blocks before it, which each
  * work-group sums for itself (no second scan, no third launch), and its last group writes the
  * grand total. Above VM_SCAN_FINISH_MAX blocks the host scans the block sums recursively and
  * scan_add adds them. Integer sums: the offsets are the same however they are grouped. */
-/* VM_SCAN_WG, VM_SCAN_PER_ITEM, VM_SCAN_BLOCK and VM_SCAN_FINISH_MAX: layout.h (the host launches
- * by them). */
+/* VM_SCAN_WG, VM_SCAN_PER_ITEM, VM_SCAN_BLOCK, VM_SCAN_FINISH_MAX and VM_SCAN_SMALL_MAX:
+ * layout.h (the host launches by them). */
 
 /* Inclusive scan of a work-group's VM_SCAN_WG values in a (Hillis-Steele), in place; every item
  * of the group calls it, after a barrier that follows its write of a[lid]. */
