@@ -50,8 +50,10 @@ class ServerV2Test : public ServerTest {
   }
   // Polls /metrics until it holds `line` (a frame is counted when the server's write completes,
   // which may be just after the client has its bytes).
+  // Polls up to 10 s: the frame counters move in the write's completion, which a loaded
+  // machine (the suite runs two tests at once, PoCL on both cores) can delay past 2 s.
   bool metrics_show(const std::string& line) {
-    for (int i = 0; i < 200; ++i) {
+    for (int i = 0; i < 1000; ++i) {
       if (http_get("127.0.0.1", port_, "/metrics").body.find(line + "\n") != std::string::npos)
         return true;
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
