@@ -379,22 +379,20 @@ ClRuntime::GroupSums ClRuntime::group_sums(uint32_t n, const char* what) {
   return g;
 }
 
-void ClRuntime::set_bases(GroupSums& g, const std::vector<uint32_t>& sums) {
-  if (g.groups == 0) return;
+uint32_t ClRuntime::set_bases(GroupSums& g, const std::vector<uint32_t>& sums) {
+  if (g.groups == 0) return 0;
   std::vector<uint32_t>& bases = pending_writes_.emplace_back(g.groups);
   std::exclusive_scan(sums.begin(), sums.begin() + g.groups, bases.begin(), 0u);
   queue_.enqueueWriteBuffer(g.bases, CL_FALSE, 0, bases.size() * sizeof(uint32_t), bases.data());
   write_bytes_ += bases.size() * sizeof(uint32_t);
+  return bases.back() + sums[g.groups - 1];
 }
 
 uint32_t ClRuntime::group_total(Stage stage, GroupSums& g) {
   if (g.groups == 0) return 0;
   std::vector<uint32_t> sums(g.groups);
   read(stage, g.sums, 0, sums.size() * sizeof(uint32_t), sums.data());
-  set_bases(g, sums);
-  uint32_t total = 0;
-  for (uint32_t v : sums) total += v;
-  return total;
+  return set_bases(g, sums);
 }
 
 void ClRuntime::scan_offsets(Stage stage, cl::Buffer& counts, cl::Buffer& offsets, uint32_t n) {

@@ -115,11 +115,11 @@ class ClRuntime {
     uint32_t groups = 0;
   };
   GroupSums group_sums(uint32_t n, const char* what);
-  // The producer's total: one blocking read of the group totals, summed here, and the bases
-  // written (set_bases).
+  // The producer's total: one blocking read of the group totals, then set_bases.
   uint32_t group_total(Stage stage, GroupSums& g);
-  // Writes g's bases from its groups' totals (read by the caller) without blocking.
-  void set_bases(GroupSums& g, const std::vector<uint32_t>& sums);
+  // Writes g's bases from its groups' totals (read by the caller) without blocking; returns
+  // their sum, the producer's total.
+  uint32_t set_bases(GroupSums& g, const std::vector<uint32_t>& sums);
 
   // Profiling: per-stage event times since the last collect (waits for the queue).
   // bytes: the launches' modelled device traffic, each launch counting the sizes of the

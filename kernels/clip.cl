@@ -324,6 +324,14 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_apply
     before_sums[lid] = acc;
     all_sums[lid] = acc_all;
     barrier(CLK_LOCAL_MEM_FENCE);
+#ifdef VM_SERIAL_GROUP_SCAN /* a CPU device: one item sums, one barrier (as scan.cl) */
+    if (lid == 0)
+      for (uint k = 1; k < VM_SCAN_WG; ++k) {
+        before_sums[0] += before_sums[k];
+        all_sums[0] += all_sums[k];
+      }
+    barrier(CLK_LOCAL_MEM_FENCE);
+#else
     for (uint o = VM_SCAN_WG / 2; o > 0; o >>= 1) {
       if (lid < o) {
         before_sums[lid] += before_sums[lid + o];
@@ -331,6 +339,7 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_apply
       }
       barrier(CLK_LOCAL_MEM_FENCE);
     }
+#endif
     before = before_sums[0];
     all = all_sums[0];
   } else {

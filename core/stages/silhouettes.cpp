@@ -30,10 +30,7 @@ void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Sil
 ClipEdges emit_silhouettes(ClRuntime& rt, const ScreenSet& s, Silhouettes& sil,
                            uint32_t crossing_entries) {
   rt.complete_reads(Stage::Silhouettes);  // the count (a blocking read since has done it)
-  const std::vector<uint32_t>& sums = rt.host_words(sil.groups.groups);
-  sil.count = 0;
-  for (uint32_t v : sums) sil.count += v;
-  rt.set_bases(sil.groups, sums);  // for edge_emit
+  sil.count = rt.set_bases(sil.groups, rt.host_words(sil.groups.groups));  // (for edge_emit)
   ClipEdges ce;
   ce.silhouettes = sil.count;
   ce.crossings = crossing_entries;
