@@ -23,8 +23,8 @@
 #include <vector>
 
 #include "clients/wsclient.h"
-#include "core/compact.h"
-#include "core/output.h"
+#include "core/stream/compact.h"
+#include "core/write/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "server/config.h"

@@ -28,7 +28,7 @@
 
 #include "core/camera.h"
 #include "core/error.h"
-#include "core/output.h"
+#include "core/write/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 

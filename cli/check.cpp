@@ -1,4 +1,4 @@
-// `vismap check`: runs the pipeline and the checks (core/reference/scene_check.h) on one scene and
+// `vismap check`: runs the pipeline and the checks (core/check/scene_check.h) on one scene and
 // prints one JSON object on stdout. Exit status 0 when every figure is within its tolerance
 // (docs/NUMERICS.md), 4 when one is over (the JSON then lists them under "over_tolerance").
 #include "cli/check.h"
@@ -7,9 +7,9 @@
 #include <string>
 
 #include "cli/args.h"
-#include "core/lines.h"
-#include "core/reference/scene_check.h"
-#include "core/svg_lines.h"
+#include "core/lines/lines.h"
+#include "core/check/scene_check.h"
+#include "core/lines/svg_lines.h"
 
 namespace vismap::cli {
 
@@ -99,7 +99,7 @@ int cmd_check(int argc, char** argv) {
   std::vector<std::string> bad = check::over_tolerance(f, a.tol);
   if (a.lines) {
     // The drawing `vismap render --style lines` makes, against the id raster of the same view.
-    // With --lines-from, another tool's drawing read from SVG (core/svg_lines.h) instead.
+    // With --lines-from, another tool's drawing read from SVG (core/lines/svg_lines.h) instead.
     LineSet lines;
     if (!a.lines_from.empty()) {
       lines = read_svg_lines_file(a.lines_from, cam.width, cam.height);

@@ -13,10 +13,10 @@
 #include <vector>
 
 #include "cli/args.h"
-#include "core/compact.h"
-#include "core/delta.h"
+#include "core/stream/compact.h"
+#include "core/stream/delta.h"
 #include "core/error.h"
-#include "core/output.h"
+#include "core/write/output.h"
 
 namespace vismap::cli {
 

@@ -15,9 +15,9 @@
 #include <vector>
 
 #include "clients/wsclient.h"
-#include "core/compact.h"
-#include "core/delta.h"
-#include "core/output.h"
+#include "core/stream/compact.h"
+#include "core/stream/delta.h"
+#include "core/write/output.h"
 
 using nlohmann::json;
 using namespace vismap::client;

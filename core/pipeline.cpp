@@ -13,11 +13,11 @@
 #include <malloc.h>
 #endif
 
-#include "core/cl_runtime.h"
-#include "core/clock.h"
+#include "core/device/cl_runtime.h"
+#include "core/util/clock.h"
 #include "core/error.h"
-#include "core/map_build.h"
-#include "core/mesh_topology.h"
+#include "core/stages/map_build.h"
+#include "core/util/mesh_topology.h"
 #include "core/stages/bin.h"
 #include "core/stages/buckets.h"
 #include "core/stages/budget.h"
@@ -29,7 +29,7 @@
 #include "core/stages/occlusion.h"
 #include "core/stages/raster.h"
 #include "core/stages/silhouettes.h"
-#include "core/stages/tessellate.h"
+#include "core/surfaces/internal.h"
 #include "core/stages/transform.h"
 
 namespace vismap {

@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "core/camera.h"
-#include "core/device.h"
+#include "core/device/device.h"
 #include "core/planar_map.h"
 #include "core/scene.h"
-#include "core/implicit2d.h"
-#include "core/tessellate.h"
+#include "core/surfaces/implicit2d.h"
+#include "core/surfaces/tessellate.h"
 
 namespace vismap {
 
@@ -106,7 +106,7 @@ class Renderer {
   // undiced surfaces (InputError BadScene).
   Scene tessellate(const Scene& scene, const Camera& camera, const TessellateOptions& opts = {},
                    TessellateStats* stats = nullptr);
-  // An expression in x and y drawn as filled regions on this device (core/implicit2d.h).
+  // An expression in x and y drawn as filled regions on this device (core/surfaces/implicit2d.h).
   implicit::Regions2D implicit_2d(const implicit::Tape& tape, const implicit::View2D& view,
                                   double tolerance_px);
   PlanarMap render(const Scene& scene, const Camera& camera, const RenderOptions& opts = {},

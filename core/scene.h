@@ -29,9 +29,9 @@ struct Mesh {
   bool soup = false;  // true when vertices are not shared (match edges by position)
 
   // Curved surfaces (issue 18, docs/SURFACES.md), diced per frame by Renderer::tessellate into an
-  // ordinary triangle mesh in the same slot (core/tessellate.h); render() refuses them undiced.
-  // Bicubic Bezier patches: 16 control points per patch, 48 floats, world space; point (i, j) of
-  // patch p at patches[48 p + 3 (4 i + j) + c], i along v and j along u, so that
+  // ordinary triangle mesh in the same slot (core/surfaces/tessellate.h); render() refuses them
+  // undiced. Bicubic Bezier patches: 16 control points per patch, 48 floats, world space;
+  // point (i, j) of patch p at patches[48 p + 3 (4 i + j) + c], i along v and j along u, so that
   // S(u, v) = sum_ij B_i(v) B_j(u) P_ij. positions/indices stay empty; source_triangles = patches.
   std::vector<float> patches;
   // positions/indices are the control mesh of a Loop subdivision surface (triangles).

@@ -1,4 +1,4 @@
-/* Implicit surfaces (issue 19; host: core/stages/implicit.cpp, docs/IMPLICIT.md): MPR's region
+/* Implicit surfaces (issue 19; host: core/surfaces/implicit.cpp, docs/IMPLICIT.md): MPR's region
  * queue. Each round evaluates every region's tape in interval arithmetic over its box, classifies
  * it (full, empty, or ambiguous), shortens the tape of an ambiguous region to the clauses that can
  * still choose its value (decided min/max become copies of their winner), and splits it into

@@ -150,8 +150,8 @@ typedef struct {
 #define VM_SCAN_SMALL_MAX (VM_SCAN_WG * 64)
 
 /* Implicit surfaces (issue 19, implicit.cl): a tape clause on slots. op is implicit::Op's value
- * (core/implicit.h; VM_IOP_COPY added by shortening: out = a); Const keeps its float's bits in a.
- * Operands are read before out is written, so out may reuse an operand's slot. */
+ * (core/implicit/implicit.h; VM_IOP_COPY added by shortening: out = a); Const keeps its float's
+ * bits in a. Operands are read before out is written, so out may reuse an operand's slot. */
 #define VM_IOP_CONST 0
 #define VM_IOP_X 1
 #define VM_IOP_Y 2

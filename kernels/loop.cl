@@ -1,4 +1,4 @@
-/* Stage tessellate, Loop subdivision (core/stages/tess_loop.cpp, docs/SURFACES.md): the host builds
+/* Stage tessellate, Loop subdivision (core/surfaces/loop.cpp, docs/SURFACES.md): the host builds
  * each level's stencils once per control mesh (CSR rows: new vertex = sum of weights times the
  * previous level's vertices); every frame applies them level by level, then the limit stencil,
  * and measures the screen-space flatness of the level to choose it. */

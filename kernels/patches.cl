@@ -1,4 +1,4 @@
-/* Stage tessellate, bicubic Bezier patches (core/stages/tess_patches.cpp, docs/SURFACES.md
+/* Stage tessellate, bicubic Bezier patches (core/surfaces/patches.cpp, docs/SURFACES.md
  * "Bezier patches"). Two passes per frame, one work-item per patch:
  *   patch_rates  culls the patch against the view (its 16 control points outside one clip plane)
  *                and bounds it: the interior grid's rates, and each side's demand (segments);

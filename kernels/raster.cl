@@ -3,7 +3,7 @@
  * sample per pixel centre, nearness from the triangle's depth plane. Two passes with 32-bit
  * atomics only (OpenCL 1.2 core): the nearest depth per pixel, then the lowest screen-triangle
  * index among the triangles at that depth. Not exact (float depth, one sample): a floor, not a
- * reference (core/reference does the exact checks). */
+ * reference (core/check does the exact checks). */
 
 /* Order-preserving key of a nearness: larger q, larger key. */
 inline uint zb_key(double q) {

@@ -2,10 +2,10 @@
 
 #include <atomic>
 
-#include "core/compact.h"
-#include "core/delta.h"
-#include "core/lines.h"
-#include "core/output.h"
+#include "core/stream/compact.h"
+#include "core/stream/delta.h"
+#include "core/lines/lines.h"
+#include "core/write/output.h"
 
 namespace vismap::server {
 

@@ -10,7 +10,7 @@
 #include <variant>
 
 #include "core/camera.h"
-#include "core/compact.h"
+#include "core/stream/compact.h"
 #include "core/error.h"
 
 namespace vismap::server {

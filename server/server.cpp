@@ -10,7 +10,7 @@
 #include <csignal>
 #include <cstdio>
 
-#include "core/clock.h"
+#include "core/util/clock.h"
 #include "core/pipeline.h"
 #include "server/server_impl.h"
 

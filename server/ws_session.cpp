@@ -9,8 +9,8 @@
 #include <deque>
 #include <nlohmann/json.hpp>
 
-#include "core/clock.h"
-#include "core/output.h"
+#include "core/util/clock.h"
+#include "core/write/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "server/error_reply.h"

@@ -8,7 +8,7 @@
 
 #include "core/error.h"
 #include "core/pipeline.h"
-#include "core/reference/scene_check.h"
+#include "core/check/scene_check.h"
 #include "tests/support/random_scene.h"
 #include "tests/support/triangle_scene.h"
 

@@ -5,7 +5,7 @@
 #include <utility>
 #include <vector>
 
-#include "core/reference/planar_check.h"
+#include "core/check/planar_check.h"
 
 using namespace vismap;
 using namespace vismap::check;

@@ -9,7 +9,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "core/output.h"
+#include "core/write/output.h"
 
 namespace {
 

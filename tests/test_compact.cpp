@@ -9,8 +9,8 @@
 #include <set>
 #include <sstream>
 
-#include "core/compact.h"
-#include "core/conform.h"
+#include "core/stream/compact.h"
+#include "core/util/conform.h"
 #include "core/error.h"
 #include "core/pipeline.h"
 #include "core/scene.h"

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "core/pipeline.h"
-#include "core/reference/scene_check.h"
+#include "core/check/scene_check.h"
 #include "core/scene.h"
 #include "tests/support/triangle_scene.h"
 

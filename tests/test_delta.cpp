@@ -9,7 +9,7 @@
 #include <random>
 #include <sstream>
 
-#include "core/delta.h"
+#include "core/stream/delta.h"
 #include "core/error.h"
 #include "core/pipeline.h"
 #include "core/scene.h"

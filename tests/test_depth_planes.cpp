@@ -10,7 +10,7 @@
 #include <set>
 
 #include "core/pipeline.h"
-#include "core/reference/scene_check.h"
+#include "core/check/scene_check.h"
 #include "core/scene.h"
 #include "kernels/layout.h"
 #include "tests/support/triangle_scene.h"

@@ -1,5 +1,5 @@
-// Implicit surfaces, host side (core/implicit.h): the s-expression parser, the tape, the plain
-// and interval evaluators, and tape shortening.
+// Implicit surfaces, host side (core/implicit/implicit.h): the s-expression parser, the tape, the
+// plain and interval evaluators, and tape shortening.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <string>
 
 #include "core/error.h"
-#include "core/implicit.h"
+#include "core/implicit/implicit.h"
 
 using namespace vismap;
 using namespace vismap::implicit;
@@ -217,10 +217,10 @@ TEST(Implicit, BadInputNamesLineAndColumn) {
   }
 }
 
-// ---- The device's region queue (core/stages/implicit.h, kernels/implicit.cl) ----
+// ---- The device's region queue (core/surfaces/implicit.h, kernels/implicit.cl) ----
 
-#include "core/cl_runtime.h"
-#include "core/stages/implicit.h"
+#include "core/device/cl_runtime.h"
+#include "core/surfaces/implicit.h"
 
 namespace {
 
@@ -348,9 +348,9 @@ TEST(Implicit, DeviceQueueOnKnownShapes) {
   }
 }
 
-// ---- MPR's 2D mode (core/implicit2d.h) ----
+// ---- MPR's 2D mode (core/surfaces/implicit2d.h) ----
 
-#include "core/implicit2d.h"
+#include "core/surfaces/implicit2d.h"
 
 TEST(Implicit, TwoDimensionalRegionsWithKnownAnswers) {
   ClRuntime& rt = implicit_runtime();

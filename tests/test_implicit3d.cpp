@@ -1,4 +1,4 @@
-// Implicit surfaces in 3D (issue 19, core/stages/tess_implicit.cpp, core/load_implicit.cpp):
+// Implicit surfaces in 3D (issue 19, core/surfaces/implicit3d.cpp, core/load/sexp.cpp):
 // shapes with known answers diced for a camera within the error bound (|f| / |grad f| at every
 // vertex, f being a distance or 1-Lipschitz here), closed where wholly in view (every edge of
 // two triangles), normals outward and from the gradient; the bounds search; scene-file objects
@@ -15,7 +15,7 @@
 #include <set>
 
 #include "core/error.h"
-#include "core/implicit.h"
+#include "core/implicit/implicit.h"
 #include "core/pipeline.h"
 
 namespace {

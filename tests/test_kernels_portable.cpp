@@ -12,7 +12,7 @@
 #include <fstream>
 #include <string>
 
-#include "core/cl_runtime.h"
+#include "core/device/cl_runtime.h"
 
 namespace {
 

@@ -1,5 +1,5 @@
-// Line drawings (core/lines.h): each line kind on small scenes whose answer is known, exact ends,
-// chaining, the SVG groups, and the check against the id raster.
+// Line drawings (core/lines/lines.h): each line kind on small scenes whose answer is known, exact
+// ends, chaining, the SVG groups, and the check against the id raster.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,8 +9,8 @@
 #include <string>
 
 #include "core/error.h"
-#include "core/lines.h"
-#include "core/output.h"
+#include "core/lines/lines.h"
+#include "core/write/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "support/triangle_scene.h"

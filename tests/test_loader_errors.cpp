@@ -330,7 +330,7 @@ TEST(LoadErrors, PropertylessElementWithHugeCountHang) {
 
 // "property list double int vertex_indices" with a list count of 2^62: count x 4 bytes wrapped to
 // 0, the bounds check passed and the reader ran past the end of the buffer (ASan heap-buffer-
-// overflow in core/load_ply.cpp), quoting heap bytes as a "vertex index". Now Truncated at face 0.
+// overflow in core/load/ply.cpp), quoting heap bytes as a "vertex index". Now Truncated at face 0.
 TEST(LoadErrors, ListCountTimesSizeWrapsReadPastBuffer) {
   TempDir dir;
   auto ply = [&](double count) {

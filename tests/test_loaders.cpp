@@ -323,7 +323,7 @@ TEST(LoadGltf, ExternalBufferRelativeToTheFile) {
   test::expect_error(missing, InputErrorKind::FileNotFound, {"tri.bin"});
 }
 
-// Bezier patches (core/load_patches.cpp): the Newell tea set, in .bpt and in .patches.
+// Bezier patches (core/load/patches.cpp): the Newell tea set, in .bpt and in .patches.
 namespace {
 
 std::string teapot_dir() {
@@ -338,7 +338,7 @@ std::array<float, 3> control(const Mesh& m, size_t p, int i, int j) {
 
 // The signed volume that the control nets enclose, each grid cell as the triangles
 // (i,j) (i,j+1) (i+1,j+1) and (i,j) (i+1,j+1) (i+1,j), whose normals turn like S_u x S_v:
-// positive when the patches face outward (core/mesh_topology.h's convention for triangles).
+// positive when the patches face outward (core/util/mesh_topology.h's convention for triangles).
 double control_net_volume(const Mesh& m) {
   double v = 0;
   auto tet = [](const std::array<float, 3>& a, const std::array<float, 3>& b,

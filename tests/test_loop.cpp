@@ -1,4 +1,4 @@
-// Loop subdivision surfaces (issue 18): the pbrt loader and the dicing (core/stages/tess_loop.cpp).
+// Loop subdivision surfaces (issue 18): the pbrt loader and the dicing (core/surfaces/loop.cpp).
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "core/error.h"
-#include "core/output.h"
+#include "core/write/output.h"
 
 using namespace vismap;
 

@@ -1,4 +1,4 @@
-// PDF, EPS and PNG through cairo (core/output_cairo.h): the Cornell box and the bunny in each
+// PDF, EPS and PNG through cairo (core/write/cairo.h): the Cornell box and the bunny in each
 // format, PNGs read back through cairo, id PNGs against the z-buffer, seams on a plane, and the
 // PNG against the SVG as rsvg-convert draws it (when rsvg-convert is installed).
 #include <cairo.h>
@@ -14,9 +14,9 @@
 #include <string>
 
 #include "core/error.h"
-#include "core/lines.h"
-#include "core/output.h"
-#include "core/output_cairo.h"
+#include "core/lines/lines.h"
+#include "core/write/output.h"
+#include "core/write/cairo.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "support/triangle_scene.h"

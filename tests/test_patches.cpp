@@ -1,4 +1,4 @@
-// Bicubic Bezier patches diced for the camera (issue 18, core/stages/tess_patches.cpp,
+// Bicubic Bezier patches diced for the camera (issue 18, core/surfaces/patches.cpp,
 // kernels/patches.cl): the screen-space tolerance holds against the surface evaluated in double
 // precision; crack-free (a diced edge used by one triangle only lies on a patch side that no
 // other patch shares, and no edge is used more than twice); the tea set's degenerate patches;

@@ -9,7 +9,7 @@
 
 #include "core/camera.h"
 #include "core/pipeline.h"
-#include "core/reference/planar_check.h"
+#include "core/check/planar_check.h"
 #include "core/scene.h"
 
 namespace {

@@ -9,7 +9,7 @@
 #include <filesystem>
 
 #include "core/pipeline.h"
-#include "core/reference/scene_check.h"
+#include "core/check/scene_check.h"
 #include "tests/support/random_scene.h"
 
 namespace {

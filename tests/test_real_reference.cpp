@@ -1,11 +1,11 @@
-// Real meshes checked through check_scene (core/reference/scene_check.h): small ones against the
+// Real meshes checked through check_scene (core/check/scene_check.h): small ones against the
 // exact reference, large ones by pixels, within `vismap check`'s tolerances.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
 #include "core/pipeline.h"
-#include "core/reference/scene_check.h"
+#include "core/check/scene_check.h"
 
 namespace {
 

@@ -10,7 +10,7 @@
 #include <random>
 #include <set>
 
-#include "core/cl_runtime.h"
+#include "core/device/cl_runtime.h"
 #include "core/error.h"
 #include "core/pipeline.h"
 #include "core/stages/bin.h"

@@ -9,9 +9,9 @@
 #include <filesystem>
 #include <map>
 
-#include "core/lines.h"
+#include "core/lines/lines.h"
 #include "core/pipeline.h"
-#include "core/reference/scene_check.h"
+#include "core/check/scene_check.h"
 #include "core/scene.h"
 
 namespace {
@@ -135,9 +135,9 @@ INSTANTIATE_TEST_SUITE_P(Corpus, Stiff, ::testing::ValuesIn(corpus()),
                            return s;
                          });
 
-// Line drawings of the corpus (core/lines.h), in both orders: every drawn line on an id change
-// of the raster and every change between surfaces apart on a line, and the same drawing (each
-// kind's length) whichever order the scene comes in, except where ties decide the picture.
+// Line drawings of the corpus (core/lines/lines.h), in both orders: every drawn line on an id
+// change of the raster and every change between surfaces apart on a line, and the same drawing
+// (each kind's length) whichever order the scene comes in, except where ties decide the picture.
 class StiffLines : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(StiffLines, DrawingMatchesTheRasterInBothOrders) {

@@ -1,9 +1,9 @@
-// read_svg_lines (core/svg_lines.h): the SVG drawings `vismap check --lines-from` scores, on tiny
-// hand-written files in the forms the peers write (docs/LINES.md, "Against other tools").
+// read_svg_lines (core/lines/svg_lines.h): the SVG drawings `vismap check --lines-from` scores, on
+// tiny hand-written files in the forms the peers write (docs/LINES.md, "Against other tools").
 #include <gtest/gtest.h>
 
 #include "core/error.h"
-#include "core/svg_lines.h"
+#include "core/lines/svg_lines.h"
 
 namespace vismap {
 namespace {

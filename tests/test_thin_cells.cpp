@@ -13,7 +13,7 @@
 #include <cmath>
 
 #include "core/pipeline.h"
-#include "core/reference/scene_check.h"
+#include "core/check/scene_check.h"
 #include "core/scene.h"
 #include "tests/support/triangle_scene.h"
 

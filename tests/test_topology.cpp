@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "core/mesh_topology.h"
+#include "core/util/mesh_topology.h"
 
 namespace {
 

@@ -12,7 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "core/pipeline.h"
-#include "core/reference/scene_check.h"
+#include "core/check/scene_check.h"
 #include "core/scene.h"
 #include "tests/support/triangle_scene.h"
 

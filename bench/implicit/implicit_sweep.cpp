@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "core/error.h"
-#include "core/implicit.h"
+#include "core/implicit/implicit.h"
 #include "core/pipeline.h"
 
 using namespace vismap;

@@ -20,7 +20,7 @@
 //            edges under the crease angle marked G1 so smooth edges are not drawn: creases,
 //            boundaries, and the silhouette along mesh edges. Slow; run.sh gives it a time limit.
 // Kinds in the SVG: OutLine edges and the sharp edges lying on a mesh contour or boundary edge
-// are class "contour", the other sharp edges "crease" (core/svg_lines.h reads the classes).
+// are class "contour", the other sharp edges "crease" (core/lines/svg_lines.h reads the classes).
 #include <BRepBuilderAPI_MakeEdge.hxx>
 #include <BRepBuilderAPI_MakeFace.hxx>
 #include <BRepBuilderAPI_MakeWire.hxx>

@@ -32,18 +32,18 @@
 #include <vector>
 
 #include "core/camera.h"
-#include "core/clock.h"
+#include "core/util/clock.h"
 #include "core/error.h"
-#include "core/output.h"
+#include "core/write/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 
-// ---- compact plugs in here (issue 16; core/compact.h on main, not yet on this branch) ----
+// ---- compact plugs in here (issue 16; core/stream/compact.h on main, not yet on this branch) ----
 // When the header is there the encoding below is compiled in and listed; nothing else changes.
-#if __has_include("core/compact.h")
-#include "core/compact.h"
+#if __has_include("core/stream/compact.h")
+#include "core/stream/compact.h"
 #define VISMAP_STREAM_HAVE_COMPACT 1
-#include "core/delta.h"
+#include "core/stream/delta.h"
 #endif
 
 namespace {

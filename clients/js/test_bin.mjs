@@ -1,5 +1,5 @@
 // The browser's bin frame decoder (server/www/bin.js, the web viewer's bin mode) in Node against
-// the reference (read_bin, core/output_bin.cpp, through `vismap decode --json`): bunny frames
+// the reference (read_bin, core/write/bin.cpp, through `vismap decode --json`): bunny frames
 // made with `vismap render --format bin` (fill, lines, fill+lines with the hidden parts) decode
 // to the same arrays, line section included; malformed frames (every truncation of a small
 // frame, each of its bytes set to other values, the line section's counts and words changed)

@@ -1,6 +1,6 @@
 // The browser's compact decoder (server/www/compact.js) in Node 20 against the reference
-// (core/compact.cpp through `vismap decode --json`): the test vectors decode to their JSON (the
-// zstd one through the zstd CLI as options.zstd, and refused with a clear error without it);
+// (core/stream/compact.cpp through `vismap decode --json`): the test vectors decode to their JSON
+// (the zstd one through the zstd CLI as options.zstd, and refused with a clear error without it);
 // bunny frames made with `vismap render --compression deflate` decode to the same arrays, their
 // colours are the SVG's; malformed frames (every truncation, byte flips, header fields, payloads
 // mutated and recompressed) throw CompactFrameError and nothing else, and where the C++ reader

@@ -1,7 +1,7 @@
 // The browser's delta decoder (server/www/delta.js) in Node 20 against the reference
-// (core/delta.cpp through `vismap decode FRAMES... --json`): the test vectors decode in sequence
-// to their JSON (zstd through the zstd CLI as options.zstd, refused with a clear error without
-// it, and repacked with raw deflate); a skipped frame throws DeltaOutOfSync and a keyframe
+// (core/stream/delta.cpp through `vismap decode FRAMES... --json`): the test vectors decode in
+// sequence to their JSON (zstd through the zstd CLI as options.zstd, refused with a clear error
+// without it, and repacked with raw deflate); a skipped frame throws DeltaOutOfSync and a keyframe
 // recovers; calls not awaited one by one still decode in order; every truncation and many
 // mutations of vector 1 after vector 0 (and of vector 0 after vectors 0 and 1) throw
 // DeltaFrameError and nothing else and leave the state so that the next vector decodes exactly, the C++ decoder agreeing on acceptance and arrays;

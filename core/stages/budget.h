@@ -9,7 +9,7 @@
 
 #include <cstdint>
 
-#include "core/cl_runtime.h"
+#include "core/device/cl_runtime.h"
 
 namespace vismap::stages {
 

@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <functional>
 
-#include "core/cl_runtime.h"
+#include "core/device/cl_runtime.h"
 #include "core/stages/budget.h"
 #include "core/stages/candidates.h"
 #include "core/stages/deadline.h"

@@ -7,7 +7,7 @@
 
 #include <cstdint>
 
-#include "core/cl_runtime.h"
+#include "core/device/cl_runtime.h"
 #include "core/stages/bin.h"
 #include "core/stages/budget.h"
 #include "core/stages/silhouettes.h"

@@ -6,9 +6,9 @@
 #include <string>
 #include <utility>
 
-#include "core/clock.h"
+#include "core/util/clock.h"
 #include "core/error.h"
-#include "core/stages/stage.h"
+#include "core/device/stage.h"
 
 namespace vismap::stages {
 

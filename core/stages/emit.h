@@ -1,4 +1,4 @@
-// Stage emit (kernels/emit.cl, then core/map_build.cpp on the host): the visible fragments
+// Stage emit (kernels/emit.cl, then core/stages/map_build.cpp on the host): the visible fragments
 // compacted on the device and read back with their sources, then turned into the planar map's
 // vertices (each the exact intersection of two lines, rounded once).
 #pragma once
@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/cl_runtime.h"
-#include "core/map_build.h"
+#include "core/device/cl_runtime.h"
+#include "core/stages/map_build.h"
 #include "core/stages/clip.h"
 #include "core/stages/occlusion.h"
 #include "core/stages/transform.h"

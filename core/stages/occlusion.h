@@ -8,7 +8,7 @@
 
 #include <cstdint>
 
-#include "core/cl_runtime.h"
+#include "core/device/cl_runtime.h"
 #include "core/stages/bin.h"
 #include "core/stages/clip.h"
 #include "core/stages/crossings.h"

@@ -1,6 +1,6 @@
 #include "core/stages/raster.h"
 
-#include "core/clock.h"
+#include "core/util/clock.h"
 
 namespace vismap::stages {
 

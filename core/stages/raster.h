@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "core/camera.h"
-#include "core/cl_runtime.h"
+#include "core/device/cl_runtime.h"
 #include "core/pipeline.h"
 #include "core/stages/transform.h"
 

@@ -6,7 +6,7 @@
 
 #include <cstdint>
 
-#include "core/cl_runtime.h"
+#include "core/device/cl_runtime.h"
 #include "core/stages/transform.h"
 
 namespace vismap::stages {

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "core/camera.h"
-#include "core/cl_runtime.h"
+#include "core/device/cl_runtime.h"
 #include "core/scene.h"
 
 namespace vismap::stages {

@@ -1,6 +1,6 @@
 // Decoder for the vismap binary triangle list, version 1 (proto/FORMAT.md), with its optional
 // line section, for the browser and Node 20. An ES module with no dependencies. It accepts exactly
-// the frames the reference (read_bin, core/output_bin.cpp) accepts and throws a BinFrameError
+// the frames the reference (read_bin, core/write/bin.cpp) accepts and throws a BinFrameError
 // ("bin frame: PART: what", PART the header, a section, a line chain or point, a triangle) for
 // every other frame. The sections are views into the frame's bytes where they are 4-byte aligned
 // (a WebSocket ArrayBuffer is), copies otherwise.

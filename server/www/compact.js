@@ -2,7 +2,7 @@
 // An ES module with no dependencies beyond its folder: raw deflate through the platform's
 // DecompressionStream("deflate-raw") and the sections' numbers (frame_io.js, shared with
 // delta.js), meshoptimizer's index codec and the walk written here. It accepts exactly the
-// frames the reference (read_compact, core/compact.cpp) accepts, except zstd frames, which need a
+// frames the reference (read_compact, core/stream/compact.cpp) accepts, except zstd frames, which need a
 // native decoder (ask hello for compression: "deflate"), and throws a CompactFrameError
 // ("compact frame: PART: what") for every other frame.
 //

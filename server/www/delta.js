@@ -1,7 +1,7 @@
 // Decoder for the vismap delta frame, version 1 (proto/DELTA.md), for the browser and Node 20.
 // An ES module; raw deflate and the sections' numbers come from frame_io.js (shared with
 // compact.js), zstd from an injected decoder. It keeps the state the reference keeps
-// (DeltaDecoder in core/delta.cpp: the source vertices and triangles sent so far, the whole set,
+// (DeltaDecoder in core/stream/delta.cpp: the source vertices and triangles sent so far, the whole set,
 // the previous frame's polygon sources, the last index), accepts the frames it accepts (except an
 // id gap that would wrap 64-bit arithmetic back into range, which C++ takes and this refuses) and
 // gives the same arrays bit for bit.
@@ -36,7 +36,7 @@ const VERSION = 1;
 const HEADER_BYTES = 48;
 const KEYFRAME = 1;
 const MAX_RATIO = 256;
-const MAX_SOURCES = 2 ** 26; // triangles, and vertices, a client holds (as core/delta.cpp)
+const MAX_SOURCES = 2 ** 26; // triangles, and vertices, a client holds (as core/stream/delta.cpp)
 const CAMERA_BYTES = 4 + 18 * 8;
 const UNSENT = 0xffffffff;
 const SECTIONS = ['vertices', 'vertex positions', 'triangles', 'removed', 'added', 'polygons', 'corner codes',
@@ -76,7 +76,7 @@ export function llround(g) {
 }
 
 /**
- * core/delta.cpp's project_to_grid: the world point (x, y, z) through the rows to the grid, into
+ * core/stream/delta.cpp's project_to_grid: the world point (x, y, z) through the rows to the grid, into
  * out[at], out[at + 1]; false when not in front (cw <= 0) or far outside (|grid| >= 1e9).
  */
 export function projectToGrid(r, width, height, quantum, x, y, z, out, at) {
@@ -232,7 +232,7 @@ class Output {
     this.meshHi = lo < base.length ? base[lo] : 2 ** 32;
   }
 
-  // The Lambert factor of --fill shade, as core/delta.cpp's shade_of: every product and sum in
+  // The Lambert factor of --fill shade, as core/stream/delta.cpp's shade_of: every product and sum in
   // doubles, in its order.
   shadeOf(id) {
     const P = this.P;

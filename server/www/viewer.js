@@ -260,7 +260,7 @@
     return { xy: xy.subarray(0, 2 * nv), indices };
   }
 
-  // The line section as the SVG writer draws it (core/output_svg.cpp write_lines): 1 px round
+  // The line section as the SVG writer draws it (core/write/svg.cpp write_lines): 1 px round
   // strokes, the hidden parts first, dashed 4 3, then the visible ones kind by kind, in the
   // writer's default colours.
   const LINE_COLORS = ['#000000', '#000000', '#404040', '#b00000', '#000000'];

@@ -6,8 +6,8 @@
 #include <cstdlib>
 #include <string>
 
-#include "core/compact.h"
-#include "core/conform.h"
+#include "core/stream/compact.h"
+#include "core/util/conform.h"
 #include "core/error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -8,8 +8,8 @@
 #include <sstream>
 #include <string>
 
-#include "core/conform.h"
-#include "core/delta.h"
+#include "core/util/conform.h"
+#include "core/stream/delta.h"
 #include "core/error.h"
 
 namespace {

@@ -22,7 +22,7 @@
 
 #include "clients/wsclient.h"
 #include "core/error.h"
-#include "core/output.h"
+#include "core/write/output.h"
 #include "core/pipeline.h"
 #include "server/server.h"
 #include "tests/server/server_fixture.h"

@@ -8,10 +8,10 @@
 #include <fstream>
 #include <string>
 
-#include "core/compact.h"
-#include "core/delta.h"
-#include "core/lines.h"
-#include "core/output.h"
+#include "core/stream/compact.h"
+#include "core/stream/delta.h"
+#include "core/lines/lines.h"
+#include "core/write/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "tests/server/server_fixture.h"

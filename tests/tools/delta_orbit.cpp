@@ -12,7 +12,7 @@
 #include <fstream>
 #include <string>
 
-#include "core/delta.h"
+#include "core/stream/delta.h"
 #include "core/error.h"
 #include "core/pipeline.h"
 #include "core/scene.h"

@@ -8,7 +8,7 @@ polygons of removed and of previous sources, twins and point references, deflate
 with nothing to draw.
 
 `sequences()` gives {name: [frame bytes, ...]}: each sequence decodes in order. The decoders'
-tests compare them with `vismap decode FRAMES... --json` (core/delta.cpp):
+tests compare them with `vismap decode FRAMES... --json` (core/stream/delta.cpp):
 clients/python/tests/test_delta.py here, clients/js/test_delta.mjs through
 `python3 delta_craft.py OUTDIR` (main: the frames and a manifest)."""
 import os

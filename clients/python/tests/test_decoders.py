@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""The Python package's frame readers against the reference (core/compact.cpp via `vismap decode
---json`): the compact test vectors (zstd and raw deflate) decode to their JSON exactly; bunny
+"""The Python package's frame readers against the reference (core/stream/compact.cpp via `vismap
+decode --json`): the compact test vectors (zstd and raw deflate) decode to their JSON exactly; bunny
 frames made with `vismap render` (compact zstd with shades, compact deflate with ids at quantum
 4, bin) decode to the same arrays as `vismap decode --json`; the fast walk equals the literal
 one; malformed frames (every truncation, byte flips, header fields, payloads mutated and

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""vismap_client.DeltaDecoder against the reference (core/delta.cpp via `vismap decode FRAMES...
---json`): the delta test vectors decode in sequence to their JSON exactly (as sent, zstd, and
-repacked with raw deflate); a skipped frame raises DeltaOutOfSync and a keyframe recovers; every
+"""vismap_client.DeltaDecoder against the reference (core/stream/delta.cpp via `vismap decode
+FRAMES... --json`): the delta test vectors decode in sequence to their JSON exactly (as sent, zstd,
+and repacked with raw deflate); a skipped frame raises DeltaOutOfSync and a keyframe recovers; every
 truncation and many mutations of vector 1 after vector 0 (and of the keyframe, vector 0, after
 vectors 0 and 1) raise ValueError and nothing else, and leave the state so that the next vector
 then decodes exactly (where the C++ decoder accepts a mutated

@@ -1,6 +1,6 @@
 """Reader for the compact frame, version 1 (proto/COMPACT.md), as numpy arrays.
 
-The reference is read_compact in core/compact.cpp; this reader accepts exactly the frames it
+The reference is read_compact in core/stream/compact.cpp; this reader accepts exactly the frames it
 accepts (one difference: after the zstd frame nothing may follow, where libzstd would also skip
 empty or skippable frames), and raises ValueError naming the part for everything else.
 

@@ -1,7 +1,7 @@
 """Decoder for the delta frame, version 1 (proto/DELTA.md), as numpy arrays.
 
-The reference is DeltaDecoder::decode in core/delta.cpp; this decoder keeps the same state (the
-source vertices and triangles it was sent, the whole set, the previous frame's polygon sources,
+The reference is DeltaDecoder::decode in core/stream/delta.cpp; this decoder keeps the same state
+(the source vertices and triangles it was sent, the whole set, the previous frame's polygon sources,
 the last index), accepts the frames it accepts (one difference: an id gap that would wrap 64-bit
 arithmetic back into range, which C++ takes, is refused here as out of range) and gives the same
 arrays bit for bit. A frame that does not apply raises DeltaOutOfSync; any other bad frame
@@ -10,7 +10,7 @@ ValueError ("delta frame: PART: what"); either leaves the state as it was.
 Exactness: the projection is DELTA.md's, operation by operation in IEEE doubles (numpy's
 element-wise float64 ops are IEEE's, one rounding each, no fused multiply-add), rounded half away
 from zero as C's llround (not numpy's or Python's round, which round half to even); edge points
-are integer arithmetic; the shade is core/delta.cpp's expression in the same order.
+are integer arithmetic; the shade is core/stream/delta.cpp's expression in the same order.
 
 Speed: the sections' numbers, the store's updates, the whole set, the projection, orientations
 and shades are numpy; the corners (twins and point predictions chain them) are one Python loop.
@@ -32,7 +32,7 @@ HEADER_BYTES = 48
 KEYFRAME = 1
 NO_BASE = 0xFFFFFFFF
 MAX_RATIO = 256
-MAX_SOURCES = 1 << 26  # triangles, and vertices, a client holds (as core/delta.cpp)
+MAX_SOURCES = 1 << 26  # triangles, and vertices, a client holds (as core/stream/delta.cpp)
 CAMERA_BYTES = 4 + 18 * 8
 SECTIONS = ("vertices", "vertex positions", "triangles", "removed", "added", "polygons", "corner codes",
             "vertex refs", "points", "edge steps")
@@ -82,7 +82,7 @@ def llround(g):
 
 
 def project_to_grid(rows, width, height, quantum, p):
-    """core/delta.cpp's project_to_grid for float64 points p (n, 3): (x, y) int64 and whether
+    """core/stream/delta.cpp's project_to_grid for float64 points p (n, 3): (x, y) int64 and whether
     each is in front (cw > 0) and not far outside (|grid| < 1e9)."""
     r = [float(v) for v in rows]
     x, y, z = p[:, 0], p[:, 1], p[:, 2]
@@ -99,7 +99,7 @@ def project_to_grid(rows, width, height, quantum, p):
 
 
 def shades(p, eye, target, ortho):
-    """core/delta.cpp's shade_of for triangles p (n, 3 corners, 3) float64: llround(255 k),
+    """core/stream/delta.cpp's shade_of for triangles p (n, 3 corners, 3) float64: llround(255 k),
     k = 0.12 + 0.88 min(1, |n.l| / (|n| |l|)) (1 where that is not finite), as uint8."""
     e1 = p[:, 1] - p[:, 0]
     e2 = p[:, 2] - p[:, 0]

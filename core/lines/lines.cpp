@@ -1,0 +1,830 @@
+// extract_lines (core/lines/lines.h): the planar map's edges classified by the source triangles on
+// their two sides, chained into polylines.
+#include "core/lines/lines.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <string>
+#include <tuple>
+
+#include "core/util/conform.h"
+#include "core/error.h"
+#include "core/util/flat_map.h"
+
+namespace vismap {
+
+const char* line_kind_name(LineKind k) {
+  switch (k) {
+    case LineKind::Contour: return "contour";
+    case LineKind::Boundary: return "boundary";
+    case LineKind::Crease: return "crease";
+    case LineKind::Intersection: return "intersection";
+    case LineKind::Border: return "border";
+  }
+  return "?";
+}
+
+namespace {
+
+// A map vertex that is exactly on a screen triangle's edge is within ~1e-9 px of it (the map's
+// vertices are exact points rounded once to a 2^-20 grid-unit lattice, core/stages/map_build.h; the
+// screen triangles' corners are grid points); other vertices are farther than this by far, but
+// for edges that meet at a vertex at a vanishing angle.
+constexpr double kOnLine = 1e-6;
+// Two surfaces touch along an edge when their nearness there differs by less than this
+// fraction. Each screen triangle's depth plane is snapped on its own (docs/NUMERICS.md §2,
+// 2^-24 of its largest nearness), so two surfaces that meet exactly differ by up to ~1e-7
+// there; a real gap this small (1e-5 of the distance to the eye) reads as touching.
+constexpr double kSameDepth = 1e-5;
+
+[[noreturn]] void bad(const std::string& what) {
+  throw InputError(InputErrorKind::ParseError, "lines", "", "map", -1, what);
+}
+
+uint64_t pair_key(uint32_t a, uint32_t b) { return uint64_t(a) << 32 | b; }
+
+// Per mesh: vertices matched by position (so soup and split-vertex meshes have edges), and
+// how many triangles use each undirected edge.
+struct Topology {
+  bool built = false;
+  std::vector<uint32_t> canon;  // per vertex: the first vertex at its position
+  std::vector<uint32_t> uses;   // per edge id: triangles using it
+  std::vector<uint32_t> tris;   // per edge id: the first two triangles using it (~0u: none)
+  std::vector<uint8_t> side;    // per edge id: the first triangle's corner k where the edge starts
+  FlatMap edge{0};              // (lo, hi) canonical vertex pair -> edge id
+
+  void build(const Mesh& m) {
+    built = true;
+    const size_t nv = m.vertex_count(), nt = m.triangle_count();
+    canon.resize(nv);
+    FlatMap at(nv);
+    for (uint32_t v = 0; v < nv; ++v) {
+      const float* p = &m.positions[3 * size_t(v)];
+      const uint64_t k =
+          ((uint64_t(std::bit_cast<uint32_t>(p[0] + 0.0f)) * 0x9E3779B97F4A7C15ull) ^
+           (uint64_t(std::bit_cast<uint32_t>(p[1] + 0.0f)) * 0xC2B2AE3D27D4EB4Full) ^
+           uint64_t(std::bit_cast<uint32_t>(p[2] + 0.0f))) >>
+          1;
+      uint32_t c = at.emplace(k, v).first;
+      if (c != v && !(m.positions[3 * size_t(c)] == p[0] && m.positions[3 * size_t(c) + 1] == p[1] &&
+                      m.positions[3 * size_t(c) + 2] == p[2]))
+        c = v;  // a hash collision: kept apart (at worst an edge is taken for a boundary)
+      canon[v] = c;
+    }
+    edge = FlatMap(3 * nt);
+    uses.clear();
+    for (size_t t = 0; t < nt; ++t)
+      for (int k = 0; k < 3; ++k) {
+        const uint64_t key = undirected(m, t, k);
+        auto [id, fresh] = edge.emplace(key, uint32_t(uses.size()));
+        if (fresh) {
+          uses.push_back(1);
+          tris.push_back(uint32_t(t));
+          tris.push_back(~0u);
+          side.push_back(uint8_t(k));
+        } else if (++uses[id] == 2) {
+          tris[2 * size_t(id) + 1] = uint32_t(t);
+        }
+      }
+  }
+  uint32_t vertex(const Mesh& m, size_t t, int k) const { return canon[m.indices[3 * t + k]]; }
+  uint64_t undirected(const Mesh& m, size_t t, int k) const {
+    const uint32_t a = vertex(m, t, k), b = vertex(m, t, (k + 1) % 3);
+    return a < b ? pair_key(a, b) : pair_key(b, a);
+  }
+  uint32_t edge_uses(const Mesh& m, size_t t, int k) const {
+    const uint32_t* id = edge.find(undirected(m, t, k));
+    return id ? uses[*id] : 0;
+  }
+};
+
+struct Vec {
+  double x, y, z;
+};
+Vec sub(Vec a, Vec b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+Vec cross(Vec a, Vec b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+double dot(Vec a, Vec b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+class Classifier {
+ public:
+  Classifier(const PlanarMap& map, const ScreenTriangles& screen, const Scene& scene,
+             const Camera& camera, const LineOptions& opts)
+      : map_(map), st_(screen), scene_(scene), cam_(camera), topo_(scene.meshes.size()),
+        by_source_(screen.size()), next_(screen.size(), kNone), edge_of_(screen.size()) {
+    if (screen.grid_scale == 0 && screen.size() != 0) bad("screen triangles without a grid scale");
+    if (screen.xy.size() != 6 * screen.size() || screen.depth.size() != 3 * screen.size() ||
+        screen.triangle.size() != screen.size())
+      bad("screen triangle arrays of different lengths");
+    cos_crease_ = std::cos(opts.crease_angle_deg * M_PI / 180.0);
+    vp_ = camera.view_projection();
+    for (uint32_t s = 0; s < screen.size(); ++s) {
+      const uint32_t m = screen.mesh[s], t = screen.triangle[s];
+      if (m >= scene.meshes.size() || t >= scene.meshes[m].triangle_count())
+        bad("screen triangle " + std::to_string(s) + " names no triangle of the scene");
+      auto [first, fresh] = by_source_.emplace(pair_key(m, t), s);
+      if (!fresh) {
+        next_[s] = next_[first];
+        next_[first] = s;
+      }
+      edge_of_[s] = {kUnmapped, kUnmapped, kUnmapped};
+    }
+  }
+
+  // The mesh edge a line lies on: mesh, and the edge's key in its Topology (kNoEdge for
+  // intersection and border lines, which lie on no edge of the one mesh).
+  struct Owner {
+    uint32_t mesh = kNone;
+    uint64_t edge = kNoEdge;
+  };
+  static constexpr uint64_t kNoEdge = ~uint64_t(0);
+
+  // The kind of the map edge a-b (pixels) between fragments f and g (g = kNone: background);
+  // false when it is no line.
+  bool classify(const double* a, const double* b, uint32_t f, uint32_t g, LineKind& kind,
+                Owner& owner) {
+    owner = Owner{};
+    const uint32_t m1 = map_.mesh[f], t1 = map_.triangle[f];
+    auto own = [&](uint32_t m, uint32_t t, int e) {
+      owner.mesh = m;
+      owner.edge = topo(m).undirected(scene_.meshes[m], t, e);
+    };
+    if (g == kNone) {
+      if (on_viewport_border(a, b)) return false;
+      uint32_t s;
+      const int e = source_edge(m1, t1, a, b, &s);
+      if (e < 0) return false;  // the near plane's cut
+      kind = has_neighbour(m1, t1, e) ? LineKind::Contour : LineKind::Boundary;
+      own(m1, t1, e);
+      return true;
+    }
+    const uint32_t m2 = map_.mesh[g], t2 = map_.triangle[g];
+    if (m1 == m2 && t1 == t2) return false;
+    uint32_t s1 = kNone, s2 = kNone;
+    const int e1 = source_edge(m1, t1, a, b, &s1), e2 = source_edge(m2, t2, a, b, &s2);
+    if (e1 < 0 && e2 < 0) {
+      kind = LineKind::Intersection;  // a crossing line
+      return true;
+    }
+    if (e1 >= 0 && e2 >= 0 && m1 == m2 && shared_edge(m1, t1, e1, t2, e2)) {
+      double cosang;
+      const bool fold = facing_differs(m1, t1, e1, t2, &cosang);
+      own(m1, t1, e1);
+      if (fold) {
+        kind = LineKind::Contour;
+        return true;
+      }
+      if (cosang < cos_crease_) {
+        kind = LineKind::Crease;
+        return true;
+      }
+      return false;
+    }
+    // One surface ends at this edge in front of the other, or both meet here at one depth.
+    const double mx = (a[0] + b[0]) / 2, my = (a[1] + b[1]) / 2;
+    const double q1 = nearness(s1, mx, my), q2 = nearness(s2, mx, my);
+    if (std::abs(q1 - q2) <= kSameDepth * std::max(std::abs(q1), std::abs(q2))) {
+      kind = m1 != m2 ? LineKind::Border : LineKind::Intersection;
+      if (e1 >= 0)
+        own(m1, t1, e1);  // a mesh edge seen here (--hidden must not draw it as hidden)
+      else
+        own(m2, t2, e2);
+      return true;
+    }
+    // The owner: the nearer side when both lie on an edge of theirs, else the one that does.
+    const bool first = e1 >= 0 && (e2 < 0 || q1 > q2);
+    const int e = first ? e1 : e2;
+    kind = has_neighbour(first ? m1 : m2, first ? t1 : t2, e) ? LineKind::Contour
+                                                             : LineKind::Boundary;
+    own(first ? m1 : m2, first ? t1 : t2, e);
+    return true;
+  }
+
+  // The edge lines of mesh m that a view can have (contour, boundary, crease: from the mesh,
+  // not the map), each as its projected segment clipped to the view volume, in pixels on the
+  // pipeline's grid (snapped as transform.cl snaps corners). Calls f(kind, edge key, a, b).
+  template <class F>
+  void for_each_edge_line(uint32_t m, F&& f) {
+    const Mesh& mesh = scene_.meshes[m];
+    const Topology& T = topo(m);
+    const size_t ne = T.uses.size();
+    std::vector<uint64_t> keys(ne);
+    for (size_t t = 0; t < mesh.triangle_count(); ++t)
+      for (int k = 0; k < 3; ++k) {
+        const uint64_t key = T.undirected(mesh, t, k);
+        keys[*T.edge.find(key)] = key;
+      }
+    for (size_t e = 0; e < ne; ++e) {
+      if (T.uses[e] > 2) continue;  // non-manifold: no one kind
+      const uint32_t t1 = T.tris[2 * e], t2 = T.tris[2 * e + 1];
+      const int k1 = T.side[e];
+      LineKind kind;
+      if (T.uses[e] == 1) {
+        kind = LineKind::Boundary;
+      } else {
+        double cosang;
+        if (facing_differs(m, t1, k1, t2, &cosang))
+          kind = LineKind::Contour;
+        else if (cosang < cos_crease_)
+          kind = LineKind::Crease;
+        else
+          continue;
+      }
+      double a[2], b[2];
+      if (!project_edge(mesh, t1, k1, a, b)) continue;
+      f(kind, keys[e], a, b);
+    }
+  }
+
+  static constexpr uint32_t kNone = ~0u;
+
+ private:
+  static constexpr int8_t kUnmapped = -2, kClip = -1;
+  static constexpr double kGrid = 256;  // VM_GRID_SCALE (kernels/layout.h)
+
+  // Edge k of triangle t clipped to the view volume (clip space, as transform.cl clips) and
+  // projected; false when nothing of it is in view.
+  bool project_edge(const Mesh& mesh, uint32_t t, int k, double* a, double* b) const {
+    double c[2][4];
+    for (int e = 0; e < 2; ++e) {
+      const float* p = &mesh.positions[3 * size_t(mesh.indices[3 * size_t(t) + (k + e) % 3])];
+      for (int r = 0; r < 4; ++r)
+        c[e][r] = vp_[r] * p[0] + vp_[4 + r] * p[1] + vp_[8 + r] * p[2] + vp_[12 + r];
+    }
+    double t0 = 0, t1 = 1;
+    for (int pl = 0; pl < 6; ++pl) {
+      auto dist = [pl](const double* q) {
+        const double s = pl & 1 ? -1 : 1;
+        return q[3] + s * q[pl / 2 == 0 ? 2 : pl / 2 == 1 ? 0 : 1];
+      };
+      const double d0 = dist(c[0]), d1 = dist(c[1]);
+      if (d0 < 0 && d1 < 0) return false;
+      if (d0 < 0) t0 = std::max(t0, d0 / (d0 - d1));
+      if (d1 < 0) t1 = std::min(t1, d0 / (d0 - d1));
+    }
+    if (!(t0 < t1)) return false;
+    const double G = st_.grid_scale ? st_.grid_scale : kGrid;
+    auto put = [&](double u, double* out) {
+      double q[4];
+      for (int r = 0; r < 4; ++r) q[r] = c[0][r] + u * (c[1][r] - c[0][r]);
+      const double sx = map_.width * G * 0.5, sy = map_.height * G * 0.5;
+      out[0] = std::clamp(std::rint((q[0] / q[3] + 1.0) * sx), 0.0, map_.width * G) / G;
+      out[1] = std::clamp(std::rint((1.0 - q[1] / q[3]) * sy), 0.0, map_.height * G) / G;
+    };
+    put(t0, a);
+    put(t1, b);
+    return true;
+  }
+
+  bool on_viewport_border(const double* a, const double* b) const {
+    const double W = map_.width, H = map_.height, e = 1e-9;
+    auto at = [e](double u, double v) { return std::abs(u - v) <= e; };
+    return (at(a[0], 0) && at(b[0], 0)) || (at(a[0], W) && at(b[0], W)) ||
+           (at(a[1], 0) && at(b[1], 0)) || (at(a[1], H) && at(b[1], H));
+  }
+
+  const Topology& topo(uint32_t m) {
+    if (!topo_[m].built) topo_[m].build(scene_.meshes[m]);
+    return topo_[m];
+  }
+
+  // Which source edge (k: vertices k, k+1) each edge of screen triangle s lies on; kClip where
+  // it lies on none (a cut of the view volume's planes). Tested against the source edge's line
+  // in homogeneous screen coordinates, which stays right when a corner is behind the eye: the
+  // screen edge's ends are grid points (snapped corners or clip points), within 1/(2G) px per
+  // axis of that line when they are on it.
+  const std::array<int8_t, 3>& edges_of(uint32_t s) {
+    std::array<int8_t, 3>& e = edge_of_[s];
+    if (e[0] != kUnmapped) return e;
+    const Mesh& mesh = scene_.meshes[st_.mesh[s]];
+    const uint32_t t = st_.triangle[s];
+    // Corners as homogeneous pixel coordinates (x, y, w): x = (cx/cw + 1) W/2 etc. times cw.
+    double h[3][3];
+    for (int k = 0; k < 3; ++k) {
+      const float* p = &mesh.positions[3 * size_t(mesh.indices[3 * size_t(t) + k])];
+      double c[4];
+      for (int r = 0; r < 4; ++r)
+        c[r] = vp_[r] * p[0] + vp_[4 + r] * p[1] + vp_[8 + r] * p[2] + vp_[12 + r];
+      h[k][0] = (c[0] + c[3]) * 0.5 * map_.width;
+      h[k][1] = (c[3] - c[1]) * 0.5 * map_.height;
+      h[k][2] = c[3];
+    }
+    double line[3][3], norm[3];
+    for (int k = 0; k < 3; ++k) {
+      const double* a = h[k];
+      const double* b = h[(k + 1) % 3];
+      line[k][0] = a[1] * b[2] - a[2] * b[1];
+      line[k][1] = a[2] * b[0] - a[0] * b[2];
+      line[k][2] = a[0] * b[1] - a[1] * b[0];
+      norm[k] = std::hypot(line[k][0], line[k][1]);
+    }
+    const double g = st_.grid_scale, tol = 2.0 / g;
+    for (int i = 0; i < 3; ++i) {
+      e[i] = kClip;
+      double best = tol;
+      for (int k = 0; k < 3; ++k) {
+        if (!(norm[k] > 0)) continue;
+        double worst = 0;
+        for (int j = 0; j < 2; ++j) {
+          const int c = (i + j) % 3;
+          const double x = st_.xy[6 * size_t(s) + 2 * c] / g, y = st_.xy[6 * size_t(s) + 2 * c + 1] / g;
+          worst = std::max(worst,
+                           std::abs(line[k][0] * x + line[k][1] * y + line[k][2]) / norm[k]);
+        }
+        if (worst < best) best = worst, e[i] = int8_t(k);
+      }
+    }
+    return e;
+  }
+
+  // The edge k of source (m, t) the segment a-b lies on (through any of its screen triangles),
+  // or -1; *s: the screen triangle it was found in (the first one, when none).
+  int source_edge(uint32_t m, uint32_t t, const double* a, const double* b, uint32_t* s_out) {
+    const uint32_t* first = by_source_.find(pair_key(m, t));
+    if (!first) bad("a fragment of mesh " + std::to_string(m) + " triangle " + std::to_string(t) +
+                    " has no screen triangle");
+    *s_out = *first;
+    const double g = st_.grid_scale;
+    for (uint32_t s = *first; s != kNone; s = next_[s]) {
+      const int32_t* v = &st_.xy[6 * size_t(s)];
+      for (int i = 0; i < 3; ++i) {
+        const double px = v[2 * i] / g, py = v[2 * i + 1] / g;
+        const double dx = v[2 * ((i + 1) % 3)] / g - px, dy = v[2 * ((i + 1) % 3) + 1] / g - py;
+        const double len = std::hypot(dx, dy);
+        if (!(len > 0)) continue;
+        auto on = [&](const double* p) {
+          const double ux = p[0] - px, uy = p[1] - py;
+          if (std::abs(dx * uy - dy * ux) > kOnLine * len) return false;
+          const double along = (dx * ux + dy * uy) / len;
+          return along >= -kOnLine && along <= len + kOnLine;
+        };
+        if (!on(a) || !on(b)) continue;
+        const int k = edges_of(s)[i];
+        if (k < 0) return -1;
+        *s_out = s;
+        return k;
+      }
+    }
+    return -1;
+  }
+
+  bool has_neighbour(uint32_t m, uint32_t t, int k) {
+    return topo(m).edge_uses(scene_.meshes[m], t, k) >= 2;
+  }
+
+  bool shared_edge(uint32_t m, uint32_t t1, int k1, uint32_t t2, int k2) {
+    const Topology& T = topo(m);
+    const Mesh& mesh = scene_.meshes[m];
+    return T.undirected(mesh, t1, k1) == T.undirected(mesh, t2, k2);
+  }
+
+  Vec position(const Mesh& m, uint32_t t, int k) const {
+    const float* p = &m.positions[3 * size_t(m.indices[3 * size_t(t) + k])];
+    return {p[0], p[1], p[2]};
+  }
+  Vec normal(const Mesh& m, uint32_t t) const {
+    const Vec p0 = position(m, t, 0);
+    return cross(sub(position(m, t, 1), p0), sub(position(m, t, 2), p0));
+  }
+  // Positive when triangle t of m shows the side its normal points to.
+  double facing(const Mesh& m, uint32_t t) const {
+    const Vec n = normal(m, t);
+    if (cam_.projection == Camera::Projection::Orthographic)
+      return -dot(n, sub({cam_.target[0], cam_.target[1], cam_.target[2]},
+                         {cam_.eye[0], cam_.eye[1], cam_.eye[2]}));
+    return dot(n, sub({cam_.eye[0], cam_.eye[1], cam_.eye[2]}, position(m, t, 0)));
+  }
+
+  // t1 and t2 share t1's edge k1. With t2's orientation made consistent with t1's across the
+  // edge (a soup need not be), does one face the eye and the other away? *cosang: the cosine of
+  // the angle between their normals.
+  bool facing_differs(uint32_t m, uint32_t t1, int k1, uint32_t t2, double* cosang) {
+    const Mesh& mesh = scene_.meshes[m];
+    const Topology& T = topo(m);
+    const uint32_t a = T.vertex(mesh, t1, k1);
+    // Consistent when t2 runs the edge the other way: t2 has a at some corner j followed by b.
+    int j = 0;
+    while (j < 3 && T.vertex(mesh, t2, j) != a) ++j;
+    const bool same_way = j < 3 && T.vertex(mesh, t2, (j + 1) % 3) == T.vertex(mesh, t1, (k1 + 1) % 3);
+    const double flip = same_way ? -1 : 1;
+    const Vec n1 = normal(mesh, t1), n2 = normal(mesh, t2);
+    const double l = std::sqrt(dot(n1, n1) * dot(n2, n2));
+    *cosang = l > 0 ? flip * dot(n1, n2) / l : 1.0;
+    const double f1 = facing(mesh, t1), f2 = flip * facing(mesh, t2);
+    return (f1 > 0) != (f2 > 0);
+  }
+
+  // The nearness at (x, y) pixels on screen triangle s's depth plane.
+  double nearness(uint32_t s, double x, double y) const {
+    const double g = st_.grid_scale;
+    const int32_t* v = &st_.xy[6 * size_t(s)];
+    const double* q = &st_.depth[3 * size_t(s)];
+    const double x0 = v[0] / g, y0 = v[1] / g, x1 = v[2] / g, y1 = v[3] / g, x2 = v[4] / g,
+                 y2 = v[5] / g;
+    const double d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
+    if (!(d != 0)) return q[0];
+    const double l1 = ((x - x0) * (y2 - y0) - (x2 - x0) * (y - y0)) / d;
+    const double l2 = ((x1 - x0) * (y - y0) - (x - x0) * (y1 - y0)) / d;
+    return q[0] + l1 * (q[1] - q[0]) + l2 * (q[2] - q[0]);
+  }
+
+  const PlanarMap& map_;
+  const ScreenTriangles& st_;
+  const Scene& scene_;
+  const Camera& cam_;
+  std::vector<Topology> topo_;
+  FlatMap by_source_;
+  std::vector<uint32_t> next_;
+  std::vector<std::array<int8_t, 3>> edge_of_;
+  Mat4 vp_{};
+  double cos_crease_ = 0;
+};
+
+// Douglas-Peucker on pts[i0..i1] (indices into xy), keeping both ends; appends kept interior
+// points in order to `keep`.
+void simplify(const std::vector<double>& xy, const std::vector<uint32_t>& pts, size_t i0,
+              size_t i1, double tol, std::vector<uint32_t>& keep) {
+  if (i1 <= i0 + 1) return;
+  const double ax = xy[2 * pts[i0]], ay = xy[2 * pts[i0] + 1];
+  const double dx = xy[2 * pts[i1]] - ax, dy = xy[2 * pts[i1] + 1] - ay;
+  const double len = std::hypot(dx, dy);
+  double worst = -1;
+  size_t at = i0;
+  for (size_t i = i0 + 1; i < i1; ++i) {
+    const double ux = xy[2 * pts[i]] - ax, uy = xy[2 * pts[i] + 1] - ay;
+    const double d = len > 0 ? std::abs(dx * uy - dy * ux) / len : std::hypot(ux, uy);
+    if (d > worst) worst = d, at = i;
+  }
+  if (worst <= tol) return;
+  simplify(xy, pts, i0, at, tol, keep);
+  keep.push_back(pts[at]);
+  simplify(xy, pts, at, i1, tol, keep);
+}
+
+struct Seg {
+  uint32_t a, b;
+};
+
+// Chains: maximal paths of segs (over points xy) through points where exactly two of them
+// meet, appended to out as chains of this kind.
+void chain(const std::vector<double>& xy, const std::vector<Seg>& S, LineKind kind, bool hidden,
+           double simplify_px, LineSet& out) {
+  if (S.empty()) return;
+  const size_t nv = xy.size() / 2;
+  std::vector<uint32_t> start(nv + 1, 0), inc(2 * S.size()), pts, keep;
+  for (const Seg& s : S) ++start[s.a + 1], ++start[s.b + 1];
+  for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  {
+    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+    for (uint32_t i = 0; i < S.size(); ++i) inc[fill[S[i].a]++] = i, inc[fill[S[i].b]++] = i;
+  }
+  std::vector<uint8_t> used(S.size(), 0);
+  auto degree = [&](uint32_t v) { return start[v + 1] - start[v]; };
+  // Where more than two meet, a chain goes on through the straightest pair (turning by less
+  // than 30 degrees), pairs taken straightest first: a T-junction's through line stays one
+  // chain and its stem ends there. partner[r]: the segment incidence r continues into.
+  std::vector<uint32_t> partner(inc.size(), ~0u);
+  {
+    std::vector<std::tuple<double, uint32_t, uint32_t>> pairs;
+    std::vector<std::array<double, 2>> dir;
+    for (uint32_t v = 0; v < nv; ++v) {
+      const uint32_t d = degree(v);
+      if (d == 2) {
+        partner[start[v]] = inc[start[v] + 1];
+        partner[start[v] + 1] = inc[start[v]];
+      }
+      if (d < 3) continue;
+      dir.clear();
+      for (uint32_t r = start[v]; r < start[v + 1]; ++r) {
+        const Seg& g = S[inc[r]];
+        const uint32_t w = g.a == v ? g.b : g.a;
+        const double dx = xy[2 * w] - xy[2 * v], dy = xy[2 * w + 1] - xy[2 * v + 1];
+        const double l = std::hypot(dx, dy);
+        dir.push_back({l > 0 ? dx / l : 0, l > 0 ? dy / l : 0});
+      }
+      pairs.clear();
+      for (uint32_t i = 0; i < d; ++i)
+        for (uint32_t j = i + 1; j < d; ++j) {
+          const double c = dir[i][0] * dir[j][0] + dir[i][1] * dir[j][1];
+          if (c < -0.866) pairs.emplace_back(c, i, j);
+        }
+      std::sort(pairs.begin(), pairs.end());
+      for (const auto& [c, i, j] : pairs) {
+        if (partner[start[v] + i] != ~0u || partner[start[v] + j] != ~0u) continue;
+        partner[start[v] + i] = inc[start[v] + j];
+        partner[start[v] + j] = inc[start[v] + i];
+      }
+    }
+  }
+  auto emit = [&](bool closed) {
+    if (simplify_px > 0 && pts.size() > 2) {
+      keep.clear();
+      keep.push_back(pts.front());
+      if (closed) {  // split at the point farthest from the first: two open halves
+        size_t split = 1;
+        double far = -1;
+        for (size_t i = 1; i < pts.size(); ++i) {
+          const double d = std::hypot(xy[2 * pts[i]] - xy[2 * pts[0]],
+                                      xy[2 * pts[i] + 1] - xy[2 * pts[0] + 1]);
+          if (d > far) far = d, split = i;
+        }
+        pts.push_back(pts.front());
+        simplify(xy, pts, 0, split, simplify_px, keep);
+        keep.push_back(pts[split]);
+        simplify(xy, pts, split, pts.size() - 1, simplify_px, keep);
+      } else {
+        simplify(xy, pts, 0, pts.size() - 1, simplify_px, keep);
+        keep.push_back(pts.back());
+      }
+      pts.swap(keep);
+    }
+    for (uint32_t v : pts) out.xy.push_back(xy[2 * v]), out.xy.push_back(xy[2 * v + 1]);
+    out.off.push_back(uint32_t(out.xy.size() / 2));
+    out.kind.push_back(kind);
+    out.closed.push_back(closed);
+    out.hidden.push_back(hidden);
+  };
+  // Walks from v along segment i until a chain end (or back to the start: closed).
+  auto walk = [&](uint32_t v, uint32_t i) {
+    pts.clear();
+    pts.push_back(v);
+    const uint32_t first = v;
+    for (;;) {
+      used[i] = 1;
+      v = S[i].a == v ? S[i].b : S[i].a;
+      if (v == first) return true;  // closed
+      pts.push_back(v);
+      uint32_t r = start[v];
+      while (inc[r] != i) ++r;
+      const uint32_t j = partner[r];
+      if (j == ~0u || used[j]) return false;
+      i = j;
+    }
+  };
+  for (uint32_t v = 0; v < nv; ++v)  // chains with an end first, from their ends
+    for (uint32_t r = start[v]; r < start[v + 1]; ++r)
+      if (partner[r] == ~0u && !used[inc[r]]) emit(walk(v, inc[r]));
+  for (uint32_t i = 0; i < S.size(); ++i)
+    if (!used[i]) emit(walk(S[i].a, i));
+}
+
+}  // namespace
+
+LineSet extract_lines(const PlanarMap& map, const ScreenTriangles& screen, const Scene& scene,
+                      const Camera& camera, const LineOptions& opts) {
+  if (map.mesh.size() != map.fragment_count() || map.triangle.size() != map.fragment_count())
+    bad("fragment arrays of different lengths");
+  for (size_t f = 0; f < map.fragment_count(); ++f)
+    if (map.mesh[f] >= scene.meshes.size() ||
+        map.triangle[f] >= scene.meshes[map.mesh[f]].triangle_count())
+      bad("fragment " + std::to_string(f) + " names no triangle of the scene");
+  ConformedPolygons P = conform_polygons(map, 1);
+  weld_vertices(P, kOnLine);
+  Classifier cls(map, screen, scene, camera, opts);
+
+  // Every polygon edge, by its directed vertex pair; an edge is looked at once, from the side
+  // whose polygon comes first (or its only side).
+  FlatMap edges(P.v.size());
+  for (uint32_t p = 0; p < P.size(); ++p)
+    for (uint32_t i = P.off[p], n = P.off[p + 1]; i < n; ++i)
+      edges.emplace(pair_key(P.v[i], P.v[i + 1 < n ? i + 1 : P.off[p]]), p);
+  std::array<std::vector<Seg>, kLineKinds> segs;
+  // The visible parts of mesh edge lines, for --hidden: (mesh, edge key) -> map edges on it.
+  struct OnEdge {
+    uint32_t mesh;
+    uint64_t edge;
+    uint32_t a, b;
+  };
+  std::vector<OnEdge> on_edge;
+  // Map edges shorter than kOnLine (two exact points a rounding apart, e.g. where a crossing
+  // line meets two triangles' edges at one point in theory) are no line of any kind: their
+  // ends are merged for chaining.
+  std::vector<uint32_t> root(P.xy.size() / 2);
+  for (uint32_t v = 0; v < root.size(); ++v) root[v] = v;
+  auto find = [&](uint32_t v) {
+    while (root[v] != v) v = root[v] = root[root[v]];
+    return v;
+  };
+  for (uint32_t p = 0; p < P.size(); ++p)
+    for (uint32_t i = P.off[p], n = P.off[p + 1]; i < n; ++i) {
+      const uint32_t a = P.v[i], b = P.v[i + 1 < n ? i + 1 : P.off[p]];
+      const uint32_t* twin = edges.find(pair_key(b, a));
+      if (twin && *twin < p) continue;
+      if (std::hypot(P.xy[2 * a] - P.xy[2 * b], P.xy[2 * a + 1] - P.xy[2 * b + 1]) < kOnLine) {
+        const uint32_t ra = find(a), rb = find(b);
+        if (ra != rb) root[std::max(ra, rb)] = std::min(ra, rb);
+        continue;
+      }
+      LineKind kind;
+      Classifier::Owner owner;
+      const bool line = cls.classify(&P.xy[2 * a], &P.xy[2 * b], P.fragment[p],
+                                     twin ? P.fragment[*twin] : Classifier::kNone, kind, owner);
+      if (line) segs[size_t(kind)].push_back({a, b});
+      if (opts.hidden && owner.edge != Classifier::kNoEdge)
+        on_edge.push_back({owner.mesh, owner.edge, a, b});
+    }
+
+  LineSet out;
+  for (size_t k = 0; k < kLineKinds; ++k) {
+    for (Seg& g : segs[k]) g.a = find(g.a), g.b = find(g.b);
+    out.edges[k] = segs[k].size();
+    chain(P.xy, segs[k], LineKind(k), false, opts.simplify_px, out);
+  }
+  if (!opts.hidden) return out;
+
+  // Hidden parts: each mesh edge line (from the mesh) less the map edges that lie on it.
+  std::sort(on_edge.begin(), on_edge.end(), [](const OnEdge& x, const OnEdge& y) {
+    return x.mesh != y.mesh ? x.mesh < y.mesh : x.edge < y.edge;
+  });
+  std::vector<double> hxy;  // hidden segments' points, merged by exact position below
+  std::array<std::vector<Seg>, kLineKinds> hsegs;
+  FlatMap at(0);
+  std::vector<std::array<double, 4>> pieces;  // (t0, t1) with their points: x0 y0 | x1 y1
+  struct Cut {
+    double t;
+    uint32_t v;  // a map vertex (into P.xy)
+  };
+  std::vector<std::pair<Cut, Cut>> visible;
+  std::array<std::vector<std::array<double, 4>>, kLineKinds> raw;
+  for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
+    auto lo = std::lower_bound(on_edge.begin(), on_edge.end(), m,
+                               [](const OnEdge& x, uint32_t mm) { return x.mesh < mm; });
+    cls.for_each_edge_line(m, [&](LineKind kind, uint64_t key, const double* a, const double* b) {
+      const double dx = b[0] - a[0], dy = b[1] - a[1], l2 = dx * dx + dy * dy;
+      if (!(l2 > 0)) return;
+      visible.clear();
+      auto it = std::lower_bound(lo, on_edge.end(), key, [m](const OnEdge& x, uint64_t kk) {
+        return x.mesh < m || (x.mesh == m && x.edge < kk);
+      });
+      for (; it != on_edge.end() && it->mesh == m && it->edge == key; ++it) {
+        auto param = [&](uint32_t v) {
+          return ((P.xy[2 * v] - a[0]) * dx + (P.xy[2 * v + 1] - a[1]) * dy) / l2;
+        };
+        Cut c0{param(it->a), it->a}, c1{param(it->b), it->b};
+        if (c1.t < c0.t) std::swap(c0, c1);
+        visible.push_back({c0, c1});
+      }
+      std::sort(visible.begin(), visible.end(),
+                [](const auto& x, const auto& y) { return x.first.t < y.first.t; });
+      // Walk [0, 1], emitting what no visible part covers; a piece starts or ends at a visible
+      // part's end point (a map vertex, exactly) or at the edge's own end.
+      double t = 0, px = a[0], py = a[1];
+      const double tiny = 1e-9 / std::sqrt(l2);  // a nanopixel
+      auto piece = [&](double t1, double x1, double y1) {
+        if (t1 - t > tiny) raw[size_t(kind)].push_back({px, py, x1, y1});
+      };
+      for (const auto& [c0, c1] : visible) {
+        if (c0.t > t) piece(c0.t, P.xy[2 * c0.v], P.xy[2 * c0.v + 1]);
+        if (c1.t > t) {
+          t = c1.t;
+          px = P.xy[2 * c1.v];
+          py = P.xy[2 * c1.v + 1];
+        }
+      }
+      if (t < 1) piece(1, b[0], b[1]);
+    });
+  }
+  for (size_t k = 0; k < kLineKinds; ++k) {
+    // Points merged by exact position (the ends two edges share are snapped alike).
+    hxy.clear();
+    hsegs[k].clear();
+    at = FlatMap(2 * raw[k].size());
+    auto id = [&](double x, double y) {
+      const uint64_t bx = std::bit_cast<uint64_t>(x + 0.0), by = std::bit_cast<uint64_t>(y + 0.0);
+      const uint64_t key = (bx * 0xC2B2AE3D27D4EB4Full ^ by) * 0x9E3779B97F4A7C15ull >> 1;
+      const uint32_t fresh = uint32_t(hxy.size() / 2);
+      uint32_t v = at.emplace(key, fresh).first;
+      if (v != fresh && !(hxy[2 * v] == x && hxy[2 * v + 1] == y)) v = fresh;
+      if (v == fresh) hxy.push_back(x), hxy.push_back(y);
+      return v;
+    };
+    for (const auto& r : raw[k]) {
+      const uint32_t a = id(r[0], r[1]), b = id(r[2], r[3]);
+      if (a != b) hsegs[k].push_back({a, b});
+    }
+    out.hidden_edges[k] = hsegs[k].size();
+    chain(hxy, hsegs[k], LineKind(k), true, opts.simplify_px, out);
+  }
+  return out;
+}
+
+}  // namespace vismap
+
+namespace vismap {
+
+LineCheck check_lines(const LineSet& lines, const std::vector<uint32_t>& ids, uint32_t width,
+                      uint32_t height, const Scene& scene, double radius,
+                      std::vector<uint8_t>* image) {
+  if (ids.size() != size_t(width) * height) bad("id raster of the wrong size");
+  // Global input triangle index -> (mesh, triangle).
+  std::vector<uint64_t> first(scene.meshes.size() + 1, 0);
+  for (size_t m = 0; m < scene.meshes.size(); ++m)
+    first[m + 1] = first[m] + scene.meshes[m].triangle_count();
+  std::vector<Topology> topo(scene.meshes.size());
+  auto locate = [&](uint32_t id, uint32_t& m, uint32_t& t) {
+    if (id >= first.back()) bad("id raster names triangle " + std::to_string(id) + ", past the scene's");
+    m = uint32_t(std::upper_bound(first.begin(), first.end(), uint64_t(id)) - first.begin() - 1);
+    t = uint32_t(id - first[m]);
+    if (!topo[m].built) topo[m].build(scene.meshes[m]);
+  };
+  // 0: the same triangle or an edge shared; 1: only a vertex shared; 2: a vertex of one and a
+  // vertex of the other joined by a mesh edge (a sliver between them the raster missed);
+  // 3: none of these (another mesh, or background on one side).
+  auto relation = [&](uint32_t a, uint32_t b) -> int {
+    if (a == b) return 0;
+    if (a == ~0u || b == ~0u) return 3;
+    uint32_t ma, ta, mb, tb;
+    locate(a, ma, ta);
+    locate(b, mb, tb);
+    if (ma != mb) return 3;
+    const Mesh& mesh = scene.meshes[ma];
+    const Topology& T = topo[ma];
+    int shared = 0;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) shared += T.vertex(mesh, ta, i) == T.vertex(mesh, tb, j);
+    if (shared) return shared >= 2 ? 0 : 1;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        const uint32_t u = T.vertex(mesh, ta, i), v = T.vertex(mesh, tb, j);
+        if (T.edge.find(u < v ? pair_key(u, v) : pair_key(v, u))) return 2;
+      }
+    return 3;
+  };
+  const size_t W = width, H = height;
+  // Per pixel: the largest relation() to its right or lower neighbour, or to a pixel whose
+  // right or lower neighbour it is.
+  std::vector<uint8_t> change(W * H, 0);
+  for (size_t y = 0; y < H; ++y)
+    for (size_t x = 0; x < W; ++x) {
+      const uint32_t a = ids[y * W + x];
+      const auto pair = [&](size_t x2, size_t y2) {
+        const int r = relation(a, ids[y2 * W + x2]);
+        if (r == 0) return;
+        change[y * W + x] = std::max<uint8_t>(change[y * W + x], uint8_t(r));
+        change[y2 * W + x2] = std::max<uint8_t>(change[y2 * W + x2], uint8_t(r));
+      };
+      if (x + 1 < W) pair(x + 1, y);
+      if (y + 1 < H) pair(x, y + 1);
+    }
+
+  auto seg_dist = [](double px, double py, double ax, double ay, double bx, double by) {
+    const double dx = bx - ax, dy = by - ay, l2 = dx * dx + dy * dy;
+    double t = l2 > 0 ? ((px - ax) * dx + (py - ay) * dy) / l2 : 0;
+    t = std::clamp(t, 0.0, 1.0);
+    return std::hypot(px - ax - t * dx, py - ay - t * dy);
+  };
+  // Pixels whose centre is within `radius` of a drawn line that a change can explain.
+  std::vector<uint8_t> near(W * H, 0);
+  LineCheck r;
+  const int reach = int(std::ceil(radius)) + 1;
+  for (size_t c = 0; c < lines.chain_count(); ++c) {
+    if (lines.kind[c] == LineKind::Crease) continue;
+    const uint32_t n = lines.off[c + 1] - lines.off[c];
+    const uint32_t segs = lines.closed[c] ? n : n - 1;
+    for (uint32_t s = 0; s < segs; ++s) {
+      const uint32_t i = lines.off[c] + s, j = lines.off[c] + (s + 1) % n;
+      const double ax = lines.xy[2 * i], ay = lines.xy[2 * i + 1], bx = lines.xy[2 * j],
+                   by = lines.xy[2 * j + 1];
+      const int x0 = std::max(0, int(std::floor(std::min(ax, bx))) - reach);
+      const int x1 = std::min(int(W) - 1, int(std::floor(std::max(ax, bx))) + reach);
+      const int y0 = std::max(0, int(std::floor(std::min(ay, by))) - reach);
+      const int y1 = std::min(int(H) - 1, int(std::floor(std::max(ay, by))) + reach);
+      for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x)
+          if (seg_dist(x + 0.5, y + 0.5, ax, ay, bx, by) <= radius) near[size_t(y) * W + x] = 1;
+      // Samples every 1/4 px along the segment, each standing for its share of the length.
+      const double len = std::hypot(bx - ax, by - ay);
+      const int k = std::max(1, int(std::ceil(len * 4)));
+      for (int q = 0; q < k; ++q) {
+        const double t = (q + 0.5) / k, sx = ax + t * (bx - ax), sy = ay + t * (by - ay);
+        bool ok = false;
+        for (int y = int(std::floor(sy)) - reach; y <= int(std::floor(sy)) + reach && !ok; ++y)
+          for (int x = int(std::floor(sx)) - reach; x <= int(std::floor(sx)) + reach && !ok; ++x)
+            ok = x >= 0 && y >= 0 && x < int(W) && y < int(H) && change[size_t(y) * W + x] &&
+                 std::hypot(x + 0.5 - sx, y + 0.5 - sy) <= radius;
+        r.line_px += len / k;
+        if (ok) r.line_near_change += len / k;
+      }
+    }
+  }
+  if (image) {
+    image->assign(W * H, 0);
+    for (size_t p = 0; p < W * H; ++p) (*image)[p] = uint8_t(change[p] | near[p] << 2);
+  }
+  for (size_t p = 0; p < W * H; ++p) {
+    if (!change[p]) continue;
+    ++r.change_pixels;
+    r.change_near_line += near[p];
+    if (change[p] >= 2) {
+      ++r.change_pixels_no_vertex;
+      r.change_near_line_no_vertex += near[p];
+    }
+    if (change[p] == 3) {
+      ++r.change_pixels_apart;
+      r.change_near_line_apart += near[p];
+    }
+  }
+  return r;
+}
+
+}  // namespace vismap

@@ -1,0 +1,130 @@
+// Shared by the loaders (core/load*.cpp); not part of the public API.
+// A reader parses one format into "raw" meshes: positions plus triangles in the source's face
+// order (polygons fan-triangulated), with indices already range-checked against the face that
+// named them. finish_mesh() then validates and cleans what every format shares.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <optional>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/error.h"
+#include "core/scene.h"
+
+namespace vismap::detail {
+
+// Sizes computed from counts that a file states: the product, or UINT64_MAX when it does not fit.
+// Saturating instead of wrapping means a lying count can only make a size too big for the bytes
+// that remain (and so refused), never small (2^62 list entries of 4 bytes wrap to 0 otherwise).
+constexpr uint64_t checked_mul(uint64_t a, uint64_t b) {
+  uint64_t r = 0;
+  return __builtin_mul_overflow(a, b, &r) ? UINT64_MAX : r;
+}
+constexpr uint64_t checked_add(uint64_t a, uint64_t b) {
+  uint64_t r = 0;
+  return __builtin_add_overflow(a, b, &r) ? UINT64_MAX : r;
+}
+
+// The absolute cap on the input bytes one load holds, whatever LoadOptions::max_bytes says
+// (0 there means only this). 4 GiB: the largest load of shared/data holds 42 MB
+// (dragon_vrip.ply.gz, 8.3 MB inflating to 33.8 MB), and a decompression bomb stops here.
+inline constexpr uint64_t kMaxInputBytes = uint64_t(1) << 32;
+
+// The input bytes one load holds, charged as they are read: each file opened (the scene, what a
+// scene file, a .gltf or an .obj's mtllib references) by its size before reading it, and a .gz
+// file's inflated bytes as they grow. Past the cap: TooLarge, before anything is allocated.
+class ByteBudget {
+ public:
+  explicit ByteBudget(const LoadOptions& opts)
+      : limit_(opts.max_bytes == 0 ? kMaxInputBytes : std::min(opts.max_bytes, kMaxInputBytes)) {}
+  uint64_t limit() const { return limit_; }
+  uint64_t left() const { return limit_ - used_; }
+  // Throws TooLarge naming `file` when `n` more bytes do not fit.
+  void charge(uint64_t n, const std::string& file, const std::string& what);
+
+ private:
+  uint64_t limit_;
+  uint64_t used_ = 0;
+};
+
+// Where a load happens: the name used in messages and the folder relative references resolve
+// against (empty for bytes from memory: external references are then refused), and the budget
+// every file of the load is charged against (one per load_scene / load_scene_from_memory call).
+struct Source {
+  std::string file;
+  std::string base_dir;
+  ByteBudget* budget = nullptr;
+};
+
+// Lower-cased extension, compound for ".ply.gz" (".ply.gz", ".obj", ... or "" if none).
+std::string format_extension(const std::string& name);
+std::string file_stem(const std::string& name);
+std::string dir_of(const std::string& path);  // "" or ending in '/'
+
+// Reads a file that a load opens (the scene itself or a file it references), by `path` as given.
+// Refuses, as FileNotFound naming `path`: a missing file; anything but a regular file (a FIFO,
+// device or directory: checked before opening and again on the open descriptor, so a FIFO never
+// blocks the load); with opts.confine_to, a file whose realpath lies outside that folder.
+// Charges the file's size to `budget` before reading (TooLarge past the cap).
+std::string read_input_file(const std::string& path, const LoadOptions& opts, ByteBudget& budget);
+// The checks of read_input_file without the reading; returns the path to open.
+std::string check_input_file(const std::string& path, const LoadOptions& opts);
+
+// load_scene with the caller's budget: a scene file's references share the scene's budget.
+Scene load_file(const std::string& path, const LoadOptions& opts, ByteBudget& budget);
+
+// Throws Truncated when the stream is cut short, ParseError when it is not gzip, TooLarge when it
+// inflates past what src.budget has left (checked before every growth of the output).
+std::string gunzip(const Source& src, std::string_view bytes);
+
+std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const LoadOptions& opts);
+std::vector<Mesh> read_obj(const Source& src, std::string_view bytes, const LoadOptions& opts);
+std::vector<Mesh> read_off(const Source& src, std::string_view bytes, const LoadOptions& opts);
+std::vector<Mesh> read_stl(const Source& src, std::string_view bytes, const LoadOptions& opts);
+Scene read_gltf(const Source& src, std::string_view bytes, bool binary, const LoadOptions& opts);
+Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptions& opts);
+// pbrt-v2 scene text (core/load/pbrt.cpp): trianglemesh and loopsubdiv shapes, the camera.
+Scene read_pbrt(const Source& src, std::string_view bytes, const LoadOptions& opts);
+// Bicubic Bezier patches (core/load/patches.cpp): .bpt text and Newell's .patches, one patch mesh
+// (Mesh::patches, no triangles: finish_mesh does not apply).
+Scene read_bpt(const Source& src, std::string_view bytes, const LoadOptions& opts);
+Scene read_newell_patches(const Source& src, std::string_view bytes, const LoadOptions& opts);
+
+// Implicit objects (core/load/sexp.cpp): an expression parsed (errors name src.file, line and
+// column) into one Mesh with Mesh::implicit set, its box `bounds` (checked lo < hi) or, without
+// them, found by implicit::find_bounds. read_sexp: a .sexp file as such an object.
+Mesh implicit_object(const Source& src, std::string_view text, const std::string& name,
+                     const std::optional<std::array<double, 6>>& bounds);
+Scene read_sexp(const Source& src, std::string_view bytes, const LoadOptions& opts);
+
+// Loads a mesh file (any format but .json) from bytes into a scene.
+Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptions& opts);
+
+// Validates a raw mesh (finite vertices, indices in range), drops degenerate triangles (repeated
+// index or exactly zero area, computed in double), fills face_ids / source_triangles / soup.
+// Returns the number of triangles dropped. Throws EmptyMesh when the source has no triangles.
+uint64_t finish_mesh(Mesh& m, const Source& src);
+
+// Throws TooLarge when `triangles` exceeds opts.max_triangles (0 = no limit).
+void check_size(uint64_t triangles, const LoadOptions& opts, const Source& src,
+                const std::string& mesh);
+
+// Appends the fan triangulation of polygon `corners` (k >= 3) to m.indices.
+inline void add_fan(Mesh& m, const uint32_t* corners, size_t k) {
+  for (size_t i = 2; i < k; ++i) {
+    m.indices.push_back(corners[0]);
+    m.indices.push_back(corners[i - 1]);
+    m.indices.push_back(corners[i]);
+  }
+}
+
+[[noreturn]] inline void fail(InputErrorKind kind, const Source& src, const std::string& mesh,
+                              const std::string& element, int64_t index, const std::string& msg) {
+  throw InputError(kind, src.file, mesh, element, index, msg);
+}
+
+}  // namespace vismap::detail

@@ -1,0 +1,118 @@
+// The delta frame encoding (proto/DELTA.md): the client holds the scene's source triangles (sent
+// to it once, the first time each is needed) and the previous frame; a frame carries the camera,
+// the change of the set of source triangles that are visible whole (the client projects those
+// itself), and the rest of the planar map as polygons whose corners are source vertices (by
+// reference), or points on a 1/16 px grid. Watertight like the compact frame: the polygons
+// conform, every shared point is referenced, never repeated.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/stream/compact.h"
+#include "core/error.h"
+#include "core/planar_map.h"
+#include "core/scene.h"
+
+namespace vismap {
+
+struct DeltaOptions {
+  uint32_t quantum = 16;  // grid steps per pixel of the sent points, 1 ... 256
+  Compression compression = Compression::Zstd;
+  int level = 0;                // 0: the coder's default
+  uint32_t keyframe_every = 0;  // 0: only the first frame and on request
+  // Measurement only (bench/stream): code frames as if the client held every source triangle
+  // already (sends none). DeltaDecoder cannot decode such a stream yet: it has no way to be given
+  // the scene; a client that parses the scene it uploaded will need one.
+  bool client_holds_scene = false;
+};
+
+struct DeltaStats {
+  bool keyframe = false;
+  uint64_t whole = 0, added = 0, removed = 0;  // whole triangles: drawn, entering, leaving
+  uint64_t partial = 0, partial_corners = 0, points = 0;  // polygons, their corners, new points
+  uint64_t edge_points = 0;  // of the points: those sent as a step along an own edge
+  uint64_t new_triangles = 0, new_vertices = 0;                 // sources sent with this frame
+  uint64_t source_bytes = 0, set_bytes = 0, polygon_bytes = 0;  // before entropy coding
+};
+
+// The server's side, one per session: what the client holds. Its memory is bounded by the
+// scene (a bit per source triangle and per vertex, the previous whole set).
+class DeltaEncoder {
+ public:
+  DeltaEncoder(const Scene& scene, const DeltaOptions& options);
+  // `screen` is the render's ScreenTriangles (RenderOptions::keep_screen_triangles); `camera`
+  // the one the map was rendered with, near and far fitted.
+  std::string encode(const PlanarMap& map, const ScreenTriangles& screen, const Camera& camera,
+                     DeltaStats* stats = nullptr);
+  void request_keyframe() { keyframe_ = true; }  // the client lost its state
+  size_t state_bytes() const;
+
+ private:
+  const Scene& scene_;
+  DeltaOptions options_;
+  std::vector<uint64_t> base_;         // per mesh: first global id
+  std::vector<uint64_t> vertex_base_;  // per mesh: first global vertex number
+  std::vector<uint8_t> known_tri_, known_vertex_;
+  std::vector<uint32_t> whole_;    // sorted global ids drawn whole in the previous frame
+  std::vector<uint32_t> partial_;  // sorted global ids that owned polygons in the previous frame
+  uint32_t frame_ = 0;
+  bool keyframe_ = true;
+};
+
+// The decoded frame: triangles on the grid, as the compact frame's.
+struct DeltaFrame {
+  uint32_t width = 0, height = 0, quantum = 0, index = 0;
+  bool keyframe = false;
+  Camera camera;                  // projection, eye and target (the light of the shade)
+  std::array<double, 12> rows{};  // clip_rows of the view-projection the frame was rendered with
+  std::vector<int32_t> xy;        // 2 per vertex, grid steps
+  std::vector<uint32_t> indices;  // 3 per triangle, positive orientation
+  std::vector<uint32_t> source;   // per triangle: global source triangle id
+  std::vector<uint32_t> mesh;     // per triangle
+  std::vector<uint8_t> shade;     // per triangle: the Lambert factor of --fill shade, 0 ... 255
+  std::vector<std::array<float, 3>> mesh_color;  // per mesh: linear RGB
+  size_t triangle_count() const { return source.size(); }
+};
+
+// Thrown when a frame's base is not the frame this decoder decoded last (a frame was lost or
+// reordered): ask the server for a keyframe (protocol: `keyframe` message).
+struct DeltaOutOfSync : InputError {
+  using InputError::InputError;
+};
+
+// The client's side: the sources it was sent and the previous whole set.
+class DeltaDecoder {
+ public:
+  DeltaFrame decode(const std::string& bytes);  // throws InputError / DeltaOutOfSync
+  bool has_state() const { return have_state_; }
+
+ private:
+  struct Source {
+    std::array<uint32_t, 3> v;  // global vertex numbers
+  };
+  bool have_state_ = false;
+  uint32_t last_ = 0;
+  std::vector<uint64_t> base_, vertex_base_;  // per mesh
+  std::vector<float> vertex_;                 // 3 per global vertex (NaN: not sent)
+  std::vector<uint32_t> tri_;                 // 3 per global triangle (~0: not sent)
+  std::vector<uint32_t> whole_;               // sorted
+  std::vector<uint32_t> partial_;             // sorted: the previous frame's polygon sources
+  std::vector<std::array<float, 3>> colors_;  // per mesh
+};
+
+// The rows x, y and w of a view-projection matrix (column-major Mat4), 4 each: what a delta frame
+// sends, so that both sides project with the same numbers (no trigonometry on the client).
+std::array<double, 12> clip_rows(const Mat4& view_projection);
+
+// Projects a world point to the grid, as both sides must, operation by operation (DELTA.md):
+// c = r[0..3]·(x, y, z, 1) left to right for each row, x = (cx/cw + 1) * 0.5 * width * quantum,
+// y = (1 - cy/cw) * 0.5 * height * quantum, rounded to the nearest (ties away from zero). False
+// when the point is not in front of the camera (cw <= 0) or far outside.
+bool project_to_grid(const std::array<double, 12>& rows, uint32_t width, uint32_t height,
+                     uint32_t quantum, const float* p, int32_t* out);
+
+}  // namespace vismap

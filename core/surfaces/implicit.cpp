@@ -1,0 +1,183 @@
+#include "core/surfaces/implicit.h"
+
+#include <algorithm>
+
+#include "core/error.h"
+
+namespace vismap::stages {
+
+namespace {
+
+void check_bytes(uint64_t bytes, uint64_t max_bytes, size_t round) {
+  if (max_bytes && bytes > max_bytes)
+    throw InputError(InputErrorKind::TooLarge, "", "", "implicit round", int64_t(round),
+                     "needs " + std::to_string(bytes) + " bytes of device memory, over the cap of " +
+                         std::to_string(max_bytes));
+}
+
+}  // namespace
+
+constexpr uint64_t kChunkBytes = uint64_t(256) << 20;
+
+ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, const float lo[3],
+                                 float size, uint32_t dims, const std::vector<uint32_t>& splits,
+                                 uint64_t max_bytes,
+                                 const std::vector<std::array<float, 4>>& planes) {
+  ImplicitQueue q;
+  const uint32_t syncs0 = rt.host_syncs();
+  const uint32_t slots = std::max<uint32_t>(tape.slots, 1), maxlen = uint32_t(tape.size());
+  VmIRegion root{};
+  for (int k = 0; k < 3; ++k) root.lo[k] = lo[k];
+  root.size = size;
+  root.tape_off = 0;
+  root.tape_len = maxlen;
+  cl::Buffer regions = rt.upload(std::vector<VmIRegion>{root}, "implicit regions");
+  cl::Buffer pool = rt.upload(tape.code, "implicit tape");
+  uint32_t n = 1;
+  uint64_t clauses = maxlen;  // the round's tape lengths summed: its choice bytes
+  uint32_t per_in = 1;        // regions a parent of the last round (kernels: vm_choice_off)
+  cl::Buffer totals = rt.alloc(VM_ITOTAL_SLOTS * sizeof(cl_uint), "implicit totals");
+  std::vector<cl_float4> pl(std::max<size_t>(planes.size(), 1), cl_float4{{0, 0, 0, 1}});
+  for (size_t k = 0; k < planes.size(); ++k)
+    pl[k] = cl_float4{{planes[k][0], planes[k][1], planes[k][2], planes[k][3]}};
+  cl::Buffer plane_buf = rt.upload(pl, "implicit planes");
+  const uint32_t nplanes = uint32_t(planes.size());
+  for (size_t round = 0; round <= splits.size() && n > 0; ++round) {
+    const bool last = round == splits.size();
+    const uint32_t split = last ? 1 : splits[round];
+    // Per region: the result and counts; a choice byte per clause of its own tape; slots of
+    // intervals and of liveness for the regions of one chunk at a time (at most 256 MiB: a
+    // round of millions of regions on a tape of hundreds of slots runs in pieces).
+    const uint32_t chunk = uint32_t(std::clamp<uint64_t>(kChunkBytes / (slots * 9ull), 1, n));
+    check_bytes(uint64_t(n) * (8 + 16) + clauses + uint64_t(chunk) * slots * 9, max_bytes, round);
+    cl::Buffer scratch = rt.alloc(size_t(chunk) * slots * sizeof(cl_float2), "implicit slots");
+    cl::Buffer live = rt.alloc(size_t(chunk) * slots, "implicit liveness");
+    cl::Buffer choices = rt.alloc(std::max<size_t>(clauses, 1), "implicit choices");
+    cl::Buffer result = rt.alloc(size_t(n) * sizeof(cl_float2), "implicit results");
+    cl::Buffer counts = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit tape counts");
+    cl::Buffer offsets = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit tape offsets");
+    cl::Buffer amb = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit ambiguous");
+    cl::Buffer amb_off = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit ambiguous offsets");
+    rt.fill_u32(totals, 0, VM_ITOTAL_SLOTS, Stage::Implicit);
+    for (uint32_t first = 0; first < n; first += chunk) {
+      const uint32_t m = std::min(chunk, n - first);
+      rt.launch(Stage::Implicit, "implicit_intervals", m, regions, n, first, pool, scratch, slots,
+                tape.root_slot, choices, per_in, result, totals, plane_buf, nplanes);
+      rt.launch(Stage::Implicit, "implicit_shorten_count", m, regions, n, first, pool, choices,
+                per_in, result, live, slots, tape.root_slot, counts, amb);
+      if (first) q.launches += 2;
+    }
+    const uint32_t pool_next = rt.scan(Stage::Implicit, counts, offsets, n);
+    const uint32_t namb = rt.scan(Stage::Implicit, amb, amb_off, n);
+    q.launches += 6;  // the fill, three kernels, two scans (each counted as one)
+    cl_uint tot[VM_ITOTAL_SLOTS];
+    rt.read(Stage::Implicit, totals, 0, sizeof tot, tot);
+    ImplicitRound r;
+    r.regions = n;
+    r.full = tot[VM_ITOTAL_FULL];
+    r.empty = tot[VM_ITOTAL_EMPTY];
+    r.culled = tot[VM_ITOTAL_CULLED];
+    r.ambiguous = namb;
+    r.clauses = clauses;
+    q.rounds.push_back(r);
+    const uint32_t per = split == 1 ? 1 : (dims == 3 ? split * split * split : split * split);
+    const uint64_t next_n = uint64_t(namb) * per;
+    if (next_n > 0xffffffffull || pool_next == 0xffffffffu)
+      throw InputError(InputErrorKind::TooLarge, "", "", "implicit round", int64_t(round),
+                       "more than 2^32 regions");
+    check_bytes(uint64_t(pool_next) * sizeof(VmIClause) + next_n * sizeof(VmIRegion), max_bytes,
+                round);
+    cl::Buffer next_pool = rt.alloc(std::max<size_t>(pool_next, 1) * sizeof(VmIClause),
+                                    "implicit tape pool");
+    cl::Buffer next = rt.alloc(std::max<size_t>(next_n, 1) * sizeof(VmIRegion), "implicit regions");
+    for (uint32_t first = 0; first < n; first += chunk) {
+      rt.launch(Stage::Implicit, "implicit_shorten_fill", std::min(chunk, n - first), regions, n,
+                first, pool, choices, per_in, result, live, slots, tape.root_slot, counts, offsets,
+                amb_off, next_pool, next, split, dims);
+      if (first) ++q.launches;
+    }
+    regions = next;
+    pool = next_pool;
+    n = uint32_t(next_n);
+    clauses = uint64_t(pool_next) * per;
+    per_in = per;
+    if (last) {
+      q.leaves.resize(n);
+      q.pool.resize(size_t(pool_next) * 4);
+      if (n) rt.read_async(Stage::Implicit, regions, 0, n * sizeof(VmIRegion), q.leaves.data());
+      if (pool_next)
+        rt.read(Stage::Implicit, pool, 0, size_t(pool_next) * sizeof(VmIClause), q.pool.data());
+    }
+  }
+  q.host_syncs = rt.host_syncs() - syncs0;
+  return q;
+}
+
+std::vector<float> eval_leaf_points(ClRuntime& rt, const implicit::SlotTape& tape,
+                                    const ImplicitQueue& q, const std::vector<float>& xyz,
+                                    uint32_t m, uint32_t* launches_out) {
+  uint32_t launches = 0;
+  const size_t n = q.leaves.size();
+  std::vector<float> out(n * m);
+  if (n == 0 || m == 0) return out;
+  // Each leaf's tape renumbered for its own scratch: value k of a tape of length L in slot k + 1,
+  // its last value (the root) in slot 0, so a point needs L values of scratch, not the full
+  // tape's slot count (hundreds on large models; a leaf's tape is a few dozen clauses). The
+  // same operations on the same values: the results are those of the slot tape.
+  std::vector<uint32_t> code = q.pool;
+  std::vector<VmIRegion> leaves = q.leaves;
+  std::vector<uint32_t> latest(std::max<uint32_t>(tape.slots, 1));
+  uint32_t slots = 1;
+  bool renumbered = true;
+  for (const VmIRegion& L : leaves) {
+    uint32_t* c = code.data() + 4 * size_t(L.tape_off);
+    if (L.tape_len == 0 || c[4 * (L.tape_len - 1) + 1] != tape.root_slot) renumbered = false;
+  }
+  if (renumbered) {
+    std::vector<uint8_t> done(q.pool.size() / 4, 0);  // leaves may share a tape (in 2D they do)
+    for (const VmIRegion& L : leaves) {
+      slots = std::max<uint32_t>(slots, L.tape_len);
+      if (done[L.tape_off]) continue;
+      done[L.tape_off] = 1;
+      uint32_t* c = code.data() + 4 * size_t(L.tape_off);
+      for (uint32_t k = 0; k < L.tape_len; ++k, c += 4) {
+        const uint32_t op = c[0];
+        const bool leaf = op <= uint32_t(implicit::Op::Z);
+        const bool binary = op != implicit::kCopy && implicit::is_binary(implicit::Op(op));
+        if (!leaf) c[2] = latest[c[2]];
+        if (binary) c[3] = latest[c[3]];
+        const uint32_t to = k + 1 == L.tape_len ? 0 : k + 1;
+        latest[c[1]] = to;
+        c[1] = to;
+      }
+    }
+  } else {
+    slots = std::max<uint32_t>(tape.slots, 1);  // code is the pool as it came
+  }
+  const uint32_t root = renumbered ? 0 : tape.root_slot;
+  cl::Buffer pool = rt.upload(code, "implicit leaf tapes");
+  // In batches of leaves, so the per-point scratch (slots floats a point) stays under 256 MiB
+  // whatever the count: a 3D frame has millions of leaf corners. One scratch for all batches.
+  const size_t per_leaf = size_t(m) * (slots * sizeof(float) + sizeof(cl_float4) + sizeof(float));
+  const size_t batch = std::min(n, std::max<size_t>(1, (size_t(256) << 20) / per_leaf));
+  cl::Buffer scratch = rt.alloc(batch * m * slots * sizeof(float), "implicit point slots");
+  for (size_t first = 0; first < n; first += batch) {
+    const size_t nb = std::min(batch, n - first);
+    std::vector<VmIRegion> reg_b(leaves.begin() + first, leaves.begin() + first + nb);
+    std::vector<cl_float4> pts(nb * m);
+    const float* src = xyz.data() + 3 * first * m;
+    for (size_t i = 0; i < pts.size(); ++i)
+      pts[i] = cl_float4{{src[3 * i], src[3 * i + 1], src[3 * i + 2], 0.f}};
+    cl::Buffer reg = rt.upload(reg_b, "implicit leaves");
+    cl::Buffer p = rt.upload(pts, "implicit points");
+    cl::Buffer val = rt.alloc(pts.size() * sizeof(float), "implicit values");
+    ++launches;
+    rt.launch(Stage::Implicit, "implicit_points", pts.size(), reg, uint32_t(nb), pool, scratch,
+              slots, root, p, m, val);
+    rt.read(Stage::Implicit, val, 0, pts.size() * sizeof(float), out.data() + first * m);
+  }
+  if (launches_out) *launches_out += launches;
+  return out;
+}
+
+}  // namespace vismap::stages

@@ -1,0 +1,49 @@
+// Stage implicit (kernels/implicit.cl, docs/IMPLICIT.md): MPR's region queue for an implicit
+// surface's tape. Rounds of interval evaluation over boxes, each ambiguous box's tape shortened
+// (MPR §4: min/max clauses decided over the box become copies of their winner) and handed to its
+// children; full and empty boxes leave the queue. Count, scan, allocate, fill: every buffer is
+// sized from the previous round's counts.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/device/cl_runtime.h"
+#include "core/implicit/implicit.h"
+
+namespace vismap::stages {
+
+struct ImplicitRound {
+  uint64_t regions = 0, full = 0, empty = 0, ambiguous = 0;
+  uint64_t culled = 0;  // regions wholly outside one of the planes (they leave as if empty)
+  uint64_t clauses = 0;  // clauses evaluated in the round (sum of the regions' tape lengths)
+};
+
+struct ImplicitQueue {
+  // The ambiguous regions of the last round, each with its shortened tape (a slice of pool:
+  // VmIRegion::tape_off / tape_len in clauses of 4 words).
+  std::vector<VmIRegion> leaves;
+  std::vector<uint32_t> pool;  // 4 words per clause, as SlotTape::code
+  std::vector<ImplicitRound> rounds;
+  uint32_t launches = 0, host_syncs = 0;
+};
+
+// The box [lo, lo + size] in `dims` (2: z fixed at lo[2]; 3) as one region, then one round per
+// entry of `splits` (each ambiguous region split splits[i] ways per axis), then a last round
+// whose ambiguous regions are the leaves. Throws InputError TooLarge when a round's buffers
+// would pass `max_bytes` (0: no cap), naming the round. `planes` (a, b, c, d; empty: none): a
+// region with a x + b y + c z + d < 0 over its whole box is culled (3D frames: the view's
+// planes in the expression's space), so only what the frame can see is split further.
+ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, const float lo[3],
+                                 float size, uint32_t dims, const std::vector<uint32_t>& splits,
+                                 uint64_t max_bytes = 0,
+                                 const std::vector<std::array<float, 4>>& planes = {});
+
+// Plain evaluation on the device of each leaf's tape at its points (m per leaf, xyz per point),
+// in batches that keep the scratch under 256 MiB; the launches made are added to *launches.
+std::vector<float> eval_leaf_points(ClRuntime& rt, const implicit::SlotTape& tape,
+                                    const ImplicitQueue& q, const std::vector<float>& xyz,
+                                    uint32_t m, uint32_t* launches = nullptr);
+
+}  // namespace vismap::stages

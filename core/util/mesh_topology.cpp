@@ -1,0 +1,76 @@
+#include "core/util/mesh_topology.h"
+
+#include <algorithm>
+#include <cstring>
+#include <vector>
+
+namespace vismap {
+
+namespace {
+
+// Vertex ids welded by exact position: sort the vertices by their coordinates' bits.
+std::vector<uint32_t> weld_by_position(const Mesh& m) {
+  const size_t nv = m.vertex_count();
+  struct Key {
+    uint32_t x, y, z, v;
+  };
+  std::vector<Key> keys(nv);
+  for (size_t v = 0; v < nv; ++v) {
+    std::memcpy(&keys[v].x, &m.positions[3 * v], 4);
+    std::memcpy(&keys[v].y, &m.positions[3 * v + 1], 4);
+    std::memcpy(&keys[v].z, &m.positions[3 * v + 2], 4);
+    keys[v].v = static_cast<uint32_t>(v);
+  }
+  std::sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) {
+    return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
+  });
+  std::vector<uint32_t> weld(nv);
+  uint32_t id = 0;
+  for (size_t i = 0; i < nv; ++i) {
+    if (i > 0 &&
+        (keys[i].x != keys[i - 1].x || keys[i].y != keys[i - 1].y || keys[i].z != keys[i - 1].z))
+      ++id;
+    weld[keys[i].v] = id;
+  }
+  return weld;
+}
+
+}  // namespace
+
+int8_t closed_orientation(const Mesh& m) {
+  const size_t nt = m.triangle_count();
+  if (nt < 4) return 0;
+  std::vector<uint32_t> weld = weld_by_position(m);
+  // Closed and consistently oriented: every undirected edge is used exactly twice, once in each
+  // direction. Sort the edges by (min, max) with the direction in the low bit.
+  std::vector<uint64_t> edges;
+  edges.reserve(nt * 3);
+  for (size_t t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) {
+      uint64_t a = weld[m.indices[3 * t + k]], b = weld[m.indices[3 * t + (k + 1) % 3]];
+      if (a == b) return 0;
+      edges.push_back(a < b ? (a << 33) | (b << 1) : (b << 33) | (a << 1) | 1);
+    }
+  std::sort(edges.begin(), edges.end());
+  for (size_t i = 0; i < edges.size(); i += 2) {
+    if (i + 1 >= edges.size()) return 0;
+    // A pair must be the same edge in both directions (low bits 0 then 1) ...
+    if ((edges[i] | 1) != edges[i + 1] || (edges[i] & 1)) return 0;
+    // ... and no third use of it.
+    if (i + 2 < edges.size() && (edges[i + 2] >> 1) == (edges[i] >> 1)) return 0;
+  }
+  double volume = 0;
+  for (size_t t = 0; t < nt; ++t) {
+    const float* a = &m.positions[3 * m.indices[3 * t]];
+    const float* b = &m.positions[3 * m.indices[3 * t + 1]];
+    const float* c = &m.positions[3 * m.indices[3 * t + 2]];
+    volume += a[0] * (double(b[1]) * c[2] - double(b[2]) * c[1]) -
+              a[1] * (double(b[0]) * c[2] - double(b[2]) * c[0]) +
+              a[2] * (double(b[0]) * c[1] - double(b[1]) * c[0]);
+  }
+  if (volume > 0) return 1;
+  if (volume < 0) return -1;
+  return 0;
+}
+
+}  // namespace vismap
