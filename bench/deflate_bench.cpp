@@ -23,10 +23,10 @@
 #include <vector>
 
 #include "clients/wsclient.h"
-#include "core/stream/compact.h"
-#include "core/write/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
+#include "core/stream/compact.h"
+#include "core/write/output.h"
 #include "server/config.h"
 #include "server/server.h"
 

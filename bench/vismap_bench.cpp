@@ -28,9 +28,9 @@
 
 #include "core/camera.h"
 #include "core/error.h"
-#include "core/write/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
+#include "core/write/output.h"
 
 namespace {
 

@@ -7,8 +7,8 @@
 #include <string>
 
 #include "cli/args.h"
-#include "core/lines/lines.h"
 #include "core/check/scene_check.h"
+#include "core/lines/lines.h"
 #include "core/lines/svg_lines.h"
 
 namespace vismap::cli {

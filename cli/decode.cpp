@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "cli/args.h"
+#include "core/error.h"
 #include "core/stream/compact.h"
 #include "core/stream/delta.h"
-#include "core/error.h"
 #include "core/write/output.h"
 
 namespace vismap::cli {

@@ -18,15 +18,15 @@
 #include "cli/check.h"
 #include "cli/decode.h"
 #include "core/camera.h"
-#include "core/stream/compact.h"
 #include "core/error.h"
-#include "core/lines/lines.h"
-#include "core/write/output.h"
-#include "core/write/cairo.h"
-#include "core/pipeline.h"
 #include "core/implicit/implicit.h"
-#include "core/surfaces/implicit2d.h"
+#include "core/lines/lines.h"
+#include "core/pipeline.h"
 #include "core/scene.h"
+#include "core/stream/compact.h"
+#include "core/surfaces/implicit2d.h"
+#include "core/write/cairo.h"
+#include "core/write/output.h"
 
 namespace {
 

@@ -14,10 +14,7 @@
 #endif
 
 #include "core/device/cl_runtime.h"
-#include "core/util/clock.h"
 #include "core/error.h"
-#include "core/stages/map_build.h"
-#include "core/util/mesh_topology.h"
 #include "core/stages/bin.h"
 #include "core/stages/buckets.h"
 #include "core/stages/budget.h"
@@ -26,11 +23,15 @@
 #include "core/stages/crossings.h"
 #include "core/stages/deadline.h"
 #include "core/stages/emit.h"
+#include "core/stages/map_build.h"
 #include "core/stages/occlusion.h"
 #include "core/stages/raster.h"
 #include "core/stages/silhouettes.h"
-#include "core/surfaces/internal.h"
 #include "core/stages/transform.h"
+#include "core/surfaces/implicit2d.h"
+#include "core/surfaces/internal.h"
+#include "core/util/clock.h"
+#include "core/util/mesh_topology.h"
 
 namespace vismap {
 
@@ -334,6 +335,22 @@ void keep_freed_memory_for_reuse() {
 #endif
 }
 
+namespace {
+
+// The OpenCL C++ wrapper's exceptions, from any call the Renderer makes, as DeviceError naming the
+// failed call, its code and the device.
+template <typename F>
+auto device_errors(const ClRuntime& rt, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const cl::Error& e) {
+    throw DeviceError(std::string("OpenCL error in ") + e.what() + " (" + std::to_string(e.err()) +
+                      ") on " + rt.info().name);
+  }
+}
+
+}  // namespace
+
 Renderer::Renderer(const std::string& device) : impl_(std::make_unique<Impl>(device)) {}
 Renderer::~Renderer() = default;
 
@@ -343,15 +360,12 @@ const DeviceInfo& Renderer::device() const {
 
 RasterStats Renderer::raster_ids(const Scene& scene, const Camera& camera,
                                  std::vector<uint32_t>* ids) {
-  try {
+  return device_errors(impl_->rt, [&] {
     camera.validate();
     RenderStats ust;
     impl_->upload(scene, ust);
     return stages::raster_ids(impl_->rt, impl_->sb, scene, camera, ids);
-  } catch (const cl::Error& e) {
-    throw DeviceError(std::string("OpenCL error in ") + e.what() + " (" + std::to_string(e.err()) +
-                      ") on " + impl_->rt.info().name);
-  }
+  });
 }
 
 Scene Renderer::tessellate(const Scene& scene, const Camera& camera,
@@ -360,7 +374,7 @@ Scene Renderer::tessellate(const Scene& scene, const Camera& camera,
   TessellateStats& st = stats ? *stats : local;
   st = TessellateStats{};
   auto t0 = Clock::now();
-  try {
+  return device_errors(impl_->rt, [&] {
     camera.validate();
     if (!(opts.tolerance_px > 0) || !std::isfinite(opts.tolerance_px))
       throw InputError(InputErrorKind::BadScene, scene.source, "", "", -1,
@@ -383,20 +397,13 @@ Scene Renderer::tessellate(const Scene& scene, const Camera& camera,
     }
     st.ms = ms_since(t0);
     return out;
-  } catch (const cl::Error& e) {
-    throw DeviceError(std::string("OpenCL error in ") + e.what() + " (" + std::to_string(e.err()) +
-                      ") on " + impl_->rt.info().name);
-  }
+  });
 }
 
 implicit::Regions2D Renderer::implicit_2d(const implicit::Tape& tape, const implicit::View2D& view,
                                           double tolerance_px) {
-  try {
-    return implicit::contour_2d(impl_->rt, tape, view, tolerance_px);
-  } catch (const cl::Error& e) {
-    throw DeviceError(std::string("OpenCL error in ") + e.what() + " (" + std::to_string(e.err()) +
-                      ") on " + impl_->rt.info().name);
-  }
+  return device_errors(impl_->rt,
+                       [&] { return implicit::contour_2d(impl_->rt, tape, view, tolerance_px); });
 }
 
 PlanarMap Renderer::render(const Scene& scene, const Camera& camera, const RenderOptions& opts,
@@ -405,14 +412,11 @@ PlanarMap Renderer::render(const Scene& scene, const Camera& camera, const Rende
   RenderStats& st = stats ? *stats : local;
   st = RenderStats{};
   auto t0 = Clock::now();
-  try {
+  return device_errors(impl_->rt, [&] {
     PlanarMap map = impl_->run(scene, camera, opts, st, screen);
     st.pipeline_ms = ms_since(t0);
     return map;
-  } catch (const cl::Error& e) {
-    throw DeviceError(std::string("OpenCL error in ") + e.what() + " (" + std::to_string(e.err()) +
-                      ") on " + impl_->rt.info().name);
-  }
+  });
 }
 
 }  // namespace vismap

@@ -149,8 +149,9 @@ typedef struct {
 /* Counts up to which one work-group scans them alone in one launch (scan_small: 64 an item). */
 #define VM_SCAN_SMALL_MAX (VM_SCAN_WG * 64)
 
-/* Implicit surfaces (issue 19, implicit.cl): a tape clause on slots. op is implicit::Op's value
- * (core/implicit/implicit.h; VM_IOP_COPY added by shortening: out = a); Const keeps its float's
+/* Implicit surfaces (issue 19, implicit.cl): a tape clause on slots. The opcodes are listed here
+ * only; implicit::Op (core/implicit/implicit.h) names them for the host and static_asserts that
+ * they run contiguously (VM_IOP_COPY is added by shortening: out = a). Const keeps its float's
  * bits in a. Operands are read before out is written, so out may reuse an operand's slot. */
 #define VM_IOP_CONST 0
 #define VM_IOP_X 1
@@ -176,6 +177,7 @@ typedef struct {
 #define VM_IOP_ACOS 21
 #define VM_IOP_ATAN 22
 #define VM_IOP_COPY 23
+#define VM_IOP_COUNT 24
 typedef struct {
   vm_u32 op, out, a, b;
 } VmIClause;

@@ -2,9 +2,9 @@
 
 #include <atomic>
 
+#include "core/lines/lines.h"
 #include "core/stream/compact.h"
 #include "core/stream/delta.h"
-#include "core/lines/lines.h"
 #include "core/write/output.h"
 
 namespace vismap::server {

@@ -10,8 +10,8 @@
 #include <variant>
 
 #include "core/camera.h"
-#include "core/stream/compact.h"
 #include "core/error.h"
+#include "core/stream/compact.h"
 
 namespace vismap::server {
 

@@ -10,8 +10,8 @@
 #include <csignal>
 #include <cstdio>
 
-#include "core/util/clock.h"
 #include "core/pipeline.h"
+#include "core/util/clock.h"
 #include "server/server_impl.h"
 
 #ifndef VISMAP_WWW_DIR

@@ -9,10 +9,10 @@
 #include <deque>
 #include <nlohmann/json.hpp>
 
-#include "core/util/clock.h"
-#include "core/write/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
+#include "core/util/clock.h"
+#include "core/write/output.h"
 #include "server/error_reply.h"
 #include "server/frame_encoder.h"
 #include "server/protocol.h"

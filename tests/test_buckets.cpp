@@ -6,9 +6,9 @@
 #include <cmath>
 #include <filesystem>
 
+#include "core/check/scene_check.h"
 #include "core/error.h"
 #include "core/pipeline.h"
-#include "core/check/scene_check.h"
 #include "tests/support/random_scene.h"
 #include "tests/support/triangle_scene.h"
 

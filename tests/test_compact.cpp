@@ -9,11 +9,11 @@
 #include <set>
 #include <sstream>
 
-#include "core/stream/compact.h"
-#include "core/util/conform.h"
 #include "core/error.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
+#include "core/stream/compact.h"
+#include "core/util/conform.h"
 #include "tests/support/grid_raster.h"
 
 namespace vismap {

@@ -13,8 +13,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "core/pipeline.h"
 #include "core/check/scene_check.h"
+#include "core/pipeline.h"
 #include "core/scene.h"
 #include "tests/support/triangle_scene.h"
 

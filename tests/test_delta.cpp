@@ -9,10 +9,10 @@
 #include <random>
 #include <sstream>
 
-#include "core/stream/delta.h"
 #include "core/error.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
+#include "core/stream/delta.h"
 #include "tests/support/grid_raster.h"
 
 namespace vismap {

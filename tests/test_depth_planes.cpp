@@ -9,8 +9,8 @@
 #include <random>
 #include <set>
 
-#include "core/pipeline.h"
 #include "core/check/scene_check.h"
+#include "core/pipeline.h"
 #include "core/scene.h"
 #include "kernels/layout.h"
 #include "tests/support/triangle_scene.h"

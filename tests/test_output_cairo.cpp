@@ -15,10 +15,10 @@
 
 #include "core/error.h"
 #include "core/lines/lines.h"
-#include "core/write/output.h"
-#include "core/write/cairo.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
+#include "core/write/cairo.h"
+#include "core/write/output.h"
 #include "support/triangle_scene.h"
 
 namespace vismap {

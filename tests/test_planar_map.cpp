@@ -8,8 +8,8 @@
 #include <filesystem>
 
 #include "core/camera.h"
-#include "core/pipeline.h"
 #include "core/check/planar_check.h"
+#include "core/pipeline.h"
 #include "core/scene.h"
 
 namespace {

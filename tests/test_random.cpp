@@ -8,8 +8,8 @@
 #include <cstdlib>
 #include <filesystem>
 
-#include "core/pipeline.h"
 #include "core/check/scene_check.h"
+#include "core/pipeline.h"
 #include "tests/support/random_scene.h"
 
 namespace {

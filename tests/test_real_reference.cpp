@@ -4,8 +4,8 @@
 
 #include <filesystem>
 
-#include "core/pipeline.h"
 #include "core/check/scene_check.h"
+#include "core/pipeline.h"
 
 namespace {
 

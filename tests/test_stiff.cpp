@@ -9,9 +9,9 @@
 #include <filesystem>
 #include <map>
 
+#include "core/check/scene_check.h"
 #include "core/lines/lines.h"
 #include "core/pipeline.h"
-#include "core/check/scene_check.h"
 #include "core/scene.h"
 
 namespace {

@@ -12,8 +12,8 @@
 #include <array>
 #include <cmath>
 
-#include "core/pipeline.h"
 #include "core/check/scene_check.h"
+#include "core/pipeline.h"
 #include "core/scene.h"
 #include "tests/support/triangle_scene.h"
 

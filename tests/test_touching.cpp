@@ -11,8 +11,8 @@
 // A's other two edges are the mesh's boundary (silhouettes); B's centroid is outside S.
 #include <gtest/gtest.h>
 
-#include "core/pipeline.h"
 #include "core/check/scene_check.h"
+#include "core/pipeline.h"
 #include "core/scene.h"
 #include "tests/support/triangle_scene.h"
 

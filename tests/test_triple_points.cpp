@@ -10,8 +10,8 @@
 #include <cmath>
 #include <random>
 
-#include "core/pipeline.h"
 #include "core/check/scene_check.h"
+#include "core/pipeline.h"
 #include "core/scene.h"
 #include "tests/support/triangle_scene.h"
 

@@ -32,11 +32,11 @@
 #include <vector>
 
 #include "core/camera.h"
-#include "core/util/clock.h"
 #include "core/error.h"
-#include "core/write/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
+#include "core/util/clock.h"
+#include "core/write/output.h"
 
 // ---- compact plugs in here (issue 16; core/stream/compact.h on main, not yet on this branch) ----
 // When the header is there the encoding below is compiled in and listed; nothing else changes.

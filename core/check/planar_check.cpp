@@ -11,8 +11,8 @@
 #include <stdexcept>
 #include <unordered_map>
 
-#include "core/util/clock.h"
 #include "core/check/exact_geom.h"
+#include "core/util/clock.h"
 #include "kernels/layout.h"
 
 namespace vismap::check {

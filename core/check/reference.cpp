@@ -13,9 +13,9 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "core/util/clock.h"
 #include "core/check/exact_geom.h"
 #include "core/check/planar_check.h"
+#include "core/util/clock.h"
 #include "kernels/layout.h"
 
 namespace vismap::check {

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "core/util/clock.h"
 #include "core/check/planar_check.h"
+#include "core/util/clock.h"
 
 namespace vismap::check {
 

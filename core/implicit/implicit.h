@@ -11,13 +11,25 @@
 #include <string>
 #include <vector>
 
+#include "kernels/layout.h"
+
 namespace vismap::implicit {
 
+// The opcodes are the device's (VM_IOP_*, kernels/layout.h): one list, named here for the host.
 enum class Op : uint8_t {
-  Const, X, Y, Z,                            // leaves
-  Add, Sub, Mul, Div, Min, Max, Pow,         // binary
-  Neg, Square, Sqrt, Abs, Exp, Log, Sin, Cos, Tan, Asin, Acos, Atan,  // unary
+  Const = VM_IOP_CONST, X = VM_IOP_X, Y = VM_IOP_Y, Z = VM_IOP_Z,  // leaves
+  Add = VM_IOP_ADD, Sub = VM_IOP_SUB, Mul = VM_IOP_MUL, Div = VM_IOP_DIV,  // binary
+  Min = VM_IOP_MIN, Max = VM_IOP_MAX, Pow = VM_IOP_POW,
+  Neg = VM_IOP_NEG, Square = VM_IOP_SQUARE, Sqrt = VM_IOP_SQRT, Abs = VM_IOP_ABS,  // unary
+  Exp = VM_IOP_EXP, Log = VM_IOP_LOG, Sin = VM_IOP_SIN, Cos = VM_IOP_COS, Tan = VM_IOP_TAN,
+  Asin = VM_IOP_ASIN, Acos = VM_IOP_ACOS, Atan = VM_IOP_ATAN,
 };
+// is_binary and the parser's table take the leaves, binary and unary opcodes as three runs, and
+// the device's VM_IOP_COPY (added by shortening, never parsed) comes after them all.
+static_assert(int(Op::Const) == 0 && int(Op::Z) == 3 && int(Op::Add) == int(Op::Z) + 1 &&
+                  int(Op::Neg) == int(Op::Pow) + 1 && int(Op::Atan) + 1 == VM_IOP_COPY &&
+                  VM_IOP_COPY + 1 == VM_IOP_COUNT,
+              "implicit::Op and kernels/layout.h's VM_IOP_* must be one contiguous list");
 const char* op_name(Op op);
 bool is_binary(Op op);
 
@@ -75,7 +87,7 @@ struct SlotTape {
   uint32_t slots = 0, root_slot = 0;
   size_t size() const { return code.size() / 4; }
 };
-constexpr uint32_t kCopy = 23;  // VM_IOP_COPY
+constexpr uint32_t kCopy = VM_IOP_COPY;
 SlotTape allocate_slots(const Tape& t);
 // The slot tape evaluated on the host in doubles (constants as the float the device holds).
 double eval_slots(const SlotTape& t, double x, double y, double z);

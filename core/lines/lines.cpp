@@ -3,14 +3,14 @@
 #include "core/lines/lines.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <string>
 #include <tuple>
 
-#include "core/util/conform.h"
 #include "core/error.h"
+#include "core/util/conform.h"
 #include "core/util/flat_map.h"
+#include "core/util/weld.h"
 
 namespace vismap {
 
@@ -57,21 +57,7 @@ struct Topology {
   void build(const Mesh& m) {
     built = true;
     const size_t nv = m.vertex_count(), nt = m.triangle_count();
-    canon.resize(nv);
-    FlatMap at(nv);
-    for (uint32_t v = 0; v < nv; ++v) {
-      const float* p = &m.positions[3 * size_t(v)];
-      const uint64_t k =
-          ((uint64_t(std::bit_cast<uint32_t>(p[0] + 0.0f)) * 0x9E3779B97F4A7C15ull) ^
-           (uint64_t(std::bit_cast<uint32_t>(p[1] + 0.0f)) * 0xC2B2AE3D27D4EB4Full) ^
-           uint64_t(std::bit_cast<uint32_t>(p[2] + 0.0f))) >>
-          1;
-      uint32_t c = at.emplace(k, v).first;
-      if (c != v && !(m.positions[3 * size_t(c)] == p[0] && m.positions[3 * size_t(c) + 1] == p[1] &&
-                      m.positions[3 * size_t(c) + 2] == p[2]))
-        c = v;  // a hash collision: kept apart (at worst an edge is taken for a boundary)
-      canon[v] = c;
-    }
+    canon = weld_first(m.positions.data(), nv);
     edge = FlatMap(3 * nt);
     uses.clear();
     for (size_t t = 0; t < nt; ++t)
@@ -638,7 +624,6 @@ LineSet extract_lines(const PlanarMap& map, const ScreenTriangles& screen, const
   });
   std::vector<double> hxy;  // hidden segments' points, merged by exact position below
   std::array<std::vector<Seg>, kLineKinds> hsegs;
-  FlatMap at(0);
   std::vector<std::array<double, 4>> pieces;  // (t0, t1) with their points: x0 y0 | x1 y1
   struct Cut {
     double t;
@@ -688,14 +673,11 @@ LineSet extract_lines(const PlanarMap& map, const ScreenTriangles& screen, const
     // Points merged by exact position (the ends two edges share are snapped alike).
     hxy.clear();
     hsegs[k].clear();
-    at = FlatMap(2 * raw[k].size());
+    Weld<double, 2> at(2 * raw[k].size());
     auto id = [&](double x, double y) {
-      const uint64_t bx = std::bit_cast<uint64_t>(x + 0.0), by = std::bit_cast<uint64_t>(y + 0.0);
-      const uint64_t key = (bx * 0xC2B2AE3D27D4EB4Full ^ by) * 0x9E3779B97F4A7C15ull >> 1;
-      const uint32_t fresh = uint32_t(hxy.size() / 2);
-      uint32_t v = at.emplace(key, fresh).first;
-      if (v != fresh && !(hxy[2 * v] == x && hxy[2 * v + 1] == y)) v = fresh;
-      if (v == fresh) hxy.push_back(x), hxy.push_back(y);
+      const double p[2] = {x, y};
+      auto [v, fresh] = at.add(p, uint32_t(hxy.size() / 2));
+      if (fresh) hxy.push_back(x), hxy.push_back(y);
       return v;
     };
     for (const auto& r : raw[k]) {

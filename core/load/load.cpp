@@ -11,6 +11,7 @@
 #include <cstring>
 
 #include "core/load/internal.h"
+#include "core/util/weld.h"
 
 namespace vismap {
 namespace detail {
@@ -192,35 +193,15 @@ void check_size(uint64_t triangles, const LoadOptions& opts, const Source& src,
 namespace {
 
 // True when two referenced vertices sit at the same position: edges must then be matched by
-// position, not by index (STL, OBJ exports that split vertices at seams). A flat open-addressing
-// table: no allocation per vertex.
+// position, not by index (STL, OBJ exports that split vertices at seams).
 bool has_duplicate_positions(const Mesh& m) {
   size_t nv = m.vertex_count();
   std::vector<uint8_t> used(nv, 0);
   size_t n_used = 0;
   for (uint32_t i : m.indices) n_used += used[i] ? 0 : (used[i] = 1);
-  size_t cap = 16;
-  while (cap < 2 * n_used) cap *= 2;
-  std::vector<uint32_t> table(cap, UINT32_MAX);
-  auto key = [&](size_t v, int k) {
-    float f = m.positions[3 * v + k] + 0.0f;  // -0 and +0 are the same place
-    uint32_t u;
-    std::memcpy(&u, &f, 4);
-    return u;
-  };
-  for (size_t v = 0; v < nv; ++v) {
-    if (!used[v]) continue;
-    uint32_t x = key(v, 0), y = key(v, 1), z = key(v, 2);
-    uint64_t h = x * 0x9E3779B97F4A7C15ull ^ y * 0xC2B2AE3D27D4EB4Full ^ z * 0x165667B19E3779F9ull;
-    for (size_t slot = (h ^ (h >> 29)) & (cap - 1);; slot = (slot + 1) & (cap - 1)) {
-      uint32_t o = table[slot];
-      if (o == UINT32_MAX) {
-        table[slot] = uint32_t(v);
-        break;
-      }
-      if (key(o, 0) == x && key(o, 1) == y && key(o, 2) == z) return true;
-    }
-  }
+  Weld<float, 3> at(n_used);
+  for (size_t v = 0; v < nv; ++v)
+    if (used[v] && !at.add(&m.positions[3 * v], uint32_t(v)).second) return true;
   return false;
 }
 

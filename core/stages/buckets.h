@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/pipeline.h"
+#include "core/render_stats.h"
 #include "core/stages/transform.h"
 
 namespace vismap::stages {

@@ -6,9 +6,9 @@
 #include <string>
 #include <utility>
 
-#include "core/util/clock.h"
-#include "core/error.h"
 #include "core/device/stage.h"
+#include "core/error.h"
+#include "core/util/clock.h"
 
 namespace vismap::stages {
 

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "core/device/cl_runtime.h"
-#include "core/stages/map_build.h"
 #include "core/stages/clip.h"
+#include "core/stages/map_build.h"
 #include "core/stages/occlusion.h"
 #include "core/stages/transform.h"
 

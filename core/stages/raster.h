@@ -8,7 +8,7 @@
 
 #include "core/camera.h"
 #include "core/device/cl_runtime.h"
-#include "core/pipeline.h"
+#include "core/render_stats.h"
 #include "core/stages/transform.h"
 
 namespace vismap::stages {

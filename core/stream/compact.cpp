@@ -8,11 +8,11 @@
 #include <cmath>
 #include <cstring>
 
-#include "core/util/conform.h"
 #include "core/error.h"
-#include "core/util/flat_map.h"
 #include "core/stream/frame_io.h"
-#include "core/write/internal.h"
+#include "core/util/conform.h"
+#include "core/util/flat_map.h"
+#include "core/write/shared.h"
 
 namespace vismap {
 

@@ -13,12 +13,9 @@
 #include "core/camera.h"
 #include "core/planar_map.h"
 #include "core/scene.h"
+#include "core/stream/frame_io.h"
 
 namespace vismap {
-
-// The entropy coder over the payload: zstd, or raw deflate (RFC 1951) for browsers, whose
-// DecompressionStream("deflate-raw") inflates natively and has no zstd.
-enum class Compression : uint32_t { Zstd = 1, Deflate = 2 };
 
 struct CompactOptions {
   uint32_t quantum = 16;  // grid steps per pixel, 1 ... 256 (positions within 1/(2*quantum) px)

@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "core/camera.h"
-#include "core/stream/compact.h"
 #include "core/error.h"
 #include "core/planar_map.h"
 #include "core/scene.h"
+#include "core/stream/compact.h"
 
 namespace vismap {
 

@@ -6,18 +6,20 @@
 #include <cstdint>
 #include <string>
 
-#include "core/stream/compact.h"
+#include "core/util/bytes.h"
+
+namespace vismap {
+
+// The entropy coder over the payload: zstd, or raw deflate (RFC 1951) for browsers, whose
+// DecompressionStream("deflate-raw") inflates natively and has no zstd.
+enum class Compression : uint32_t { Zstd = 1, Deflate = 2 };
+
+}  // namespace vismap
 
 namespace vismap::frame_io {
 
-inline void put_u32(std::string& s, uint32_t v) {
-  for (int i = 0; i < 4; ++i) s += char((v >> (8 * i)) & 0xFF);
-}
-inline uint32_t get_u32(const char* p) {
-  uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v |= uint32_t(static_cast<unsigned char>(p[i])) << (8 * i);
-  return v;
-}
+using le::get_u32;
+using le::put_u32;
 inline void put_varint(std::string& s, uint64_t v) {
   while (v >= 0x80) {
     s += char((v & 0x7F) | 0x80);

@@ -1,7 +1,6 @@
 #include "core/surfaces/implicit2d.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -11,16 +10,13 @@
 #include "core/device/cl_runtime.h"
 #include "core/error.h"
 #include "core/surfaces/implicit.h"
+#include "core/util/clock.h"
 
 namespace vismap::implicit {
 
 namespace {
 
 using P2 = std::array<double, 2>;
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 struct Key {
   int64_t i, j;
@@ -70,7 +66,7 @@ Regions2D contour_2d(ClRuntime& rt, const Tape& tape, const View2D& v, double to
     throw InputError(InputErrorKind::BadCamera, "", "", "", -1, "the 2D window is empty or not finite");
   if (!(tolerance_px > 0)) throw InputError(InputErrorKind::BadCamera, "", "", "", -1, "tolerance must be > 0");
   Regions2D out;
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const double sx = v.width / (v.x1 - v.x0), sy = v.height / (v.y1 - v.y0);
   // Cell side h (expression units) with a diagonal of at most the tolerance in pixels: every
   // point drawn lies in a cell that f = 0 crosses, so within one diagonal of the curve.
@@ -113,7 +109,7 @@ Regions2D contour_2d(ClRuntime& rt, const Tape& tape, const View2D& v, double to
   }
   const std::vector<float> val = stages::eval_leaf_points(rt, st, q, xyz, 4);
   out.queue_ms = ms_since(t0);
-  const auto t1 = std::chrono::steady_clock::now();
+  const auto t1 = Clock::now();
   // Corner values by grid index (every copy of a corner holds the same value: the shortened
   // tapes compute the full tape's operations on the same float point).
   std::unordered_map<Key, float, KeyHash> corner;

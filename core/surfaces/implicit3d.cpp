@@ -19,14 +19,13 @@
 // does not reach an edge) is left out.
 #include <algorithm>
 #include <cmath>
-#include <cstring>
-#include <unordered_map>
 
-#include "core/util/clock.h"
 #include "core/error.h"
 #include "core/implicit/implicit.h"
 #include "core/surfaces/implicit.h"
 #include "core/surfaces/internal.h"
+#include "core/util/clock.h"
+#include "core/util/weld.h"
 
 namespace vismap::stages {
 
@@ -362,8 +361,7 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   std::vector<uint32_t> src;  // per output vertex: its surface-nets vertex
   src.reserve(nv);
   {
-    std::unordered_map<Bits3, uint32_t, Bits3Hash> weld;
-    weld.reserve(nv);
+    Weld<float, 3> weld(nv);
     for (size_t v = 0; v < nv; ++v) {
       const std::array<double, 3> w = place(xf, &opos[3 * v]);
       float wf[3];
@@ -373,9 +371,8 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
           throw InputError(InputErrorKind::NonFiniteVertex, "", mesh.name, "vertex", int64_t(v),
                            "not finite after the object's transform");
       }
-      auto [it, fresh] =
-          weld.emplace(Bits3::of(wf[0], wf[1], wf[2]), uint32_t(out.positions.size() / 3));
-      remap[v] = it->second;
+      auto [id, fresh] = weld.add(wf, uint32_t(out.positions.size() / 3));
+      remap[v] = id;
       if (!fresh) continue;
       out.positions.insert(out.positions.end(), wf, wf + 3);
       src.push_back(uint32_t(v));

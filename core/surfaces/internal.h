@@ -7,7 +7,6 @@
 #pragma once
 
 #include <cstdint>
-#include <cstring>
 #include <map>
 #include <memory>
 
@@ -21,29 +20,6 @@ namespace vismap::stages {
 // Output cap of one diced surface mesh: 2^27 triangles (~5 GB of host arrays downstream); past
 // it the frame is TooLarge naming the mesh, never truncated.
 constexpr uint64_t kMaxDicedTriangles = uint64_t(1) << 27;
-
-// A position's float bits, -0 taken as +0, as a hash key: the dicers weld vertices whose
-// positions came out equal (shared corners evaluated from the same data, poles).
-struct Bits3 {
-  uint32_t x, y, z;
-  bool operator==(const Bits3& o) const { return x == o.x && y == o.y && z == o.z; }
-  static Bits3 of(float x, float y, float z) {
-    Bits3 b;
-    x += 0.0f, y += 0.0f, z += 0.0f;
-    std::memcpy(&b.x, &x, 4);
-    std::memcpy(&b.y, &y, 4);
-    std::memcpy(&b.z, &z, 4);
-    return b;
-  }
-};
-struct Bits3Hash {
-  size_t operator()(const Bits3& b) const {
-    uint64_t h = b.x * 0x9E3779B97F4A7C15ull;
-    h ^= (h >> 29) + b.y * 0xC2B2AE3D27D4EB4Full;
-    h ^= (h >> 31) + b.z * 0x165667B19E3779F9ull;
-    return size_t(h ^ (h >> 32));
-  }
-};
 
 // One patch mesh diced: positions, indices (vertices shared, across patches too), uv (per corner), face_ids (the patch of each
 // triangle), source_triangles = patch count; name, color and flags copied.

@@ -12,10 +12,10 @@
 #include <cmath>
 #include <cstring>
 #include <map>
-#include <unordered_map>
 
 #include "core/error.h"
 #include "core/surfaces/internal.h"
+#include "core/util/weld.h"
 
 namespace vismap::stages {
 
@@ -173,15 +173,13 @@ Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in, const T
 
   // Weld equal positions, by their bits with -0 taken as +0 (a pole's control points may differ
   // in the sign of a zero from patch to patch).
-  std::unordered_map<Bits3, uint32_t, Bits3Hash> ids;
-  ids.reserve(size_t(nv));
+  Weld<float, 3> ids{size_t(nv)};
   std::vector<uint32_t> remap(nv);
   out.positions.reserve(3 * nv);
   for (uint64_t v = 0; v < nv; ++v) {
-    auto [it, fresh] = ids.emplace(Bits3::of(xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]),
-                                   uint32_t(out.positions.size() / 3));
+    auto [id, fresh] = ids.add(&xyz[3 * v], uint32_t(out.positions.size() / 3));
     if (fresh) out.positions.insert(out.positions.end(), &xyz[3 * v], &xyz[3 * v] + 3);
-    remap[v] = it->second;
+    remap[v] = id;
   }
   out.indices.reserve(3 * nt);
   out.uv.reserve(6 * nt);

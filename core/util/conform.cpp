@@ -3,12 +3,12 @@
 #include "core/util/conform.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <string>
 
 #include "core/error.h"
 #include "core/util/flat_map.h"
+#include "core/util/weld.h"
 
 namespace vismap {
 
@@ -27,21 +27,15 @@ constexpr double kCell = 4.0;  // pixels per cell of the candidate grid
 
 ConformedPolygons merge_equal(const PlanarMap& map, uint32_t quantum) {
   ConformedPolygons P;
-  // Keyed by a 64-bit hash of the position, checked on a hit; a (vanishingly rare) collision
-  // only leaves two equal vertices apart here, and rounding to the grid merges them anyway.
-  FlatMap at(map.vertex_count());
+  Weld<double, 2> at(map.vertex_count());
   const double lim = double(1 << 23) / quantum;
   for (size_t f = 0; f < map.fragment_count(); ++f) {
     const size_t start = P.v.size();
     for (uint32_t k = map.offsets[f]; k < map.offsets[f + 1]; ++k) {
       const double x = map.xy[2 * k], y = map.xy[2 * k + 1];
       if (!(std::abs(x) < lim && std::abs(y) < lim)) bad("vertex outside the grid's range", f);
-      const uint64_t bx = std::bit_cast<uint64_t>(x + 0.0), by = std::bit_cast<uint64_t>(y + 0.0);
-      const uint64_t key = (bx * 0xC2B2AE3D27D4EB4Full ^ by) * 0x9E3779B97F4A7C15ull >> 1;
-      const uint32_t fresh = uint32_t(P.xy.size() / 2);
-      uint32_t id = at.emplace(key, fresh).first;
-      if (id != fresh && !(P.xy[2 * id] == x && P.xy[2 * id + 1] == y)) id = fresh;
-      if (id == fresh) {
+      auto [id, fresh] = at.add(&map.xy[2 * k], uint32_t(P.xy.size() / 2));
+      if (fresh) {
         P.xy.push_back(x);
         P.xy.push_back(y);
       }

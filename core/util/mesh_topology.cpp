@@ -1,46 +1,16 @@
 #include "core/util/mesh_topology.h"
 
 #include <algorithm>
-#include <cstring>
 #include <vector>
 
+#include "core/util/weld.h"
+
 namespace vismap {
-
-namespace {
-
-// Vertex ids welded by exact position: sort the vertices by their coordinates' bits.
-std::vector<uint32_t> weld_by_position(const Mesh& m) {
-  const size_t nv = m.vertex_count();
-  struct Key {
-    uint32_t x, y, z, v;
-  };
-  std::vector<Key> keys(nv);
-  for (size_t v = 0; v < nv; ++v) {
-    std::memcpy(&keys[v].x, &m.positions[3 * v], 4);
-    std::memcpy(&keys[v].y, &m.positions[3 * v + 1], 4);
-    std::memcpy(&keys[v].z, &m.positions[3 * v + 2], 4);
-    keys[v].v = static_cast<uint32_t>(v);
-  }
-  std::sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) {
-    return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
-  });
-  std::vector<uint32_t> weld(nv);
-  uint32_t id = 0;
-  for (size_t i = 0; i < nv; ++i) {
-    if (i > 0 &&
-        (keys[i].x != keys[i - 1].x || keys[i].y != keys[i - 1].y || keys[i].z != keys[i - 1].z))
-      ++id;
-    weld[keys[i].v] = id;
-  }
-  return weld;
-}
-
-}  // namespace
 
 int8_t closed_orientation(const Mesh& m) {
   const size_t nt = m.triangle_count();
   if (nt < 4) return 0;
-  std::vector<uint32_t> weld = weld_by_position(m);
+  std::vector<uint32_t> weld = weld_first(m.positions.data(), m.vertex_count());
   // Closed and consistently oriented: every undirected edge is used exactly twice, once in each
   // direction. Sort the edges by (min, max) with the direction in the low bit.
   std::vector<uint64_t> edges;

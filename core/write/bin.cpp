@@ -7,8 +7,9 @@
 #include <string>
 
 #include "core/error.h"
+#include "core/util/bytes.h"
 #include "core/write/output.h"
-#include "core/write/internal.h"
+#include "core/write/shared.h"
 
 namespace vismap {
 
@@ -27,20 +28,10 @@ constexpr uint64_t kAttributeBytes = 9 * 4 + 3 * 4;
 
 static_assert(sizeof(float) == 4 && std::numeric_limits<float>::is_iec559, "IEEE float32 needed");
 
-void put_u32(char* p, uint32_t v) {
-  for (int i = 0; i < 4; ++i) p[i] = char((v >> (8 * i)) & 0xFF);
-}
-void put_f32(char* p, float v) {
-  put_u32(p, std::bit_cast<uint32_t>(v));
-}
-uint32_t get_u32(const char* p) {
-  uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v |= uint32_t(static_cast<unsigned char>(p[i])) << (8 * i);
-  return v;
-}
-float get_f32(const char* p) {
-  return std::bit_cast<float>(get_u32(p));
-}
+using le::get_f32;
+using le::get_u32;
+using le::put_f32;
+using le::put_u32;
 
 [[noreturn]] void malformed(InputErrorKind kind, const std::string& element, int64_t index,
                             const std::string& msg) {

@@ -26,8 +26,8 @@
 #include <vector>
 
 #include "core/error.h"
-#include "core/write/internal.h"
 #include "core/write/paths.h"
+#include "core/write/shared.h"
 
 namespace vismap {
 

@@ -7,9 +7,9 @@
 #include <string>
 
 #include "core/camera.h"
-#include "core/write/output.h"
 #include "core/planar_map.h"
 #include "core/scene.h"
+#include "core/write/output.h"
 
 namespace vismap {
 

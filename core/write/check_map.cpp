@@ -2,7 +2,7 @@
 #include <string>
 
 #include "core/error.h"
-#include "core/write/internal.h"
+#include "core/write/shared.h"
 
 namespace vismap::detail {
 

@@ -33,7 +33,7 @@
 #include <unordered_set>
 
 #include "core/error.h"
-#include "core/write/internal.h"
+#include "core/write/shared.h"
 
 namespace vismap::detail {
 

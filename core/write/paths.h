@@ -10,9 +10,9 @@
 
 #include "core/camera.h"
 #include "core/lines/lines.h"
-#include "core/write/output.h"
 #include "core/planar_map.h"
 #include "core/scene.h"
+#include "core/write/output.h"
 
 namespace vismap::detail {
 

@@ -26,11 +26,11 @@
 #include <unordered_map>
 #include <vector>
 
-#include "core/util/conform.h"
 #include "core/error.h"
+#include "core/util/conform.h"
 #include "core/write/output.h"
-#include "core/write/internal.h"
 #include "core/write/paths.h"
+#include "core/write/shared.h"
 
 namespace vismap {
 

@@ -6,9 +6,9 @@
 #include <cstdlib>
 #include <string>
 
+#include "core/error.h"
 #include "core/stream/compact.h"
 #include "core/util/conform.h"
-#include "core/error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace vismap;

@@ -8,9 +8,9 @@
 #include <sstream>
 #include <string>
 
-#include "core/util/conform.h"
-#include "core/stream/delta.h"
 #include "core/error.h"
+#include "core/stream/delta.h"
+#include "core/util/conform.h"
 
 namespace {
 const vismap::DeltaDecoder& after_keyframe() {

@@ -22,8 +22,8 @@
 
 #include "clients/wsclient.h"
 #include "core/error.h"
-#include "core/write/output.h"
 #include "core/pipeline.h"
+#include "core/write/output.h"
 #include "server/server.h"
 #include "tests/server/server_fixture.h"
 

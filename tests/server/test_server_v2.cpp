@@ -8,12 +8,12 @@
 #include <fstream>
 #include <string>
 
-#include "core/stream/compact.h"
-#include "core/stream/delta.h"
 #include "core/lines/lines.h"
-#include "core/write/output.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
+#include "core/stream/compact.h"
+#include "core/stream/delta.h"
+#include "core/write/output.h"
 #include "tests/server/server_fixture.h"
 
 namespace {

@@ -12,10 +12,10 @@
 #include <fstream>
 #include <string>
 
-#include "core/stream/delta.h"
 #include "core/error.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
+#include "core/stream/delta.h"
 
 using namespace vismap;
 

@@ -1,4 +1,5 @@
-// Shared by the writers (core/write/svg.cpp, core/write/bin.cpp); not part of the public API.
+// What every output of a planar map needs, the writers (core/write/) and the stream encoders
+// (core/stream/) alike: the map's check, its sources' global ids, their shade. Within core/ only.
 #pragma once
 
 #include "core/camera.h"
@@ -22,8 +23,8 @@ inline uint64_t global_triangle_id(const PlanarMap& map, const Scene& scene,
 }
 
 // Lambert shade of a source triangle, two-sided, a headlight along the view direction
-// (eye - target, both projections: coplanar faces get one shade), plus ambient: the factor on the mesh colour, in [0.12, 1]. Throws
-// InputError when a vertex index is out of range.
+// (eye - target, both projections: coplanar faces get one shade), plus ambient: the factor on the
+// mesh colour, in [0.12, 1]. Throws InputError when a vertex index is out of range.
 double lambert_shade(const Scene& scene, const Camera& cam, uint32_t mesh, uint32_t tri);
 
 }  // namespace vismap::detail
