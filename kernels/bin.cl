@@ -8,17 +8,6 @@
 /* (The boxes binned here are written where their items are: the screen triangles' and their
  * depth ranges by snap_depth_planes, transform.cl; the silhouette edges' by edge_emit.) */
 
-/* Tiles are powers of two wide: a shift, not a division, in the hottest loops. */
-inline int tile_coord(int v, int shift, int count) {
-  return clamp(v >> shift, 0, count - 1);
-}
-
-/* The tiles (x0, y0, x1, y1, inclusive) that a grid box touches. */
-inline int4 tile_range(int4 b, VmGrid g) {
-  return (int4)(tile_coord(b.x, g.tile_shift, g.tiles_x), tile_coord(b.y, g.tile_shift, g.tiles_y),
-                tile_coord(b.z, g.tile_shift, g.tiles_x), tile_coord(b.w, g.tile_shift, g.tiles_y));
-}
-
 /* Insertion sort of a short list of ids (per-tile and per-triangle lists). */
 inline void sort_ids(__global uint* a, int n) {
   for (int i = 1; i < n; ++i) {
@@ -73,56 +62,11 @@ inline void sort_list(__global uint* a, int n) {
 }
 
 /* ---- Adaptive leaves (MPR-style: a crowded tile splits until its pieces hold little) --------
- * A coarse tile at depth d is split into 2^d x 2^d leaves of side tile_size >> d; tile_leaf packs
- * (index of the tile's first leaf << 4) | d. Items are listed per leaf, and a point or a box finds
- * its leaves through its coarse tile. Tiles that are not crowded are their own single leaf. */
+ * How a tile's leaves are addressed and walked: leaves.cl. */
 #define VM_LEAF_MAX_DEPTH 7 /* leaves down to 8 grid units (1/32 pixel) on 4-pixel tiles */
 #ifndef VM_LEAF_CROWDED
 #define VM_LEAF_CROWDED 256 /* a tile with more entries than this may split */
 #endif
-
-inline uint leaf_depth(uint tl) {
-  return tl & 15u;
-}
-inline uint leaf_first(uint tl) {
-  return tl >> 4;
-}
-
-/* Leaf coordinate of grid coordinate v inside the tile starting at origin (clamped to it). */
-inline int leaf_coord(int v, int origin, int leaf_shift, int n) {
-  return clamp((v - origin) >> leaf_shift, 0, n - 1);
-}
-
-/* The leaf holding grid point (x, y). */
-inline uint leaf_of_point(int x, int y, VmGrid g, __global const uint* tile_leaf) {
-  int tx = tile_coord(x, g.tile_shift, g.tiles_x), ty = tile_coord(y, g.tile_shift, g.tiles_y);
-  uint tl = tile_leaf[ty * g.tiles_x + tx], d = leaf_depth(tl);
-  int n = 1 << d, ls = g.tile_shift - (int)d;
-  int lx = leaf_coord(x, tx << g.tile_shift, ls, n), ly = leaf_coord(y, ty << g.tile_shift, ls, n);
-  return leaf_first(tl) + (uint)(ly * n + lx);
-}
-
-/* The leaves (x0, y0, x1, y1, inclusive, in leaf coordinates of tile (tx, ty) at depth d) that a
- * box touches. */
-inline int4 leaf_range(int4 b, VmGrid g, int tx, int ty, uint d) {
-  int n = 1 << d, ls = g.tile_shift - (int)d, ox = tx << g.tile_shift, oy = ty << g.tile_shift;
-  return (int4)(leaf_coord(b.x, ox, ls, n), leaf_coord(b.y, oy, ls, n), leaf_coord(b.z, ox, ls, n),
-                leaf_coord(b.w, oy, ls, n));
-}
-
-/* Where an item's box starts relative to a leaf it is listed in: class 0 starts in the leaf in
- * both x and y, 1 in y only, 2 in x only, 3 in neither. The pair of boxes a, b (overlapping with
- * positive area) is owned by the leaf holding the low corner of their overlap, which is leaf L
- * exactly when a or b starts in L in x and a or b starts in L in y (both boxes reach L, so the
- * larger of their low x lies in L's x range exactly when one of them starts there; leaves at the
- * screen's edge reach out to infinity, as the clamps say). So an item of class c in a leaf only
- * needs the entries of some classes (partner_classes): all for class 0; classes 0 and 2 for
- * class 1; 0 and 1 for class 2; 0 for class 3. With tr the box's tile range and lr its leaf
- * range in tile (tx, ty), the box starts in leaf (lx, ly) of that tile in x exactly when tx and
- * lx are the first of their ranges. */
-inline uint box_class(int4 tr, int4 lr, int tx, int ty, int lx, int ly) {
-  return (tx == tr.x && lx == lr.x ? 0u : 1u) | (ty == tr.y && ly == lr.y ? 0u : 2u);
-}
 
 /* Per coarse tile, from its coarse list: the depth minimising an estimate of the work, with
  * e(d) the entries the tile's items would have at depth d (an item is listed in every leaf its
@@ -204,22 +148,13 @@ __kernel void leaf_bin(__global const int4* bb, uint n, VmGrid g, __global const
   uint i = get_global_id(0);
   if (i >= n) return;
   int4 b = bb[i];
-  int4 tr = tile_range(b, g);
-  for (int ty = tr.y; ty <= tr.w; ++ty)
-    for (int tx = tr.x; tx <= tr.z; ++tx) {
-      uint tl = tile_leaf[ty * g.tiles_x + tx], d = leaf_depth(tl), first = leaf_first(tl);
-      int4 r = leaf_range(b, g, tx, ty, d);
-      int side = 1 << d;
-      for (int ly = r.y; ly <= r.w; ++ly)
-        for (int lx = r.x; lx <= r.z; ++lx) {
-          uint leaf = first + (uint)(ly * side + lx);
-          if (fill)
-            list[leaf_offset[leaf] + atomic_inc(&leaf_cursor[leaf])] =
-                i | box_class(tr, r, tx, ty, lx, ly) << 30;
-          else
-            atomic_inc(&leaf_count[leaf]);
-        }
-    }
+  VM_FOR_EACH_LEAF(w, b, g, tile_leaf) {
+    uint leaf = leaf_walk_leaf(&w);
+    if (fill)
+      list[leaf_offset[leaf] + atomic_inc(&leaf_cursor[leaf])] = i | leaf_walk_class(&w) << 30;
+    else
+      atomic_inc(&leaf_count[leaf]);
+  }
 }
 
 /* Per coarse tile, for each of its leaves: sorts the leaf's keys, so its list is ordered by
@@ -248,12 +183,3 @@ __kernel void leaf_sort_classes(uint ntiles, __global const uint* tile_leaf,
   }
 }
 
-/* The classes (bit mask) whose entries an item of class c must pair with in a leaf. */
-inline uint partner_classes(uint c) {
-  return c == 0 ? 15u : c == 1 ? 5u : c == 2 ? 3u : 1u;
-}
-
-/* Where class c begins in a leaf's list, from its class starts (class 4: the end). */
-inline uint class_begin(uint4 cs, uint c) {
-  return c == 0 ? 0u : c == 1 ? cs.x : c == 2 ? cs.y : c == 3 ? cs.z : cs.w;
-}

@@ -39,35 +39,27 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
                           __global const uint4* class_start, __global const uint* leaf_list,
                           __global uint* out) {
   int4 tb = tri_bb[t];
-  int4 tr = tile_range(tb, g);
   uint count = 0;
-  for (int ty = tr.y; ty <= tr.w; ++ty)
-    for (int tx = tr.x; tx <= tr.z; ++tx) {
-      uint tl = tile_leaf[ty * g.tiles_x + tx], d = leaf_depth(tl);
-      int4 lr = leaf_range(tb, g, tx, ty, d);
-      int side = 1 << d;
-      for (int ly = lr.y; ly <= lr.w; ++ly)
-        for (int lx = lr.x; lx <= lr.z; ++lx) {
-          uint leaf = leaf_first(tl) + (uint)(ly * side + lx);
-          uint4 cs = class_start[leaf];
-          if (cs.w == 0) continue;
-          __global const uint* list = leaf_list + leaf_offset[leaf];
-          /* Only the classes of edges whose (closed) box overlap with t's this leaf owns. */
-          uint want = partner_classes(box_class(tr, lr, tx, ty, lx, ly));
-          for (uint c = 0; c < 4; ++c) {
-            if (!((want >> c) & 1u)) continue;
-            uint hi = class_begin(cs, c + 1);
-            for (uint k = class_begin(cs, c); k < hi; ++k) {
-              uint e = list[k];
-              int4 eb = edge_bb[e];
-              if (max(tb.x, eb.x) > min(tb.z, eb.z) || max(tb.y, eb.y) > min(tb.w, eb.w)) continue;
-              if (!edge_is_candidate(&tris[t], edges[e])) continue;
-              if (out) out[count] = e;
-              ++count;
-            }
-          }
-        }
+  VM_FOR_EACH_LEAF(w, tb, g, tile_leaf) {
+    uint leaf = leaf_walk_leaf(&w);
+    uint4 cs = class_start[leaf];
+    if (cs.w == 0) continue;
+    __global const uint* list = leaf_list + leaf_offset[leaf];
+    /* Only the classes of edges whose (closed) box overlap with t's this leaf owns. */
+    uint want = partner_classes(leaf_walk_class(&w));
+    for (uint c = 0; c < 4; ++c) {
+      if (!((want >> c) & 1u)) continue;
+      uint hi = class_begin(cs, c + 1);
+      for (uint k = class_begin(cs, c); k < hi; ++k) {
+        uint e = list[k];
+        int4 eb = edge_bb[e];
+        if (max(tb.x, eb.x) > min(tb.z, eb.z) || max(tb.y, eb.y) > min(tb.w, eb.w)) continue;
+        if (!edge_is_candidate(&tris[t], edges[e])) continue;
+        if (out) out[count] = e;
+        ++count;
+      }
     }
+  }
   return count;
 }
 

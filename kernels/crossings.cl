@@ -128,7 +128,8 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
    * `search` values of n is kept (docs/NUMERICS.md §2). An axis-parallel line is exact in
    * direction and within 2^-24 grid units in offset. |c| <= 2^23 (|v| + |u|) < 2^47: the budget
    * of §1. The pair traversal, which needs only the relation, takes n = 2^23 (search = 1);
-   * cross_refine redoes every crossing pair with VM_SNAP_SEARCH before anything uses it. */
+   * refine_pair redoes every crossing pair with VM_SNAP_SEARCH as the pairs are compacted,
+   * before anything uses it. */
   double A = pa.gx - pb.gx, B = pa.gy - pb.gy;
   double C = (pa.q0 - pa.gx * pa.x0 - pa.gy * pa.y0) - (pb.q0 - pb.gx * pb.x0 - pb.gy * pb.y0);
   bool along_x = fabs(B) >= fabs(A);
@@ -175,52 +176,42 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
   int4 tb = tri_bb[t];
   VmScreenTri me = tris[t];
   double qmin = fmin(fmin(me.q[0], me.q[1]), me.q[2]), qmax = fmax(fmax(me.q[0], me.q[1]), me.q[2]);
-  int4 tr = tile_range(tb, g);
   uint count = 0;
-  for (int ty = tr.y; ty <= tr.w; ++ty)
-    for (int tx = tr.x; tx <= tr.z; ++tx) {
-      uint tl = tile_leaf[ty * g.tiles_x + tx], d = leaf_depth(tl);
-      int4 lr = leaf_range(tb, g, tx, ty, d);
-      int side = 1 << d;
-      for (int ly = lr.y; ly <= lr.w; ++ly)
-        for (int lx = lr.x; lx <= lr.z; ++lx) {
-          uint leaf = leaf_first(tl) + (uint)(ly * side + lx);
-          uint4 cs = class_start[leaf];
-          if (cs.w == 0) continue;
-          __global const uint* list = leaf_list + leaf_offset[leaf];
-          /* Only the classes of entries whose pairs with t this leaf owns, each (sorted by id)
-           * walked down from its top to its first id not above t: each pair is found once, by
-           * its lower member, and no entry below t is touched but the one that stops the walk. */
-          uint want = partner_classes(box_class(tr, lr, tx, ty, lx, ly));
-          for (uint c = 0; c < 4; ++c) {
-            if (!((want >> c) & 1u)) continue;
-            uint lo = class_begin(cs, c);
-            for (uint k = class_begin(cs, c + 1); k-- > lo;) {
-              uint o = list[k];
-              if (o <= t) break;
-              int4 ob = tri_bb[o];
-              if (max(tb.x, ob.x) >= min(tb.z, ob.z) || max(tb.y, ob.y) >= min(tb.w, ob.w))
-                continue;
-              /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
-              double2 oq = tri_qr[o];
-              double band =
-                  VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(oq.y)), fmax(fabs(qmin), fabs(oq.x)));
-              if (oq.x > qmax + band || qmin > oq.y + band) continue;
-              VmScreenTri other = tris[o];
-              if (other.mesh == me.mesh && other.tri == me.tri) continue;
-              VmLine line;
-              int rel = pair_relation(&me, &other, &line, 1);
-              if (rel != VM_REL_CROSS && !(rel & (VM_REL_TIE | VM_REL_TOUCH))) continue;
-              if (count < cap) {
-                out_o[count] = o;
-                out_rel[count] = (uint)rel;
-                out_line[count] = line;
-              }
-              ++count;
-            }
-          }
+  VM_FOR_EACH_LEAF(w, tb, g, tile_leaf) {
+    uint leaf = leaf_walk_leaf(&w);
+    uint4 cs = class_start[leaf];
+    if (cs.w == 0) continue;
+    __global const uint* list = leaf_list + leaf_offset[leaf];
+    /* Only the classes of entries whose pairs with t this leaf owns, each (sorted by id) walked
+     * down from its top to its first id not above t: each pair is found once, by its lower
+     * member, and no entry below t is touched but the one that stops the walk. */
+    uint want = partner_classes(leaf_walk_class(&w));
+    for (uint c = 0; c < 4; ++c) {
+      if (!((want >> c) & 1u)) continue;
+      uint lo = class_begin(cs, c);
+      for (uint k = class_begin(cs, c + 1); k-- > lo;) {
+        uint o = list[k];
+        if (o <= t) break;
+        int4 ob = tri_bb[o];
+        if (max(tb.x, ob.x) >= min(tb.z, ob.z) || max(tb.y, ob.y) >= min(tb.w, ob.w)) continue;
+        /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
+        double2 oq = tri_qr[o];
+        double band = VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(oq.y)), fmax(fabs(qmin), fabs(oq.x)));
+        if (oq.x > qmax + band || qmin > oq.y + band) continue;
+        VmScreenTri other = tris[o];
+        if (other.mesh == me.mesh && other.tri == me.tri) continue;
+        VmLine line;
+        int rel = pair_relation(&me, &other, &line, 1);
+        if (rel != VM_REL_CROSS && !(rel & (VM_REL_TIE | VM_REL_TOUCH))) continue;
+        if (count < cap) {
+          out_o[count] = o;
+          out_rel[count] = (uint)rel;
+          out_line[count] = line;
         }
+        ++count;
+      }
     }
+  }
   return count;
 }
 
