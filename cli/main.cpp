@@ -135,7 +135,8 @@ int render_implicit_2d(const RenderArgs& a, const implicit::Tape& tape,
   const auto t_load = Clock::now();
   if (a.format != "svg") throw UsageError("an implicit expression renders to svg only");
   implicit::View2D v;
-  if (a.bounds) v.x0 = (*a.bounds)[0], v.y0 = (*a.bounds)[1], v.x1 = (*a.bounds)[2], v.y1 = (*a.bounds)[3];
+  if (a.bounds)
+    v.x0 = (*a.bounds)[0], v.y0 = (*a.bounds)[1], v.x1 = (*a.bounds)[2], v.y1 = (*a.bounds)[3];
   v.width = a.view.width.value_or(a.view.height.value_or(1024));
   v.height = a.view.height.value_or(v.width);
   Renderer renderer(a.view.device);
@@ -272,14 +273,150 @@ RenderArgs parse_render(int argc, char** argv) {
   if (a.style != "fill" && a.style != "lines" && a.style != "fill+lines")
     throw UsageError("--style: expected fill, lines or fill+lines");
   if (a.style != "fill" && a.format == "compact")
-    throw UsageError("--style " + a.style + ": lines are written to svg, pdf, eps, png and bin, not compact");
+    throw UsageError("--style " + a.style +
+                     ": lines are written to svg, pdf, eps, png and bin, not compact");
   a.svg.fill = a.style != "lines";
   if (a.svg.merge && (a.format != "svg" || a.style == "lines"))
-    throw UsageError("--merge: joins the fills of an svg (--format svg, --style fill or fill+lines)");
+    throw UsageError(
+        "--merge: joins the fills of an svg (--format svg, --style fill or fill+lines)");
   if (a.lines.hidden && a.style == "fill")
-    throw UsageError("--hidden: draws the occluded parts of lines; give --style lines or fill+lines");
+    throw UsageError(
+        "--hidden: draws the occluded parts of lines; give --style lines or fill+lines");
   validate_view(a.view);
   return a;
+}
+
+// What `render --stats` prints: everything a frame measured, gathered once the output is written.
+struct RenderReport {
+  const RenderArgs& args;
+  const DeviceInfo& device;
+  const RenderStats& st;
+  const TessellateStats& ts;
+  const PlanarMap& map;
+  const CompactStats& cs;
+  const LineSet* line_set;  // null without lines
+  uint64_t dropped_degenerate = 0, out_triangles = 0;
+  size_t bytes = 0;
+  double load_ms = 0, render_ms = 0, lines_ms = 0, write_ms = 0, total_ms = 0;
+};
+
+// The device and the per-stage table.
+void print_stage_table(const RenderReport& r) {
+  std::fprintf(stderr, "device: %s / %s\n", r.device.platform.c_str(), r.device.name.c_str());
+  std::fprintf(stderr, "%-12s %10s %9s %6s %10s %12s %12s\n", "stage", "ms", "launches", "reads",
+               "MB moved", "in", "out");
+  double sum = 0;
+  for (const StageStat& s : r.st.stages) {
+    std::fprintf(stderr, "%-12s %10.2f %9u %6u %10.2f %12llu %12llu\n", s.name.c_str(), s.ms,
+                 s.launches, s.host_syncs, (s.device_bytes + s.transfer_bytes) / 1e6,
+                 static_cast<unsigned long long>(s.items_in),
+                 static_cast<unsigned long long>(s.items_out));
+    sum += s.ms;
+  }
+  std::fprintf(stderr,
+               "%-12s %10.2f   (sum of stage times; pipeline wall %.2f ms, upload %.2f ms)\n",
+               "kernels", sum, r.st.pipeline_ms, r.st.upload_ms);
+}
+
+// Dicing before the frame: patches, Loop surfaces, implicit objects.
+void print_surface_stats(const RenderReport& r) {
+  if (r.ts.triangles)
+    std::fprintf(stderr,
+                 "tessellate: %.2f ms, %u launches, %u reads, %u split rounds, %llu pieces "
+                 "(%llu culled, %llu short of the tolerance at the largest rate), %llu "
+                 "triangles, Loop level %u\n",
+                 r.ts.ms, r.ts.launches, r.ts.host_syncs, r.ts.split_rounds,
+                 static_cast<unsigned long long>(r.ts.pieces),
+                 static_cast<unsigned long long>(r.ts.culled),
+                 static_cast<unsigned long long>(r.ts.over_rate),
+                 static_cast<unsigned long long>(r.ts.triangles), r.ts.subdivision_level);
+  if (r.ts.implicit_leaves)
+    std::fprintf(stderr,
+                 "implicit: %llu cells per axis, %llu leaf cells, clauses per "
+                 "leaf %.1f of %llu (tape shortening), %llu back faces left out; ms: queue "
+                 "%.1f, corners %.1f, mesh %.1f\n",
+                 static_cast<unsigned long long>(r.ts.implicit_cells),
+                 static_cast<unsigned long long>(r.ts.implicit_leaves),
+                 double(r.ts.implicit_leaf_clauses) / double(r.ts.implicit_leaves),
+                 static_cast<unsigned long long>(r.ts.implicit_clauses_full),
+                 static_cast<unsigned long long>(r.ts.implicit_back_faces), r.ts.implicit_queue_ms,
+                 r.ts.implicit_points_ms, r.ts.implicit_mesh_ms);
+}
+
+// The frame's counts, syncs, memory and buckets.
+void print_frame_stats(const RenderReport& r) {
+  std::fprintf(stderr,
+               "input triangles %llu (dropped degenerate %llu), screen triangles %llu, "
+               "silhouette edges %llu\n",
+               static_cast<unsigned long long>(r.st.input_triangles),
+               static_cast<unsigned long long>(r.dropped_degenerate),
+               static_cast<unsigned long long>(r.st.screen_triangles),
+               static_cast<unsigned long long>(r.st.silhouette_edges));
+  std::fprintf(stderr,
+               "fragments %llu, visible %llu, clip rounds %u, host syncs %u, device memory peak "
+               "%.1f MB (%.1f MB allocated in all)\n",
+               static_cast<unsigned long long>(r.st.fragments),
+               static_cast<unsigned long long>(r.st.visible_fragments), r.st.clip_rounds,
+               r.st.host_syncs, r.st.peak_device_bytes / 1e6, r.st.allocated_device_bytes / 1e6);
+  std::fprintf(stderr,
+               "per frame: launches %u, blocking reads %u, bytes moved %.2f MB (device model "
+               "%.2f MB, host<->device %.3f MB); modelled GPU floor %.3f ms (pipeline wall "
+               "here %.2f ms)\n",
+               r.st.launches, r.st.host_syncs, (r.st.device_bytes + r.st.transfer_bytes) / 1e6,
+               r.st.device_bytes / 1e6, r.st.transfer_bytes / 1e6, modelled_gpu_floor_ms(r.st),
+               r.st.pipeline_ms);
+  std::fprintf(
+      stderr,
+      "entangled pairs %llu, crossing entries %llu, thin fragments %llu, deep tournaments %llu\n",
+      static_cast<unsigned long long>(r.st.entangled_pairs),
+      static_cast<unsigned long long>(r.st.crossing_lines),
+      static_cast<unsigned long long>(r.st.thin_fragments),
+      static_cast<unsigned long long>(r.st.deep_tournaments));
+  if (r.args.memory_budget)
+    std::fprintf(stderr,
+                 "memory budget %.1f MB: %u bucket(s), each planned under %.1f MB of work\n",
+                 r.args.memory_budget / 1e6, r.st.buckets, r.st.bucket_work_bytes / 1e6);
+}
+
+// The output file, and what the compact encoder and the line extraction made.
+void print_output_stats(const RenderReport& r) {
+  std::fprintf(stderr, "output: %llu triangles in %zu fragments, %zu bytes (%s)\n",
+               static_cast<unsigned long long>(r.out_triangles), r.map.fragment_count(), r.bytes,
+               r.args.format.c_str());
+  if (r.args.format == "compact")
+    std::fprintf(stderr,
+                 "compact: %llu vertices, %llu triangles (%llu T-junctions inserted, %llu "
+                 "dropped on the grid), before zstd: vertices %llu, indices %llu, ids %llu, "
+                 "shades %llu bytes\n",
+                 static_cast<unsigned long long>(r.cs.vertices),
+                 static_cast<unsigned long long>(r.cs.triangles),
+                 static_cast<unsigned long long>(r.cs.t_junctions),
+                 static_cast<unsigned long long>(r.cs.dropped),
+                 static_cast<unsigned long long>(r.cs.vertex_bytes),
+                 static_cast<unsigned long long>(r.cs.index_bytes),
+                 static_cast<unsigned long long>(r.cs.id_bytes),
+                 static_cast<unsigned long long>(r.cs.shade_bytes));
+  if (r.line_set) {
+    std::fprintf(stderr, "lines: %zu chains;", r.line_set->chain_count());
+    for (size_t k = 0; k < kLineKinds; ++k)
+      std::fprintf(stderr, " %s %llu", line_kind_name(LineKind(k)),
+                   static_cast<unsigned long long>(r.line_set->edges[k]));
+    std::fprintf(stderr, " map edges;");
+    if (r.args.lines.hidden)
+      for (size_t k = 0; k < kLineKinds; ++k)
+        std::fprintf(stderr, " hidden %s %llu", line_kind_name(LineKind(k)),
+                     static_cast<unsigned long long>(r.line_set->hidden_edges[k]));
+    std::fprintf(stderr, " %.1f ms\n", r.lines_ms);
+  }
+}
+
+void print_render_stats(const RenderReport& r) {
+  print_stage_table(r);
+  print_surface_stats(r);
+  print_frame_stats(r);
+  print_output_stats(r);
+  std::fprintf(stderr, "time: load %.1f ms, render %.1f ms, write %.1f ms, total %.1f ms\n",
+               r.load_ms, r.render_ms, r.write_ms, r.total_ms);
 }
 
 int cmd_render(int argc, char** argv) {
@@ -354,106 +491,17 @@ int cmd_render(int argc, char** argv) {
     std::fprintf(stderr, "\r%30s\r", "");
   if (a.stats) {
     auto ms = [](auto d) { return std::chrono::duration<double, std::milli>(d).count(); };
-    uint64_t out_tris = 0;
+    RenderReport r{a, renderer.device(), st, ts, map, cs, lines ? &line_set : nullptr};
+    r.dropped_degenerate = scene.dropped_degenerate;
     for (size_t f = 0; f < map.fragment_count(); ++f)
-      out_tris += map.offsets[f + 1] - map.offsets[f] - 2;
-    std::fprintf(stderr, "device: %s / %s\n", renderer.device().platform.c_str(),
-                 renderer.device().name.c_str());
-    std::fprintf(stderr, "%-12s %10s %9s %6s %10s %12s %12s\n", "stage", "ms", "launches",
-                 "reads", "MB moved", "in", "out");
-    double sum = 0;
-    for (const StageStat& s : st.stages) {
-      std::fprintf(stderr, "%-12s %10.2f %9u %6u %10.2f %12llu %12llu\n", s.name.c_str(), s.ms,
-                   s.launches, s.host_syncs, (s.device_bytes + s.transfer_bytes) / 1e6,
-                   static_cast<unsigned long long>(s.items_in),
-                   static_cast<unsigned long long>(s.items_out));
-      sum += s.ms;
-    }
-    std::fprintf(stderr,
-                 "%-12s %10.2f   (sum of stage times; pipeline wall %.2f ms, upload %.2f ms)\n",
-                 "kernels", sum, st.pipeline_ms, st.upload_ms);
-    if (ts.triangles)
-      std::fprintf(stderr,
-                   "tessellate: %.2f ms, %u launches, %u reads, %u split rounds, %llu pieces "
-                   "(%llu culled, %llu short of the tolerance at the largest rate), %llu "
-                   "triangles, Loop level %u\n",
-                   ts.ms, ts.launches, ts.host_syncs, ts.split_rounds,
-                   static_cast<unsigned long long>(ts.pieces),
-                   static_cast<unsigned long long>(ts.culled),
-                   static_cast<unsigned long long>(ts.over_rate),
-                   static_cast<unsigned long long>(ts.triangles), ts.subdivision_level);
-    if (ts.implicit_leaves)
-      std::fprintf(stderr,
-                   "implicit: %llu cells per axis, %llu leaf cells, clauses per "
-                   "leaf %.1f of %llu (tape shortening), %llu back faces left out; ms: queue "
-                   "%.1f, corners %.1f, mesh %.1f\n",
-                   static_cast<unsigned long long>(ts.implicit_cells),
-                   static_cast<unsigned long long>(ts.implicit_leaves),
-                   double(ts.implicit_leaf_clauses) / double(ts.implicit_leaves),
-                   static_cast<unsigned long long>(ts.implicit_clauses_full),
-                   static_cast<unsigned long long>(ts.implicit_back_faces), ts.implicit_queue_ms,
-                   ts.implicit_points_ms, ts.implicit_mesh_ms);
-    std::fprintf(stderr,
-                 "input triangles %llu (dropped degenerate %llu), screen triangles %llu, "
-                 "silhouette edges %llu\n",
-                 static_cast<unsigned long long>(st.input_triangles),
-                 static_cast<unsigned long long>(scene.dropped_degenerate),
-                 static_cast<unsigned long long>(st.screen_triangles),
-                 static_cast<unsigned long long>(st.silhouette_edges));
-    std::fprintf(stderr,
-                 "fragments %llu, visible %llu, clip rounds %u, host syncs %u, device memory peak "
-                 "%.1f MB (%.1f MB allocated in all)\n",
-                 static_cast<unsigned long long>(st.fragments),
-                 static_cast<unsigned long long>(st.visible_fragments), st.clip_rounds,
-                 st.host_syncs, st.peak_device_bytes / 1e6, st.allocated_device_bytes / 1e6);
-    std::fprintf(stderr,
-                 "per frame: launches %u, blocking reads %u, bytes moved %.2f MB (device model "
-                 "%.2f MB, host<->device %.3f MB); modelled GPU floor %.3f ms (pipeline wall "
-                 "here %.2f ms)\n",
-                 st.launches, st.host_syncs, (st.device_bytes + st.transfer_bytes) / 1e6,
-                 st.device_bytes / 1e6, st.transfer_bytes / 1e6, modelled_gpu_floor_ms(st),
-                 st.pipeline_ms);
-    std::fprintf(
-        stderr,
-        "entangled pairs %llu, crossing entries %llu, thin fragments %llu, deep tournaments %llu\n",
-        static_cast<unsigned long long>(st.entangled_pairs),
-        static_cast<unsigned long long>(st.crossing_lines),
-        static_cast<unsigned long long>(st.thin_fragments),
-        static_cast<unsigned long long>(st.deep_tournaments));
-    if (a.memory_budget)
-      std::fprintf(stderr,
-                   "memory budget %.1f MB: %u bucket(s), each planned under %.1f MB of work\n",
-                   a.memory_budget / 1e6, st.buckets, st.bucket_work_bytes / 1e6);
-    std::fprintf(stderr, "output: %llu triangles in %zu fragments, %zu bytes (%s)\n",
-                 static_cast<unsigned long long>(out_tris), map.fragment_count(), bytes.size(),
-                 a.format.c_str());
-    if (a.format == "compact")
-      std::fprintf(stderr,
-                   "compact: %llu vertices, %llu triangles (%llu T-junctions inserted, %llu "
-                   "dropped on the grid), before zstd: vertices %llu, indices %llu, ids %llu, "
-                   "shades %llu bytes\n",
-                   static_cast<unsigned long long>(cs.vertices),
-                   static_cast<unsigned long long>(cs.triangles),
-                   static_cast<unsigned long long>(cs.t_junctions),
-                   static_cast<unsigned long long>(cs.dropped),
-                   static_cast<unsigned long long>(cs.vertex_bytes),
-                   static_cast<unsigned long long>(cs.index_bytes),
-                   static_cast<unsigned long long>(cs.id_bytes),
-                   static_cast<unsigned long long>(cs.shade_bytes));
-    if (lines) {
-      std::fprintf(stderr, "lines: %zu chains;", line_set.chain_count());
-      for (size_t k = 0; k < kLineKinds; ++k)
-        std::fprintf(stderr, " %s %llu", line_kind_name(LineKind(k)),
-                     static_cast<unsigned long long>(line_set.edges[k]));
-      std::fprintf(stderr, " map edges;");
-      if (a.lines.hidden)
-        for (size_t k = 0; k < kLineKinds; ++k)
-          std::fprintf(stderr, " hidden %s %llu", line_kind_name(LineKind(k)),
-                       static_cast<unsigned long long>(line_set.hidden_edges[k]));
-      std::fprintf(stderr, " %.1f ms\n", ms(t_lines - t_render));
-    }
-    std::fprintf(stderr, "time: load %.1f ms, render %.1f ms, write %.1f ms, total %.1f ms\n",
-                 ms(t_load - t0), ms(t_render - t_load), ms(t_end - t_render), ms(t_end - t0));
+      r.out_triangles += map.offsets[f + 1] - map.offsets[f] - 2;
+    r.bytes = bytes.size();
+    r.load_ms = ms(t_load - t0);
+    r.render_ms = ms(t_render - t_load);
+    r.lines_ms = ms(t_lines - t_render);
+    r.write_ms = ms(t_end - t_render);
+    r.total_ms = ms(t_end - t0);
+    print_render_stats(r);
   }
   return 0;
 }
