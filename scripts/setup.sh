@@ -1,20 +1,37 @@
 #!/usr/bin/env bash
-# Installs everything vismap needs to build and test, from Debian 12 packages only.
+# Installs what vismap needs, from Debian 12 packages only.
+#   scripts/setup.sh           what building and running vismap, vismapd and vismap-client need
+#   scripts/setup.sh --tests   that, and what the tests need: GoogleTest, the Python and JS
+#                              clients' interpreters and packages, Chromium and playwright-core
+#                              (the web viewer's browser test), nginx (the scale-out test)
+# The bench peers have setup scripts of their own (bench/peers/setup.sh, bench/lines/setup.sh).
 # Idempotent: when every package is already there it only checks and returns.
 set -euo pipefail
 
+TESTS=0
+for arg in "$@"; do
+  case "$arg" in
+    --tests) TESTS=1 ;;
+    *) echo "usage: scripts/setup.sh [--tests]" >&2; exit 2 ;;
+  esac
+done
+
 PACKAGES=(
-  build-essential cmake pkg-config git
-  ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers pocl-opencl-icd clinfo
+  build-essential cmake pkg-config
+  ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers pocl-opencl-icd
   libtinygltf-dev libopenmesh-dev libcgal-dev libgmp-dev libmpfr-dev
-  libboost-dev nlohmann-json3-dev googletest libgtest-dev zlib1g-dev
+  libboost-dev nlohmann-json3-dev zlib1g-dev
   libmeshoptimizer-dev libzstd-dev libcairo2-dev
+)
+TEST_PACKAGES=(
+  git clinfo googletest libgtest-dev
   librsvg2-bin libxml2-utils python3
   time
   python3-websockets python3-jsonschema python3-numpy python3-zstandard
   python3-setuptools python3-wheel python3-pip libmeshoptimizer2d
   chromium nodejs nginx
 )
+[ "$TESTS" -eq 1 ] && PACKAGES+=("${TEST_PACKAGES[@]}")
 
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 
@@ -38,7 +55,7 @@ done
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#PACKAGES[@]} packages present"
-  install_playwright
+  [ "$TESTS" -eq 0 ] || install_playwright
   exit 0
 fi
 
@@ -48,5 +65,5 @@ echo "setup: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
-install_playwright
+[ "$TESTS" -eq 0 ] || install_playwright
 echo "setup: done"

@@ -480,7 +480,7 @@ def main():
         args.frames = QUICK_FRAMES if args.quick else 60
     for tool in ("rsvg-convert", "ffmpeg", "ffprobe"):
         if not shutil.which(tool):
-            sys.exit(f"stream: {tool} missing (scripts/setup.sh: librsvg2-bin, ffmpeg)")
+            sys.exit(f"stream: {tool} missing (scripts/setup.sh --tests: librsvg2-bin; ffmpeg: apt-get install ffmpeg)")
     tag = datetime.date.today().isoformat() + "-stream" + ("-quick" if args.quick else "")
     out = args.out or os.path.join(ROOT, "bench", "results", tag)
     frames_root = os.path.abspath(args.frames_dir or os.path.join(ROOT, "bench", "out", "stream", tag))

@@ -7,7 +7,7 @@ killed (SIGKILL) mid-stream. Checks that
     (clients/python Session(retries=...)) through nginx to a live instance and keep getting frames,
   - every session ends with frames after the kill.
 Everything listens on 127.0.0.1 (free ports); every wait is bounded; it stops by itself.
-Exit 77 (skipped) when nginx or python3-websockets is missing (scripts/setup.sh installs both)."""
+Exit 77 (skipped) when nginx or python3-websockets is missing (scripts/setup.sh --tests installs both)."""
 import argparse
 import asyncio
 import json
@@ -27,7 +27,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 sys.path.insert(0, os.path.join(ROOT, "clients", "python"))
 try:
     import vismap_client as vc  # noqa: E402
-except ImportError as e:  # run scripts/setup.sh
+except ImportError as e:  # run scripts/setup.sh --tests
     print(f"skipped: {e}")
     sys.exit(77)
 
@@ -213,7 +213,7 @@ def main():
     a = ap.parse_args()
     nginx = find_nginx()
     if not nginx:
-        print("skipped: nginx is not installed (scripts/setup.sh installs it)")
+        print("skipped: nginx is not installed (scripts/setup.sh --tests installs it)")
         sys.exit(77)
     t0 = time.monotonic()
     procs, nginx_proc = [], None

@@ -17,7 +17,7 @@ sys.path.insert(0, os.path.join(ROOT, "clients", "python"))
 try:
     import jsonschema  # noqa: E402
     import vismap_client as vc  # noqa: E402
-except ImportError as e:  # run scripts/setup.sh
+except ImportError as e:  # run scripts/setup.sh --tests
     print(f"skipped: {e}")
     sys.exit(77)
 

@@ -10,7 +10,7 @@ offline into a temporary folder and imports from there.
 
     /usr/bin/python3 clients/python/tests/test_decoders.py --vismap build/vismap [--time]
 
-Exits 77 (skipped) without numpy or zstandard (scripts/setup.sh installs them)."""
+Exits 77 (skipped) without numpy or zstandard (scripts/setup.sh --tests installs them)."""
 import argparse
 import json
 import os
@@ -34,7 +34,7 @@ try:
     import zstandard
     import vismap_client as vc
     from vismap_client import compact
-except ImportError as e:  # run scripts/setup.sh
+except ImportError as e:  # run scripts/setup.sh --tests
     print(f"skipped: {e}")
     sys.exit(77)
 

@@ -15,7 +15,7 @@ server that loses a frame, asks for a keyframe and returns it.
     /usr/bin/python3 clients/python/tests/test_delta.py [--vismap build/vismap]
         [--orbit build/tests/vismap_delta_orbit] [--time]
 
-Exits 77 (skipped) without numpy or zstandard (scripts/setup.sh installs them)."""
+Exits 77 (skipped) without numpy or zstandard (scripts/setup.sh --tests installs them)."""
 import argparse
 import asyncio
 import copy
@@ -41,7 +41,7 @@ try:
     import vismap_client as vc
     from vismap_client import delta
     import delta_craft
-except ImportError as e:  # run scripts/setup.sh
+except ImportError as e:  # run scripts/setup.sh --tests
     print(f"skipped: {e}")
     sys.exit(77)
 
