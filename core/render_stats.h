@@ -37,7 +37,7 @@ struct RenderStats {
   uint32_t clip_rounds = 0;             // summed over buckets
   uint32_t host_syncs = 0;  // blocking reads (host waits for the device), upload excluded
   uint32_t launches = 0;    // kernels, fills and copies of the frame's stages
-  // Bytes moved, a model (docs/PERFORMANCE.md "Issue 17"): device_bytes sums, over launches,
+  // Bytes moved, a model (docs/PERFORMANCE_LOG.md "Issue 17"): device_bytes sums, over launches,
   // the sizes of the buffers each kernel is passed (once per launch; fills and copies what they
   // write, or read and write); transfer_bytes are the frame's host <-> device copies (reads
   // back, the camera's and cull modes' upload; the scene's upload excluded).

@@ -12,7 +12,7 @@
 namespace vismap::stages {
 
 // Device bytes a bucket needs per screen triangle in it, all stages together (measured peak
-// over screen triangles on the bench scenes, with margin; docs/PERFORMANCE.md).
+// over screen triangles on the bench scenes, with margin; PERFORMANCE_LOG.md, "Memory budget").
 constexpr uint64_t kBucketBytesPerTriangle = 1400;
 
 // Splits the screen into rectangles whose estimated working memory fits in what the budget
