@@ -295,7 +295,7 @@ struct RenderReport {
   const PlanarMap& map;
   const CompactStats& cs;
   const LineSet* line_set;  // null without lines
-  uint64_t dropped_degenerate = 0, out_triangles = 0;
+  uint64_t dropped_degenerate = 0;
   size_t bytes = 0;
   double load_ms = 0, render_ms = 0, lines_ms = 0, write_ms = 0, total_ms = 0;
 };
@@ -380,9 +380,10 @@ void print_frame_stats(const RenderReport& r) {
 
 // The output file, and what the compact encoder and the line extraction made.
 void print_output_stats(const RenderReport& r) {
-  std::fprintf(stderr, "output: %llu triangles in %zu fragments, %zu bytes (%s)\n",
-               static_cast<unsigned long long>(r.out_triangles), r.map.fragment_count(), r.bytes,
-               r.args.format.c_str());
+  // Each fragment (a convex polygon of n vertices) is n - 2 triangles.
+  const size_t triangles = r.map.vertex_count() - 2 * r.map.fragment_count();
+  std::fprintf(stderr, "output: %zu triangles in %zu fragments, %zu bytes (%s)\n", triangles,
+               r.map.fragment_count(), r.bytes, r.args.format.c_str());
   if (r.args.format == "compact")
     std::fprintf(stderr,
                  "compact: %llu vertices, %llu triangles (%llu T-junctions inserted, %llu "
@@ -493,8 +494,6 @@ int cmd_render(int argc, char** argv) {
     auto ms = [](auto d) { return std::chrono::duration<double, std::milli>(d).count(); };
     RenderReport r{a, renderer.device(), st, ts, map, cs, lines ? &line_set : nullptr};
     r.dropped_degenerate = scene.dropped_degenerate;
-    for (size_t f = 0; f < map.fragment_count(); ++f)
-      r.out_triangles += map.offsets[f + 1] - map.offsets[f] - 2;
     r.bytes = bytes.size();
     r.load_ms = ms(t_load - t0);
     r.render_ms = ms(t_render - t_load);

@@ -9,7 +9,7 @@
 #include <array>
 #include <bit>
 #include <cstdint>
-#include <cstring>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
