@@ -90,18 +90,23 @@ class DeltaDecoder {
   DeltaFrame decode(const std::string& bytes);  // throws InputError / DeltaOutOfSync
   bool has_state() const { return have_state_; }
 
- private:
-  struct Source {
-    std::array<uint32_t, 3> v;  // global vertex numbers
+  // What a client holds between frames; a keyframe starts it afresh from its mesh table.
+  struct State {
+    std::vector<uint64_t> base, vertex_base;    // per mesh: first global id, first vertex number
+    std::vector<float> vertex;                  // 3 per global vertex (NaN: not sent)
+    std::vector<uint32_t> tri;                  // 3 per global triangle (~0: not sent)
+    std::vector<uint32_t> whole;                // sorted
+    std::vector<uint32_t> partial;              // sorted: the previous frame's polygon sources
+    std::vector<std::array<float, 3>> colors;   // per mesh: linear RGB
+    size_t triangles() const { return tri.size() / 3; }
+    size_t vertices() const { return vertex.size() / 3; }
+    uint32_t mesh_of(uint32_t id) const;        // the mesh of a global triangle id
   };
+
+ private:
   bool have_state_ = false;
   uint32_t last_ = 0;
-  std::vector<uint64_t> base_, vertex_base_;  // per mesh
-  std::vector<float> vertex_;                 // 3 per global vertex (NaN: not sent)
-  std::vector<uint32_t> tri_;                 // 3 per global triangle (~0: not sent)
-  std::vector<uint32_t> whole_;               // sorted
-  std::vector<uint32_t> partial_;             // sorted: the previous frame's polygon sources
-  std::vector<std::array<float, 3>> colors_;  // per mesh
+  State state_;
 };
 
 // The rows x, y and w of a view-projection matrix (column-major Mat4), 4 each: what a delta frame
