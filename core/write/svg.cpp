@@ -222,13 +222,27 @@ void write_lines(std::string& out, const LineSet& lines, const SvgStyle& style) 
 // neighbour that keeps such a point keeps it on that line, so nothing opens. Shade: the boundary
 // edges a region shares with another region are stroked in its colour (the seam cover of the
 // unmerged writer) in a second path; its outline is not.
-void write_merged(std::string& out, const PlanarMap& map, const Scene& scene, const Camera& camera,
-                  bool shade) {
-  ConformedPolygons P = conform_polygons(map, 1);
+struct MergedRegions {
+  const PlanarMap& map;
+  ConformedPolygons P;
+  std::vector<uint32_t> color;  // per polygon: its fill
+  struct Edge {                 // a boundary edge of a region
+    uint32_t region, a, b;
+    bool shared;                // with another region
+  };
+  std::vector<Edge> bd;         // in the writer's order: mesh, colour, region, start vertex
+  uint32_t mesh_of(size_t p) const { return map.mesh[P.fragment[p]]; }
+};
+
+MergedRegions merge_regions(const PlanarMap& map, const Scene& scene, const Camera& camera,
+                            bool shade) {
+  MergedRegions R{map, conform_polygons(map, 1), {}, {}};
+  ConformedPolygons& P = R.P;
   weld_vertices(P, 1e-6);
   const size_t np = P.size();
   const std::vector<uint64_t> base = scene.triangle_id_base();
-  std::vector<uint32_t> color(np);
+  std::vector<uint32_t>& color = R.color;
+  color.resize(np);
   {
     std::unordered_map<uint64_t, uint32_t> by_source;
     for (size_t p = 0; p < np; ++p) {
@@ -241,7 +255,6 @@ void write_merged(std::string& out, const PlanarMap& map, const Scene& scene, co
       color[p] = it->second;
     }
   }
-  auto mesh_of = [&](size_t p) { return map.mesh[P.fragment[p]]; };
   auto ekey = [](uint32_t a, uint32_t b) { return uint64_t(a) << 32 | b; };
   std::unordered_map<uint64_t, uint32_t> edge;  // directed edge -> polygon
   edge.reserve(P.v.size() * 2);
@@ -259,135 +272,164 @@ void write_merged(std::string& out, const PlanarMap& map, const Scene& scene, co
       auto it = edge.find(ekey(P.v[i + 1 < n ? i + 1 : P.off[p]], P.v[i]));
       if (it == edge.end()) continue;
       const uint32_t q = it->second;
-      if (mesh_of(q) != mesh_of(p) || color[q] != color[p]) continue;
+      if (R.mesh_of(q) != R.mesh_of(p) || color[q] != color[p]) continue;
       const uint32_t a = find(p), b = find(q);
       if (a != b) root[std::max(a, b)] = std::min(a, b);
     }
-  // Boundary edges of each region: (region, from, to, shared with another region).
-  struct B {
-    uint32_t region, a, b;
-    bool shared;
-  };
-  std::vector<B> bd;
   for (uint32_t p = 0; p < np; ++p)
     for (uint32_t i = P.off[p], n = P.off[p + 1]; i < n; ++i) {
       const uint32_t a = P.v[i], b = P.v[i + 1 < n ? i + 1 : P.off[p]];
       auto it = edge.find(ekey(b, a));
       if (it != edge.end() && find(it->second) == find(p)) continue;
-      bd.push_back({find(p), a, b, it != edge.end()});
+      R.bd.push_back({find(p), a, b, it != edge.end()});
     }
-  // Regions in the writer's order: mesh, then colour.
-  std::sort(bd.begin(), bd.end(), [&](const B& x, const B& y) {
-    const uint32_t mx = mesh_of(x.region), my = mesh_of(y.region);
+  using Edge = MergedRegions::Edge;
+  std::sort(R.bd.begin(), R.bd.end(), [&](const Edge& x, const Edge& y) {
+    const uint32_t mx = R.mesh_of(x.region), my = R.mesh_of(y.region);
     if (mx != my) return mx < my;
     if (color[x.region] != color[y.region]) return color[x.region] < color[y.region];
     if (x.region != y.region) return x.region < y.region;
     return x.a < y.a;
   });
-  std::vector<uint8_t> used(bd.size(), 0);
-  std::vector<uint32_t> loop_v;
-  std::vector<uint8_t> loop_shared;
-  std::vector<Q> pts;
-  std::vector<uint8_t> pshared;
-  std::string fills, strokes;
+  return R;
+}
+
+// One boundary loop in units: repeats dropped, and points on their neighbours' line (edge k runs
+// from point k to point k+1; a dropped point's two edges become one, shared if either was).
+void loop_points(const ConformedPolygons& P, const std::vector<uint32_t>& loop_v,
+                 const std::vector<uint8_t>& loop_shared, std::vector<Q>& pts,
+                 std::vector<uint8_t>& pshared) {
+  pts.clear();
+  pshared.clear();
+  for (size_t k = 0; k < loop_v.size(); ++k) {
+    const Q q{quantize(P.xy[2 * loop_v[k]]), quantize(P.xy[2 * loop_v[k] + 1])};
+    if (!pts.empty() && pts.back() == q) {
+      pshared.back() = pshared.back() | loop_shared[k];
+      continue;
+    }
+    pts.push_back(q);
+    pshared.push_back(loop_shared[k]);
+  }
+  while (pts.size() > 1 && pts.back() == pts.front()) {
+    pshared[pshared.size() - 2] = pshared[pshared.size() - 2] | pshared.back();
+    pts.pop_back();
+    pshared.pop_back();
+  }
+  for (bool changed = true; changed && pts.size() >= 3;) {
+    changed = false;
+    for (size_t k = 0; k < pts.size() && pts.size() >= 3; ++k) {
+      const size_t a = (k + pts.size() - 1) % pts.size(), b = (k + 1) % pts.size();
+      const __int128 o = __int128(pts[k].x - pts[a].x) * (pts[b].y - pts[a].y) -
+                         __int128(pts[k].y - pts[a].y) * (pts[b].x - pts[a].x);
+      const bool on = o == 0 && (pts[k].x - pts[a].x) * (pts[b].x - pts[k].x) >= 0 &&
+                      (pts[k].y - pts[a].y) * (pts[b].y - pts[k].y) >= 0;
+      if (!on || pshared[a] != pshared[k]) continue;  // keep where stroking changes
+      pts.erase(pts.begin() + k);
+      pshared.erase(pshared.begin() + k);
+      changed = true;
+      --k;
+    }
+  }
+}
+
+// The shared runs of a loop (edge k from point k to k + 1), as open subpaths; the whole loop
+// closed when every edge is shared.
+void stroke_shared(PathData& sd, const std::vector<Q>& pts, const std::vector<uint8_t>& pshared) {
+  const size_t n = pts.size();
+  bool all = true;
+  for (uint8_t v : pshared) all = all && v;
+  if (all) {
+    sd.move(pts[0]);
+    for (size_t k = 1; k < n; ++k) sd.line(pts[k]);
+    sd.close();
+    return;
+  }
+  size_t s0 = 0;  // an edge whose predecessor is not shared: runs start at or after it
+  while (pshared[(s0 + n - 1) % n]) ++s0;
+  for (size_t k = 0; k < n; ++k) {
+    const size_t a = (s0 + k) % n;
+    if (!pshared[a]) continue;
+    if (!pshared[(a + n - 1) % n]) sd.move(pts[a]);
+    sd.line(pts[(a + 1) % n]);
+  }
+}
+
+// Region bd[i, j) (its boundary edges, sorted by start vertex) as its <path>s, fill colour c.
+class RegionWriter {
+ public:
+  RegionWriter(const MergedRegions& R, bool shade) : R_(R), shade_(shade), used_(R.bd.size(), 0) {}
+
+  void write(std::string& out, size_t i, size_t j, uint32_t c) {
+    const auto& bd = R_.bd;
+    fills_.clear();
+    strokes_.clear();
+    bool every_edge_shared = shade_;  // then one path, filled and stroked, does both
+    for (size_t e = i; e < j; ++e) every_edge_shared = every_edge_shared && bd[e].shared;
+    PathData fd(fills_, every_edge_shared), sd(strokes_, true);
+    for (size_t e = i; e < j; ++e) {
+      if (used_[e]) continue;
+      loop_v_.clear();
+      loop_shared_.clear();
+      for (size_t k = e; k < j && !used_[k]; k = next_from(bd[k].b, i, j)) {
+        used_[k] = 1;
+        loop_v_.push_back(bd[k].a);
+        loop_shared_.push_back(bd[k].shared);
+      }
+      loop_points(R_.P, loop_v_, loop_shared_, pts_, pshared_);
+      if (pts_.size() < 3) continue;
+      fd.move(pts_[0]);
+      for (size_t k = 1; k < pts_.size(); ++k) fd.line(pts_[k]);
+      fd.close();
+      if (shade_ && !every_edge_shared) stroke_shared(sd, pts_, pshared_);
+    }
+    if (fills_.empty()) return;
+    if (every_edge_shared)
+      out += "<path d=\"" + fills_ + "\"/>\n";
+    else if (shade_)
+      out += "<path stroke=\"none\" d=\"" + fills_ + "\"/>\n";
+    else
+      out += "<path fill=\"" + hex_color(c) + "\" d=\"" + fills_ + "\"/>\n";
+    if (!strokes_.empty()) out += "<path fill=\"none\" d=\"" + strokes_ + "\"/>\n";
+  }
+
+ private:
+  // The first unused boundary edge of bd[i, j) starting at vertex v, or j.
+  size_t next_from(uint32_t v, size_t i, size_t j) const {
+    const auto& bd = R_.bd;
+    size_t lo = std::lower_bound(bd.begin() + i, bd.begin() + j, v,
+                                 [](const MergedRegions::Edge& e, uint32_t x) { return e.a < x; }) -
+                bd.begin();
+    for (; lo < j && bd[lo].a == v; ++lo)
+      if (!used_[lo]) return lo;
+    return j;
+  }
+
+  const MergedRegions& R_;
+  const bool shade_;
+  std::vector<uint8_t> used_;
+  std::vector<uint32_t> loop_v_;
+  std::vector<uint8_t> loop_shared_, pshared_;
+  std::vector<Q> pts_;
+  std::string fills_, strokes_;
+};
+
+void write_merged(std::string& out, const PlanarMap& map, const Scene& scene, const Camera& camera,
+                  bool shade) {
+  const MergedRegions R = merge_regions(map, scene, camera, shade);
+  const auto& bd = R.bd;
+  RegionWriter region(R, shade);
+  // A group per mesh (titled), in it (shade) a group per colour, in that a region's paths each.
   for (size_t i = 0; i < bd.size();) {
-    const uint32_t mesh = mesh_of(bd[i].region);
+    const uint32_t mesh = R.mesh_of(bd[i].region);
     out += "<g><title>" + xml_escape(scene.meshes[mesh].name) + "</title>\n";
-    while (i < bd.size() && mesh_of(bd[i].region) == mesh) {
-      const uint32_t c = color[bd[i].region];
+    while (i < bd.size() && R.mesh_of(bd[i].region) == mesh) {
+      const uint32_t c = R.color[bd[i].region];
       if (shade) out += "<g color=\"" + hex_color(c) + "\">\n";
-      while (i < bd.size() && mesh_of(bd[i].region) == mesh && color[bd[i].region] == c) {
+      while (i < bd.size() && R.mesh_of(bd[i].region) == mesh && R.color[bd[i].region] == c) {
         const uint32_t r = bd[i].region;
         size_t j = i;
         while (j < bd.size() && bd[j].region == r) ++j;
-        // Boundary edges of region r are bd[i, j), sorted by their start vertex.
-        auto next_from = [&](uint32_t v) -> size_t {
-          size_t lo = std::lower_bound(bd.begin() + i, bd.begin() + j, v,
-                                       [](const B& e, uint32_t x) { return e.a < x; }) - bd.begin();
-          for (; lo < j && bd[lo].a == v; ++lo)
-            if (!used[lo]) return lo;
-          return j;
-        };
-        fills.clear();
-        strokes.clear();
-        bool every_edge_shared = shade;  // then one path, filled and stroked, does both
-        for (size_t e = i; e < j; ++e) every_edge_shared = every_edge_shared && bd[e].shared;
-        PathData fd(fills, every_edge_shared), sd(strokes, true);
-        for (size_t e = i; e < j; ++e) {
-          if (used[e]) continue;
-          loop_v.clear();
-          loop_shared.clear();
-          for (size_t k = e; k < j && !used[k]; k = next_from(bd[k].b)) {
-            used[k] = 1;
-            loop_v.push_back(bd[k].a);
-            loop_shared.push_back(bd[k].shared);
-          }
-          // In units; drop repeats and points on their neighbours' line (edge k runs from
-          // point k to point k+1; a dropped point's two edges become one, shared if either was).
-          pts.clear();
-          pshared.clear();
-          for (size_t k = 0; k < loop_v.size(); ++k) {
-            const Q q{quantize(P.xy[2 * loop_v[k]]), quantize(P.xy[2 * loop_v[k] + 1])};
-            if (!pts.empty() && pts.back() == q) {
-              pshared.back() = pshared.back() | loop_shared[k];
-              continue;
-            }
-            pts.push_back(q);
-            pshared.push_back(loop_shared[k]);
-          }
-          while (pts.size() > 1 && pts.back() == pts.front()) {
-            pshared[pshared.size() - 2] = pshared[pshared.size() - 2] | pshared.back();
-            pts.pop_back();
-            pshared.pop_back();
-          }
-          for (bool changed = true; changed && pts.size() >= 3;) {
-            changed = false;
-            for (size_t k = 0; k < pts.size() && pts.size() >= 3; ++k) {
-              const size_t a = (k + pts.size() - 1) % pts.size(), b = (k + 1) % pts.size();
-              const __int128 o = __int128(pts[k].x - pts[a].x) * (pts[b].y - pts[a].y) -
-                                 __int128(pts[k].y - pts[a].y) * (pts[b].x - pts[a].x);
-              const bool on = o == 0 && (pts[k].x - pts[a].x) * (pts[b].x - pts[k].x) >= 0 &&
-                              (pts[k].y - pts[a].y) * (pts[b].y - pts[k].y) >= 0;
-              if (!on || pshared[a] != pshared[k]) continue;  // keep where stroking changes
-              pts.erase(pts.begin() + k);
-              pshared.erase(pshared.begin() + k);
-              changed = true;
-              --k;
-            }
-          }
-          if (pts.size() < 3) continue;
-          fd.move(pts[0]);
-          for (size_t k = 1; k < pts.size(); ++k) fd.line(pts[k]);
-          fd.close();
-          if (!shade || every_edge_shared) continue;
-          // Shared runs, as open subpaths.
-          const size_t n = pts.size();
-          bool all = true;
-          for (uint8_t v : pshared) all = all && v;
-          if (all) {
-            sd.move(pts[0]);
-            for (size_t k = 1; k < n; ++k) sd.line(pts[k]);
-            sd.close();
-            continue;
-          }
-          size_t s0 = 0;  // an edge whose predecessor is not shared: runs start at or after it
-          while (pshared[(s0 + n - 1) % n]) ++s0;
-          for (size_t k = 0; k < n; ++k) {
-            const size_t a = (s0 + k) % n;
-            if (!pshared[a]) continue;
-            if (!pshared[(a + n - 1) % n]) sd.move(pts[a]);
-            sd.line(pts[(a + 1) % n]);
-          }
-        }
-        if (!fills.empty()) {
-          if (every_edge_shared)
-            out += "<path d=\"" + fills + "\"/>\n";
-          else if (shade)
-            out += "<path stroke=\"none\" d=\"" + fills + "\"/>\n";
-          else
-            out += "<path fill=\"" + hex_color(c) + "\" d=\"" + fills + "\"/>\n";
-          if (!strokes.empty()) out += "<path fill=\"none\" d=\"" + strokes + "\"/>\n";
-        }
+        region.write(out, i, j, c);
         i = j;
       }
       if (shade) out += "</g>\n";
