@@ -352,6 +352,75 @@ std::string error_json(const std::string& c, const std::string& message, bool fa
   return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
+std::string pong_message(uint64_t seq) {
+  return json{{"type", "pong"}, {"seq", seq}}.dump();
+}
+
+std::string welcome_message(const Hello& h, uint64_t session, bool library,
+                            const WelcomeLimits& L) {
+  json limits = {
+      {"max_message_bytes", L.max_message_bytes}, {"max_control_bytes", L.max_control_bytes},
+      {"max_scene_bytes", L.max_scene_bytes},     {"max_triangles", L.max_triangles},
+      {"max_session_bytes", L.max_session_bytes}, {"max_viewport", L.max_viewport},
+      {"idle_timeout_s", L.idle_timeout_s}};
+  json welcome = {{"type", "welcome"},   {"version", h.version},
+                  {"session", session},  {"server", "vismapd"},
+                  {"format", format_spec(h.format).name}, {"library", library},
+                  {"limits", limits}};
+  if (h.version >= 2) {
+    json formats = json::array();
+    for (const FormatSpec& s : kFormats)
+      if (s.since_version <= h.version) formats.push_back(s.name);
+    welcome["formats"] = formats;
+  }
+  return welcome.dump();
+}
+
+namespace {
+
+json camera_json(const Camera& c) {
+  bool ortho = c.projection == Camera::Projection::Orthographic;
+  return {{"projection", ortho ? "orthographic" : "perspective"},
+          {"eye", c.eye},
+          {"target", c.target},
+          {"up", c.up},
+          {"fov_y_deg", c.fov_y_deg},
+          {"ortho_height", c.ortho_height},
+          {"near", c.near_plane},
+          {"far", c.far_plane},
+          {"viewport", {{"width", c.width}, {"height", c.height}}}};
+}
+
+}  // namespace
+
+std::string scene_ready_message(const std::string& name, uint64_t meshes, uint64_t triangles,
+                                const Bounds& bounds, const Camera& camera, double load_ms) {
+  return json{{"type", "scene_ready"},
+              {"name", name},
+              {"meshes", meshes},
+              {"triangles", triangles},
+              {"bounds", {{"lo", bounds.lo}, {"hi", bounds.hi}}},
+              {"camera", camera_json(camera)},
+              {"load_ms", load_ms}}
+      .dump();
+}
+
+std::string frame_message(const FrameHeader& f, const json& format_fields) {
+  json header = {{"type", "frame"},
+                 {"seq", f.seq},
+                 {"format", format_spec(f.format).name},
+                 {"bytes", f.bytes},
+                 {"render_ms", f.render_ms},
+                 {"encode_ms", f.encode_ms},
+                 {"queue_ms", f.queue_ms},
+                 {"triangles", f.triangles},
+                 {"fragments", f.fragments},
+                 {"buckets", f.buckets},
+                 {"skipped", f.skipped}};
+  header.update(format_fields);
+  return header.dump();
+}
+
 std::string base64_decode(const std::string& in, bool& ok) {
   static const auto table = [] {
     std::array<int8_t, 256> t{};

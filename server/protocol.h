@@ -1,5 +1,7 @@
-// The control messages of proto/PROTOCOL.md as C++ values, and their JSON parsing. No networking
-// here: the session (server.cpp) feeds text messages in and gets typed requests or a ProtoError.
+// The whole wire format of proto/PROTOCOL.md: the client's control messages as C++ values and
+// their JSON parsing, and the server's messages as the text it sends. No networking here: the
+// session (ws_session.cpp) feeds text messages in and gets typed requests or a ProtoError, and
+// sends what the *_message functions build.
 #pragma once
 
 #include <array>
@@ -8,6 +10,8 @@
 #include <stdexcept>
 #include <string>
 #include <variant>
+
+#include <nlohmann/json_fwd.hpp>
 
 #include "core/camera.h"
 #include "core/error.h"
@@ -155,8 +159,39 @@ Request parse_request(const std::string& text, uint64_t max_scene_bytes, uint32_
 // The code for a core input error: to_string(kind).
 std::string error_code(const vismap::InputError& e);
 
+// ---- The server's messages
+
 std::string error_json(const std::string& code, const std::string& message, bool fatal,
                        std::optional<uint64_t> seq = std::nullopt);
+
+std::string pong_message(uint64_t seq);
+
+// What welcome.limits reports (server/config.h's Limits, the part a client can act on).
+struct WelcomeLimits {
+  uint64_t max_message_bytes = 0, max_control_bytes = 0, max_scene_bytes = 0, max_triangles = 0,
+           max_session_bytes = 0;
+  uint32_t max_viewport = 0;
+  double idle_timeout_s = 0;
+};
+// hello's answer: the version and format chosen, the session id, whether a library is served,
+// the limits; from version 2 the formats this version offers.
+std::string welcome_message(const Hello& hello, uint64_t session, bool library,
+                            const WelcomeLimits& limits);
+
+// A scene loaded: its size, bounds and framing camera.
+std::string scene_ready_message(const std::string& name, uint64_t meshes, uint64_t triangles,
+                                const Bounds& bounds, const Camera& camera, double load_ms);
+
+// The text message before each frame's payload: the render's figures, then the format's own
+// fields (frame_encoder.cpp, EncodedFrame::header).
+struct FrameHeader {
+  uint64_t seq = 0;
+  Format format = Format::Svg;
+  uint64_t bytes = 0;  // the payload message's
+  double render_ms = 0, encode_ms = 0, queue_ms = 0;
+  uint64_t triangles = 0, fragments = 0, buckets = 0, skipped = 0;
+};
+std::string frame_message(const FrameHeader& header, const nlohmann::json& format_fields);
 
 std::string base64_decode(const std::string& in, bool& ok);
 

@@ -34,19 +34,6 @@ uint64_t scene_bytes(const Scene& s) {
   return b;
 }
 
-json camera_json(const Camera& c) {
-  bool ortho = c.projection == Camera::Projection::Orthographic;
-  return {{"projection", ortho ? "orthographic" : "perspective"},
-          {"eye", c.eye},
-          {"target", c.target},
-          {"up", c.up},
-          {"fov_y_deg", c.fov_y_deg},
-          {"ortho_height", c.ortho_height},
-          {"near", c.near_plane},
-          {"far", c.far_plane},
-          {"viewport", {{"width", c.width}, {"height", c.height}}}};
-}
-
 websocket::close_code close_code_for(const std::string& c) {
   if (c == code::busy) return websocket::close_code::try_again_later;
   if (c == code::shutting_down) return websocket::close_code::going_away;
@@ -259,7 +246,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       throw ProtoError(code::unexpected_message, "hello was already sent");
     if (auto* s = std::get_if<SceneRequest>(&r)) return on_scene(std::move(*s));
     if (auto* c = std::get_if<CameraRequest>(&r)) return on_camera(*c);
-    if (auto* p = std::get_if<Ping>(&r)) send_text(json{{"type", "pong"}, {"seq", p->seq}}.dump());
+    if (auto* p = std::get_if<Ping>(&r)) send_text(pong_message(p->seq));
     if (std::holds_alternative<KeyframeRequest>(r)) {
       if (hello_->format != Format::Delta)
         throw ProtoError(code::unexpected_message, "keyframe is for delta sessions");
@@ -290,23 +277,11 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     state_ = State::Open;
     hello_timer_.cancel();
     arm_idle();
-    json limits = {
-        {"max_message_bytes", L.message_max()},     {"max_control_bytes", L.max_control_bytes},
-        {"max_scene_bytes", L.max_scene_bytes},     {"max_triangles", L.max_triangles},
-        {"max_session_bytes", L.max_session_bytes}, {"max_viewport", L.max_viewport},
-        {"idle_timeout_s", L.idle_timeout_s}};
     const char* format = format_spec(h.format).name;
-    json welcome = {{"type", "welcome"},   {"version", h.version},
-                    {"session", session_}, {"server", "vismapd"},
-                    {"format", format},    {"library", srv_.library.enabled()},
-                    {"limits", limits}};
-    if (h.version >= 2) {
-      json formats = json::array();
-      for (const FormatSpec& s : kFormats)
-        if (s.since_version <= h.version) formats.push_back(s.name);
-      welcome["formats"] = formats;
-    }
-    send_text(welcome.dump());
+    send_text(welcome_message(h, session_, srv_.library.enabled(),
+                              {L.message_max(), L.max_control_bytes, L.max_scene_bytes,
+                               L.max_triangles, L.max_session_bytes, L.max_viewport,
+                               L.idle_timeout_s}));
     srv_.log.info("hello", {{"session", session_},
                             {"version", h.version},
                             {"format", format},
@@ -424,15 +399,8 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
                                      {"name", name},
                                      {"triangles", scene->triangle_count()},
                                      {"load_ms", ms}});
-      send_text(json{
-          {"type", "scene_ready"},
-          {"name", name},
-          {"meshes", scene->meshes.size()},
-          {"triangles", scene->triangle_count()},
-          {"bounds", {{"lo", bounds.lo}, {"hi", bounds.hi}}},
-          {"camera", camera_json(cam)},
-          {"load_ms",
-           ms}}.dump());
+      send_text(scene_ready_message(name, scene->meshes.size(), scene->triangle_count(), bounds,
+                                    cam, ms));
     }
     if (state_ == State::Draining && !work_in_flight()) fail(kShuttingDown, {});
   }
@@ -530,25 +498,17 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   void encode(FrameJob job) {
     const Format format = hello_->format;
     auto frame = std::make_shared<std::string>();
-    json header;
+    std::string header;
     try {
       auto t0 = Clock::now();
       EncodedFrame enc = encoder_->encode(job.map, job.scene, job.camera,
                                           encoder_->needs_screen() ? &job.screen : nullptr);
       double encode_ms = ms_since(t0);
       *frame = std::move(enc.bytes);
-      header = {{"type", "frame"},
-                {"seq", job.seq},
-                {"format", format_spec(format).name},
-                {"bytes", frame->size()},
-                {"render_ms", job.stats.pipeline_ms},
-                {"encode_ms", encode_ms},
-                {"queue_ms", job.queue_ms},
-                {"triangles", job.stats.input_triangles},
-                {"fragments", job.map.fragment_count()},
-                {"buckets", job.stats.buckets},
-                {"skipped", job.skipped}};
-      header.update(enc.header);
+      header = frame_message({job.seq, format, frame->size(), job.stats.pipeline_ms, encode_ms,
+                              job.queue_ms, job.stats.input_triangles, job.map.fragment_count(),
+                              job.stats.buckets, job.skipped},
+                             enc.header);
       srv_.metrics.render_ms(job.stats.pipeline_ms + encode_ms);
       srv_.metrics.encode_ms(format, encode_ms);
     } catch (...) {
@@ -569,13 +529,13 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     });
   }
 
-  void on_frame_ready(const std::shared_ptr<std::string>& frame, const json& header) {
+  void on_frame_ready(const std::shared_ptr<std::string>& frame, const std::string& header) {
     if (!accepting_messages()) {
       frame_ = FramePhase::Idle;
       return;
     }
     frame_ = FramePhase::Sending;
-    send_text(header.dump());
+    send_text(header);
     send(Out{frame, format_spec(hello_->format).binary, true, hello_->format});
   }
 
