@@ -26,17 +26,15 @@
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "core/stream/compact.h"
+#include "core/util/clock.h"
 #include "core/write/output.h"
 #include "server/config.h"
 #include "server/server.h"
 
 using nlohmann::json;
-using Clock = std::chrono::steady_clock;
+using vismap::Clock;
+using vismap::ms_since;
 namespace zlib = boost::beast::zlib;
-
-static double ms_since(Clock::time_point t) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-}
 
 // As beast::websocket::detail::impl_base::deflate, for one whole message.
 static std::string pmd_deflate(zlib::deflate_stream& zo, const std::string& in) {

@@ -24,6 +24,7 @@
 #include "core/error.h"
 #include "core/implicit/implicit.h"
 #include "core/pipeline.h"
+#include "core/util/clock.h"
 
 using namespace vismap;
 using implicit::Interval;
@@ -36,9 +37,6 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 struct Ray {
   double o[3], d[3];
@@ -145,7 +143,7 @@ int main(int argc, char** argv) {
     at = comma == std::string::npos ? tol_list.size() : comma + 1;
   }
   try {
-    const auto t_load = std::chrono::steady_clock::now();
+    const auto t_load = Clock::now();
     Scene s = load_scene(file);
     const double load_ms = ms_since(t_load);
     if (s.meshes.empty() || !s.meshes[0].implicit)
@@ -176,7 +174,7 @@ int main(int argc, char** argv) {
       bool hit, interior;
     };
     std::vector<Sample> ref;
-    const auto t_ref = std::chrono::steady_clock::now();
+    const auto t_ref = Clock::now();
     const double f_px = raster / (2 * std::tan(cam.fov_y_deg * M_PI / 360));
     double far_dist = 0;
     for (int c = 0; c < 8; ++c) {
@@ -235,7 +233,7 @@ int main(int argc, char** argv) {
         mesh.push_back(st.implicit_mesh_ms);
       }
       for (int i = 0; i < 3; ++i) {
-        auto t0 = std::chrono::steady_clock::now();
+        auto t0 = Clock::now();
         Scene e = r.tessellate(s, cam, o);
         r.render(e, cam);
         frame.push_back(ms_since(t0));

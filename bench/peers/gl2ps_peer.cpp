@@ -24,12 +24,11 @@
 #include <vector>
 
 #include "core/scene.h"
+#include "core/util/clock.h"
 
 namespace {
 
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
+using vismap::ms_since;
 
 [[noreturn]] void fail(const std::string& what) {
   std::fprintf(stderr, "vismap_gl2ps_peer: %s\n", what.c_str());
@@ -64,7 +63,7 @@ int main(int argc, char** argv) {
     else if (i + 1 < argc && !std::strcmp(argv[i], "--height")) H = uint32_t(std::atoi(argv[++i]));
     else fail(std::string("unknown option ") + argv[i]);
   }
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = vismap::Clock::now();
   vismap::Scene scene = vismap::load_scene(in);
   vismap::Camera cam = scene.camera ? *scene.camera : vismap::frame_scene(scene, W, H);
   cam.width = W;
@@ -87,7 +86,7 @@ int main(int argc, char** argv) {
   glShadeModel(GL_FLAT);
   glClearColor(1, 1, 1, 1);
 
-  const auto t1 = std::chrono::steady_clock::now();
+  const auto t1 = vismap::Clock::now();
   FILE* fp = std::fopen(out.c_str(), "wb");
   if (!fp) fail("cannot write " + out);
   GLint buffer = 1 << 24, state = GL2PS_OVERFLOW, passes = 0;
