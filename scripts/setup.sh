@@ -3,7 +3,8 @@
 #   scripts/setup.sh           what building and running vismap, vismapd and vismap-client need
 #   scripts/setup.sh --tests   that, and what the tests need: GoogleTest, the Python and JS
 #                              clients' interpreters and packages, Chromium and playwright-core
-#                              (the web viewer's browser test), nginx (the scale-out test)
+#                              (the web viewer's browser test), nginx (the scale-out test), clang
+#                              with libFuzzer (the fuzzers' short runs)
 # The bench peers have setup scripts of their own (bench/peers/setup.sh, bench/lines/setup.sh).
 # Idempotent: when every package is already there it only checks and returns.
 set -euo pipefail
@@ -30,6 +31,7 @@ TEST_PACKAGES=(
   python3-websockets python3-jsonschema python3-numpy python3-zstandard
   python3-setuptools python3-wheel python3-pip libmeshoptimizer2d
   chromium nodejs nginx
+  clang libclang-rt-14-dev
 )
 [ "$TESTS" -eq 1 ] && PACKAGES+=("${TEST_PACKAGES[@]}")
 
@@ -37,8 +39,15 @@ ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 
 # The web viewer's browser test drives Debian's Chromium with playwright-core from the npm
 # registry (the library only: it downloads no browser). Installed into the checkout, untracked.
+# Debian's nodejs comes without npm (a package of its own); a Node.js from elsewhere (NodeSource,
+# as on the CI machines) brings its own npm and conflicts with Debian's: so npm is installed only
+# where there is none.
 install_playwright() {
   [ -d "$ROOT/node_modules/playwright-core" ] && return 0
+  if ! command -v npm >/dev/null 2>&1; then
+    echo "setup: installing npm"
+    $SUDO apt-get install -y -qq --no-install-recommends npm >/dev/null || true
+  fi
   if command -v npm >/dev/null 2>&1; then
     (cd "$ROOT" && npm install --no-save --no-audit --no-fund --no-package-lock playwright-core@1 >/dev/null 2>&1) \
       && echo "setup: playwright-core installed" \
@@ -47,6 +56,10 @@ install_playwright() {
     echo "setup: no npm (the web viewer test will be skipped)"
   fi
 }
+
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+export DEBIAN_FRONTEND=noninteractive
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -59,10 +72,7 @@ if [ ${#missing[@]} -eq 0 ]; then
   exit 0
 fi
 
-SUDO=""
-[ "$(id -u)" -eq 0 ] || SUDO="sudo"
 echo "setup: installing ${missing[*]}"
-export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
 [ "$TESTS" -eq 0 ] || install_playwright
