@@ -122,7 +122,9 @@ TEST(Loop, ClosedStaysClosedAndNearTheSphere) {
     EXPECT_NEAR(m.positions[2], 0, 1e-5);
     // Regular valence-4 limit mask: 1 - 4 chi with chi = 1/(4 + 3/(8 beta_4)), beta_4 = 31/256.
     double beta = (0.625 - 0.375 * 0.375) / 4, chi = 1 / (4 + 3 / (8 * beta));
-    if (st.subdivision_level == 0) EXPECT_NEAR(m.positions[0], 1 - 4 * chi, 1e-5);
+    if (st.subdivision_level == 0) {
+      EXPECT_NEAR(m.positions[0], 1 - 4 * chi, 1e-5);
+    }
   }
 }
 

@@ -29,7 +29,7 @@ const std::string kTet =
     "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
     "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
 
-std::string b64(const std::string& in) {
+[[maybe_unused]] std::string b64(const std::string& in) {
   static const char* a = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
   size_t i = 0;
