@@ -1,4 +1,4 @@
-// `vismap decode`: a frame file (bin or compact) back to triangles, as a summary, JSON or SVG.
+// `vismap decode`: a frame file (bin, compact or delta) back to triangles, as a summary, JSON or SVG.
 #include "cli/decode.h"
 
 #include <algorithm>
@@ -91,6 +91,9 @@ void json_floats(std::string& out, const char* key, const std::vector<double>& v
 }  // namespace
 
 int cmd_decode(int argc, char** argv) {
+  // Long on purpose (~150 lines): the options, then per frame file its format by magic, its reader
+  // and the JSON or SVG written, one block per format (bin, compact, delta) in the order of the
+  // usage text; each block is short and uses the options above.
   std::string out;
   std::vector<std::string> paths;
   bool json = false;

@@ -558,6 +558,8 @@ void chain(const std::vector<double>& xy, const std::vector<Seg>& S, LineKind ki
 
 LineSet extract_lines(const PlanarMap& map, const ScreenTriangles& screen, const Scene& scene,
                       const Camera& camera, const LineOptions& opts) {
+  // Long on purpose (~130 lines): the edge table built first is what the classification, the
+  // hidden parts and the chaining below all walk.
   if (map.mesh.size() != map.fragment_count() || map.triangle.size() != map.fragment_count())
     bad("fragment arrays of different lengths");
   for (size_t f = 0; f < map.fragment_count(); ++f)

@@ -251,6 +251,9 @@ Role role_of(const Element& e, int& ix, int& iy, int& iz, int& ilist) {
 }  // namespace
 
 std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const LoadOptions& opts) {
+  // Long on purpose (~170 lines): the body's loops share the header's element table, the cursor
+  // and the bound argued below (every loop consumes input per item); split, that argument would
+  // have to be made again for each part.
   Header h = parse_header(src, bytes);
   Mesh m;
   m.name = file_stem(src.file);

@@ -46,6 +46,9 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
                           cl_int clip_region, const Candidates& cand, const ClipEdges& ce,
                           cl::Buffer& totals, const Deadline& deadline, const RegionBudget& budget,
                           const std::function<void(uint32_t)>& after_round, Fragments& out) {
+  // Long on purpose (~175 lines): the queue's two buffers, the device state's two copies and the
+  // finished list are one state machine that every round reads, grows and swaps; the lambdas below
+  // share it, and the batch loop reads as clip.cl's rounds.
   constexpr Stage kStage = Stage::Clip;
   const uint32_t S = s.count, L = rt.maxl();
   const uint64_t per_fragment = sizeof(VmFragMeta) + uint64_t(L) * sizeof(VmLine);

@@ -125,6 +125,8 @@ int64_t small(uint64_t z, const char* what) {
 
 std::string write_compact(const PlanarMap& map, const Scene& scene, const Camera& camera,
                           const CompactOptions& options, CompactStats* stats) {
+  // Long on purpose (~120 lines): the conforming mesh, the codec's order, then COMPACT.md's
+  // sections in order, a few lines each.
   detail::check_map(map, scene, "compact writer");
   const bool zstd = options.compression == Compression::Zstd;
   if (!zstd && options.compression != Compression::Deflate)
@@ -248,6 +250,8 @@ std::string write_compact(const PlanarMap& map, const Scene& scene, const Camera
 }
 
 CompactFrame read_compact(const std::string& bytes) {
+  // Long on purpose (~125 lines): the header and then COMPACT.md's sections in order, a few lines
+  // each, every check naming its section.
   if (bytes.size() < kHeaderBytes)
     malformed(InputErrorKind::Truncated, "header", -1,
               std::to_string(bytes.size()) + " bytes, the header alone is 44");

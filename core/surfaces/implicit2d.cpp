@@ -59,6 +59,9 @@ bool uses_z(const Tape& t) {
 }
 
 Regions2D contour_2d(ClRuntime& rt, const Tape& tape, const View2D& v, double tolerance_px) {
+  // Long on purpose (~150 lines): MPR's 2D mode as the steps the comments below name (cell size,
+  // the queue, corners, crossings, segments, loops, components), each a loop over the arrays the
+  // step before it made.
   if (uses_z(tape))
     throw InputError(InputErrorKind::BadScene, "", "", "", -1,
                      "the expression uses z: the 2D mode draws expressions in x and y alone");

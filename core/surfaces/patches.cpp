@@ -25,6 +25,9 @@ namespace {
 
 Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in, const TessellateOptions& o,
                   TessellateStats& st) {
+  // Long on purpose (~170 lines): two launches (patch_rates, patch_dice) and the host steps
+  // between and after them (a side's rate shared by its patches, poles, offsets, the weld), each
+  // a block over the same plan and offset arrays, in the order the data moves.
   const size_t np = mesh.patch_count();
   if (np == 0 || mesh.patches.size() != 48 * np)
     throw InputError(InputErrorKind::EmptyMesh, "", mesh.name, "", -1,
