@@ -464,7 +464,8 @@ int cmd_render(int argc, char** argv) {
     std::fprintf(
         stderr,
         "vismap: warning: device memory peaked at %.1f MB, over the budget of %.1f MB "
-        "(a part of the screen holds more than the budget allows; see docs/PERFORMANCE.md)\n",
+        "(a part of the screen holds more than the budget allows; see --memory-budget in "
+        "README.md)\n",
         st.peak_device_bytes / 1e6, a.memory_budget / 1e6);
   CompactStats cs;
   std::string bytes;
