@@ -1,4 +1,4 @@
-// `vismap decode`: a frame file (bin, compact or delta) back to triangles, as a summary, JSON or SVG.
+// `vismap decode`: a bin, compact or delta frame back to triangles, as a summary, JSON or SVG.
 #include "cli/decode.h"
 
 #include <algorithm>

@@ -6,9 +6,12 @@
 // per frame.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <vector>
 
 #include "core/camera.h"
 #include "core/device/cl_runtime.h"
@@ -16,6 +19,40 @@
 #include "core/surfaces/tessellate.h"
 
 namespace vismap::stages {
+
+// The view a dicer measures with: the camera, near and far fitted to the control points (x, y, z
+// each) when not given; the view-projection as float rows for the kernels' culling; pixels per
+// world unit at w = 1 (perspective) or per unit (orthographic).
+struct DiceView {
+  Camera cam;
+  cl_float16 m;
+  bool persp = false;
+  float f_px = 0;
+};
+
+inline DiceView dice_view(const Camera& cam_in, const std::vector<float>& points) {
+  DiceView v;
+  Camera& cam = v.cam;
+  cam = cam_in;
+  if (cam.near_plane <= 0 || cam.far_plane <= 0) {
+    Bounds b;
+    for (size_t i = 0; i < points.size(); i += 3)
+      for (int k = 0; k < 3; ++k) {
+        double x = points[i + k];
+        b.lo[k] = b.empty ? x : std::min(b.lo[k], x);
+        b.hi[k] = b.empty ? x : std::max(b.hi[k], x);
+        if (k == 2) b.empty = false;
+      }
+    fit_near_far(cam, b);
+  }
+  Mat4 vp = cam.view_projection();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) v.m.s[4 * r + c] = float(vp[4 * c + r]);
+  v.persp = cam.projection == Camera::Projection::Perspective;
+  v.f_px = v.persp ? float(cam.height / (2 * std::tan(cam.fov_y_deg * M_PI / 360)))
+                   : float(cam.height / cam.ortho_height);
+  return v;
+}
 
 // Output cap of one diced surface mesh: 2^27 triangles (~5 GB of host arrays downstream); past
 // it the frame is TooLarge naming the mesh, never truncated.

@@ -252,25 +252,11 @@ Mesh dice_subdivision(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   }
 
   // The view: clip-space rows for culling, pixels per world unit at w = 1 for the distance.
-  Camera cam = cam_in;
-  if (cam.near_plane <= 0 || cam.far_plane <= 0) {
-    Bounds b;
-    for (size_t i = 0; i < mesh.positions.size(); i += 3)
-      for (int k = 0; k < 3; ++k) {
-        double x = mesh.positions[i + k];
-        b.lo[k] = b.empty ? x : std::min(b.lo[k], x);
-        b.hi[k] = b.empty ? x : std::max(b.hi[k], x);
-        if (k == 2) b.empty = false;
-      }
-    fit_near_far(cam, b);
-  }
-  Mat4 vp = cam.view_projection();
-  cl_float16 m;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) m.s[4 * r + c] = float(vp[4 * c + r]);
-  bool persp = cam.projection == Camera::Projection::Perspective;
-  float f_px = persp ? float(cam.height / (2 * std::tan(cam.fov_y_deg * M_PI / 360)))
-                     : float(cam.height / cam.ortho_height);
+  const DiceView view = dice_view(cam_in, mesh.positions);
+  const Camera& cam = view.cam;
+  const cl_float16& m = view.m;
+  const bool persp = view.persp;
+  const float f_px = view.f_px;
   float w_floor = persp ? float(cam.near_plane) : 1.0f;
 
   // Level l's limit positions are the first nv_l of level l + 1's (a vertex keeps its index and

@@ -36,25 +36,11 @@ Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in, const T
     throw InputError(InputErrorKind::TooLarge, "", mesh.name, "", -1, "more than 2^32 patches");
   const uint32_t n = uint32_t(np);
 
-  Camera cam = cam_in;
-  if (cam.near_plane <= 0 || cam.far_plane <= 0) {
-    Bounds b;
-    for (size_t i = 0; i < mesh.patches.size(); i += 3)
-      for (int k = 0; k < 3; ++k) {
-        double x = mesh.patches[i + k];
-        b.lo[k] = b.empty ? x : std::min(b.lo[k], x);
-        b.hi[k] = b.empty ? x : std::max(b.hi[k], x);
-        if (k == 2) b.empty = false;
-      }
-    fit_near_far(cam, b);
-  }
-  Mat4 vp = cam.view_projection();
-  cl_float16 m;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) m.s[4 * r + c] = float(vp[4 * c + r]);
-  const bool persp = cam.projection == Camera::Projection::Perspective;
-  const float f_px = persp ? float(cam.height / (2 * std::tan(cam.fov_y_deg * M_PI / 360)))
-                           : float(cam.height / cam.ortho_height);
+  const DiceView view = dice_view(cam_in, mesh.patches);
+  const Camera& cam = view.cam;
+  const cl_float16& m = view.m;
+  const bool persp = view.persp;
+  const float f_px = view.f_px;
   // Perspective: a displacement's image grows with its distance r from the image centre by
   // sqrt(1 + (r / f)^2) at most (the projection's largest singular value); r up to the half
   // diagonal.
