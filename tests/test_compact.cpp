@@ -198,6 +198,34 @@ TEST(Compact, MalformedFramesAreRefused) {
   }
 }
 
+// Issue 35, case 8: a frame whose header claims far more triangles or vertices than its sections
+// hold is refused from the counts, before anything is sized from them (a 2 KB frame claiming
+// 2^28 triangles had allocated 3 GB first, then been refused by the index codec).
+TEST(Compact, CountsAreCheckedAgainstTheBytesBeforeAllocating) {
+  const Frame& f = frame_of(src("data/scenes/two_quads.json"), 64, 48);
+  const std::string good = write_compact(f.map, f.scene, f.camera, {});
+  ASSERT_LT(good.size(), 2048u);
+  auto with_word = [&](size_t offset, uint32_t v) {
+    std::string b = good;
+    for (int k = 0; k < 4; ++k) b[offset + k] = char(v >> (8 * k));
+    return b;
+  };
+  auto refusal = [](const std::string& b) -> std::string {
+    try {
+      read_compact(b);
+    } catch (const InputError& e) {
+      return e.element() + ": " + e.detail();
+    }
+    return "accepted";
+  };
+  const std::string many_triangles = refusal(with_word(28, 1u << 28));  // nt, the header's cap
+  EXPECT_EQ(many_triangles.rfind("indices: fewer bytes than the header's 268435456 triangles", 0),
+            0u)
+      << many_triangles;
+  const std::string many_meshes = refusal(with_word(32, 1u << 24));
+  EXPECT_EQ(many_meshes.rfind("mesh table: 16777216 meshes need", 0), 0u) << many_meshes;
+}
+
 // proto/vectors/compact_cornell.vmc (and its deflate twin) decodes to what
 // proto/vectors/compact_cornell.json says: every client's decoder is tested against these files.
 TEST(Compact, TestVector) {

@@ -293,6 +293,12 @@ CompactFrame read_compact(const std::string& bytes) {
       !why.empty())
     malformed(InputErrorKind::ParseError, "payload", -1, why);
 
+  // Every count is checked against the bytes that must hold it before anything is sized from it:
+  // a 2 KB frame claiming 2^28 triangles had allocated 3 GB (issue 35, case 8).
+  if (uint64_t(nm) * 16 > payload.size())
+    malformed(InputErrorKind::Truncated, "mesh table", -1,
+              std::to_string(nm) + " meshes need " + std::to_string(uint64_t(nm) * 16) +
+                  " bytes, the payload has " + std::to_string(payload.size()));
   Reader r{payload.data(), payload.size()};
   f.mesh_base.resize(nm);
   f.mesh_color.resize(nm);
@@ -314,6 +320,14 @@ CompactFrame read_compact(const std::string& bytes) {
   const char* idsec = r.take(size[2], "ids");
   const char* ssec = r.take(size[3], "shades");
   if (r.at != r.n) malformed(InputErrorKind::ParseError, "payload", -1, "trailing bytes");
+  // The index codec takes at least a byte per triangle, the ids a varint per triangle, the
+  // positions two varints per vertex.
+  if (size[1] < nt || size[2] < nt)
+    malformed(InputErrorKind::ParseError, size[1] < nt ? "indices" : "ids", -1,
+              "fewer bytes than the header's " + std::to_string(nt) + " triangles need");
+  if (size[0] < 2ull * nv)
+    malformed(InputErrorKind::ParseError, "positions", -1,
+              "fewer bytes than the header's " + std::to_string(nv) + " vertices need");
   const bool shade = f.flags & kCompactShade;
   if (size[3] != (shade ? nt : 0))
     malformed(InputErrorKind::ParseError, "shades", -1,
