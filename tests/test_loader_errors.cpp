@@ -539,3 +539,38 @@ TEST(LoadErrors, GltfNodeHierarchyBlowupAndDepth) {
       10, dir.write("cycle.gltf", with_nodes(R"({"children":[1]},{"children":[0],"mesh":0})")),
       K::ParseError, {"node 0", "twice"});
 }
+
+// Issue 35, case 9: a transform that collapses what it places, or a projective scene-file
+// matrix, is refused by name; before, the frame came out empty and the CLI exited 0.
+TEST(LoadErrors, DegenerateTransformsAreRefused) {
+  TempDir dir;
+  dir.write("tri.obj", "v 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n");
+  dir.write("ball.sexp", "(- (+ (square x) (square y) (square z)) 1)");
+  const std::string tri = R"("file": "tri.obj")";
+  auto scene = [&](const std::string& name, const std::string& entry) {
+    return dir.write(name, R"({"meshes": [{)" + entry + "}]}");
+  };
+  expect_error(scene("zero.json", tri + R"(, "matrix": [0,0,0,0, 0,0,0,0, 0,0,0,0, 0,0,0,1])"),
+               K::BadScene, {"meshes[0].matrix", "collapses axis x to nothing"});
+  expect_error(scene("flat.json", tri + R"(, "matrix": [1,0,0,0, 0,1,0,0, 1,1,0,0, 0,0,0,1])"),
+               K::BadScene, {"meshes[0].matrix", "singular"});
+  expect_error(scene("tiny.json", tri + R"(, "scale": 1e-300)"), K::BadScene,
+               {"meshes[0].scale", "below float range"});
+  expect_error(scene("proj.json", tri + R"(, "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0.5, 0,0,0,1])"),
+               K::BadScene, {"meshes[0].matrix", "bottom row must be 0, 0, 0, 1"});
+  expect_error(scene("w2.json", tri + R"(, "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,2])"),
+               K::BadScene, {"meshes[0].matrix", "bottom row"});
+  expect_error(scene("box.json", R"("file": "ball.sexp", "bounds": [0,0,0,1e-300,1,1])"),
+               K::BadScene, {"meshes[0].bounds", "as floats"});
+  expect_error(scene("big.json", R"("file": "ball.sexp", "bounds": [-1e39,-1,-1,1,1,1])"),
+               K::BadScene, {"meshes[0].bounds", "as floats"});
+  expect_error(dir.write("zero.pbrt", "WorldBegin\nScale 0 0 0\nShape \"trianglemesh\" "
+                                      "\"point P\" [0 0 0 1 0 0 0 1 0] \"integer indices\" [0 1 2]\n"
+                                      "WorldEnd\n"),
+               K::BadScene, {"zero.pbrt", "line 3", "collapses axis x"});
+  // What still loads: a mirror, a tiny but representable scale, a rotation with a translation.
+  for (const std::string& ok : {tri + R"(, "scale": [-1, 1, 1])", tri + R"(, "scale": 1e-20)",
+                                tri + R"(, "rotate_deg": [10, 20, 30], "translate": [1, 2, 3])"}) {
+    EXPECT_NO_THROW(load_scene(scene("ok.json", ok))) << ok;
+  }
+}

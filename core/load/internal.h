@@ -61,6 +61,13 @@ struct Source {
 };
 
 // Lower-cased extension, compound for ".ply.gz" (".ply.gz", ".obj", ... or "" if none).
+// Why a placing transform (column-major 4x4) collapses what it places, or "" when it does not:
+// a column of its linear part below float range (scale 1e-300) or not finite, or a determinant
+// that vanishes against the columns' sizes (Scale 0 0 0, an all-zero matrix, two equal axes).
+// Every vertex would land on a plane, a line or a point, and the frame would be empty without a
+// word (issue 35, case 9). The bottom row is the caller's to check where it must be affine.
+std::string degenerate_transform(const std::array<double, 16>& m);
+
 std::string format_extension(const std::string& name);
 std::string file_stem(const std::string& name);
 std::string dir_of(const std::string& path);  // "" or ending in '/'

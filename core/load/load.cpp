@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 
 #include "core/load/internal.h"
 #include "core/util/weld.h"
@@ -30,6 +31,24 @@ std::string format_extension(const std::string& name) {
   if (ends(".ply.gz")) return ".ply.gz";
   size_t dot = base.find_last_of('.');
   return dot == std::string::npos || dot == 0 ? std::string() : base.substr(dot);
+}
+
+std::string degenerate_transform(const std::array<double, 16>& m) {
+  double n[3];
+  for (int c = 0; c < 3; ++c) {
+    n[c] = std::hypot(m[4 * c], m[4 * c + 1], m[4 * c + 2]);  // no underflow of the squares
+    if (!std::isfinite(n[c])) return "the transform is not finite";
+    if (!(n[c] >= std::numeric_limits<float>::min()))
+      return "the transform collapses axis " + std::string(1, char('x' + c)) +
+             (n[c] == 0 ? " to nothing" : " below float range");
+  }
+  const double det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
+                     m[8] * (m[1] * m[6] - m[5] * m[2]);
+  // Relative to the columns' sizes (|det| <= n0 n1 n2): 1e-12 flags only a transform flat to
+  // far below what float positions can show.
+  if (!(std::abs(det) > 1e-12 * n[0] * n[1] * n[2]))
+    return "the transform is singular (it flattens everything onto a plane or a line)";
+  return "";
 }
 
 std::string file_stem(const std::string& name) {

@@ -481,6 +481,9 @@ class PbrtReader {
       fail_at(f, P->at, InputErrorKind::ParseError, "P needs 3 numbers per point");
     if (ix->nums.size() % 3 != 0 || ix->nums.empty())
       fail_at(f, ix->at, InputErrorKind::ParseError, "indices need 3 per triangle");
+    // Issue 35, case 9: "Scale 0 0 0" before a shape gave an empty frame and exit 0.
+    if (const std::string why = degenerate_transform(st_.ctm); !why.empty())
+      fail_at(f, t.at, InputErrorKind::BadScene, why + " (the current transform at this Shape)");
     Mesh m;
     int64_t line = 1;
     for (size_t i = 0; i < t.at; ++i) line += f.s[i] == '\n';

@@ -202,9 +202,24 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
       for (int k = 0; k < 3; ++k)
         if (!(b[k] < b[k + 3]))
           ck.bad(path + ".bounds", "expected [xlo, ylo, zlo, xhi, yhi, zhi] with each lo < hi");
+      // The device dices the box in float: one thinner than a float step there, or beyond float
+      // range, holds nothing (issue 35, case 9: 1e-300 wide gave an empty frame, exit 0).
+      for (int k = 0; k < 3; ++k)
+        if (!(std::isfinite(float(b[k])) && std::isfinite(float(b[k + 3])) &&
+              float(b[k]) < float(b[k + 3]) && std::isfinite(float(b[k + 3]) - float(b[k]))))
+          ck.bad(path + ".bounds", "each lo < hi also as floats, the device's numbers (a box "
+                                   "thinner than a float step, or beyond float range, is empty)");
       bounds = std::array<double, 6>{b[0], b[1], b[2], b[3], b[4], b[5]};
     }
     M4 m = entry_transform(ck, e, path);
+    // Issue 35, case 9: a transform that is projective or collapses the entry was applied as
+    // given and the frame came out empty, exit 0.
+    const std::string placed = path + (e.contains("matrix") ? ".matrix" : ".scale");
+    if (m[3] != 0 || m[7] != 0 || m[11] != 0 || m[15] != 1)
+      ck.bad(placed,
+             "the bottom row must be 0, 0, 0, 1 (a placement must be affine and invertible)");
+    if (const std::string why = degenerate_transform(m); !why.empty())
+      ck.bad(placed, why + " (a placement must be affine and invertible)");
     std::optional<std::array<float, 3>> color;
     if (e.contains("color")) {
       auto c = ck.numbers(e["color"], path + ".color", 3);
@@ -244,8 +259,6 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
     }
     double det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
                  m[8] * (m[1] * m[6] - m[5] * m[2]);
-    if (is_implicit && (!(std::abs(det) > 0) || m[3] != 0 || m[7] != 0 || m[11] != 0 || m[15] != 1))
-      ck.bad(path, "an implicit object's transform must be affine and invertible");
     const Scene& part = is_implicit ? own : it->second;
     for (const Mesh& pm : part.meshes) {
       Mesh mesh = pm;
