@@ -41,17 +41,13 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
   int4 tb = tri_bb[t];
   uint count = 0;
   VM_FOR_EACH_LEAF(w, tb, g, tile_leaf) {
-    uint leaf = leaf_walk_leaf(&w);
-    uint4 cs = class_start[leaf];
-    if (cs.w == 0) continue;
-    __global const uint* list = leaf_list + leaf_offset[leaf];
     /* Only the classes of edges whose (closed) box overlap with t's this leaf owns. */
-    uint want = partner_classes(leaf_walk_class(&w));
-    for (uint c = 0; c < 4; ++c) {
-      if (!((want >> c) & 1u)) continue;
-      uint hi = class_begin(cs, c + 1);
-      for (uint k = class_begin(cs, c); k < hi; ++k) {
-        uint e = list[k];
+    LeafPartners L;
+    if (!leaf_partners(&w, leaf_offset, class_start, leaf_list, &L)) continue;
+    VM_FOR_EACH_PARTNER_CLASS(L, c) {
+      uint hi = class_begin(L.cs, c + 1);
+      for (uint k = class_begin(L.cs, c); k < hi; ++k) {
+        uint e = L.list[k];
         int4 eb = edge_bb[e];
         if (max(tb.x, eb.x) > min(tb.z, eb.z) || max(tb.y, eb.y) > min(tb.w, eb.w)) continue;
         if (!edge_is_candidate(&tris[t], edges[e])) continue;

@@ -178,19 +178,15 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
   double qmin = fmin(fmin(me.q[0], me.q[1]), me.q[2]), qmax = fmax(fmax(me.q[0], me.q[1]), me.q[2]);
   uint count = 0;
   VM_FOR_EACH_LEAF(w, tb, g, tile_leaf) {
-    uint leaf = leaf_walk_leaf(&w);
-    uint4 cs = class_start[leaf];
-    if (cs.w == 0) continue;
-    __global const uint* list = leaf_list + leaf_offset[leaf];
     /* Only the classes of entries whose pairs with t this leaf owns, each (sorted by id) walked
      * down from its top to its first id not above t: each pair is found once, by its lower
      * member, and no entry below t is touched but the one that stops the walk. */
-    uint want = partner_classes(leaf_walk_class(&w));
-    for (uint c = 0; c < 4; ++c) {
-      if (!((want >> c) & 1u)) continue;
-      uint lo = class_begin(cs, c);
-      for (uint k = class_begin(cs, c + 1); k-- > lo;) {
-        uint o = list[k];
+    LeafPartners L;
+    if (!leaf_partners(&w, leaf_offset, class_start, leaf_list, &L)) continue;
+    VM_FOR_EACH_PARTNER_CLASS(L, c) {
+      uint lo = class_begin(L.cs, c);
+      for (uint k = class_begin(L.cs, c + 1); k-- > lo;) {
+        uint o = L.list[k];
         if (o <= t) break;
         int4 ob = tri_bb[o];
         if (max(tb.x, ob.x) >= min(tb.z, ob.z) || max(tb.y, ob.y) >= min(tb.w, ob.w)) continue;

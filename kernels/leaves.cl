@@ -112,3 +112,28 @@ inline uint leaf_walk_leaf(const LeafWalk* w) {
 inline uint leaf_walk_class(const LeafWalk* w) {
   return box_class(w->tr, w->lr, w->tx, w->ty, w->lx, w->ly);
 }
+
+/* The current leaf as a partner search reads it (candidates_of, pairs_of): its list of entries,
+ * grouped by class (class_start), and the classes whose entries an item of the walking box's
+ * class pairs with there (partner_classes). False, and nothing read, when the leaf is empty. */
+typedef struct {
+  __global const uint* list;
+  uint4 cs;   /* the leaf's class starts (class_begin) */
+  uint want;  /* bit c: class c's entries pair with the box */
+} LeafPartners;
+
+inline bool leaf_partners(const LeafWalk* w, __global const uint* leaf_offset,
+                          __global const uint4* class_start, __global const uint* leaf_list,
+                          LeafPartners* p) {
+  uint leaf = leaf_walk_leaf(w);
+  p->cs = class_start[leaf];
+  if (p->cs.w == 0) return false;
+  p->list = leaf_list + leaf_offset[leaf];
+  p->want = partner_classes(leaf_walk_class(w));
+  return true;
+}
+
+/* The classes c of a leaf_partners result whose entries pair with the box, in order. */
+#define VM_FOR_EACH_PARTNER_CLASS(p, c) \
+  for (uint c = 0; c < 4; ++c)          \
+    if (((p).want >> c) & 1u)
