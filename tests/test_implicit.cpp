@@ -214,6 +214,18 @@ TEST(Implicit, BadInputNamesLineAndColumn) {
   EXPECT_NE(parse_error_of("(/ x)").find("two or more"), std::string::npos);
   EXPECT_NE(parse_error_of("(+ x 1.2.3)").find("expected a number"), std::string::npos);
   EXPECT_NE(parse_error_of("(+ x 1e999)").find("not finite"), std::string::npos);
+  // Issue 35, case 5: constants the float device cannot hold, written or folded.
+  EXPECT_NE(parse_error_of("(+ x 1e308)").find("line 1 column 6: the number '1e308' is beyond "
+                                               "float range"),
+            std::string::npos)
+      << parse_error_of("(+ x 1e308)");
+  EXPECT_NE(parse_error_of("(+ x\n (- (/ 1 0) (/ 1 0)))")
+                .find("line 2 column 5: '(/' folds to a constant that is not a finite float"),
+            std::string::npos)
+      << parse_error_of("(+ x\n (- (/ 1 0) (/ 1 0)))");
+  EXPECT_NE(parse_error_of("(+ x (* 1e30 1e30))").find("folds to a constant"), std::string::npos);
+  EXPECT_NE(parse_error_of("(+ x (exp 100))").find("folds to a constant"), std::string::npos);
+  EXPECT_NO_THROW(parse("(+ x (* 1e18 1e18) 1e-50)", "t.sexp"));  // 1e36: a float still
   EXPECT_NE(parse_error_of("x y").find("a second expression"), std::string::npos);
   EXPECT_NE(parse_error_of("").find("no expression"), std::string::npos);
   EXPECT_NE(parse_error_of("()").find("expected an operation"), std::string::npos);

@@ -123,6 +123,7 @@ class Builder {
     }
     return args[0];
   }
+  const Clause& at(uint32_t i) const { return tape_.clauses[i]; }
   Tape take(uint32_t root, uint32_t tree_ops) {
     // Keep only what the root uses, in order (folding can leave unused constants behind).
     Tape t = std::move(tape_);
@@ -353,6 +354,12 @@ Tape parse(const std::string& text, const std::string& file) {
           need(o.op == Op::Div ? "two or more arguments" : "one or more arguments");
         v = b.fold(o.op, std::move(f.args));
       }
+      // Folding computes in double what the device would in float: a result that is not a
+      // finite float ((- (/ 1 0) (/ 1 0)) is NaN) is refused as a non-finite number is.
+      if (b.at(v).op == Op::Const && !std::isfinite(float(b.at(v).value)))
+        parse_error(file, f.line, f.col,
+                    "'(" + std::string(o.name) + "' folds to a constant that is not a finite "
+                    "float (" + std::to_string(b.at(v).value) + ")");
       put(v, f.line, f.col);
       continue;
     }
@@ -376,6 +383,9 @@ Tape parse(const std::string& text, const std::string& file) {
       if (end != tok.c_str() + tok.size() || tok.empty())
         parse_error(file, tl, tc, "expected a number, x, y, z or '(', got '" + tok + "'");
       if (!std::isfinite(d)) parse_error(file, tl, tc, "the number '" + tok + "' is not finite");
+      // The device evaluates in float: 1e308 is finite as a double and infinite there.
+      if (!std::isfinite(float(d)))
+        parse_error(file, tl, tc, "the number '" + tok + "' is beyond float range (the device's)");
       v = b.leaf(Op::Const, d);
     }
     put(v, tl, tc);
