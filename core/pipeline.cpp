@@ -39,12 +39,6 @@ static_assert(ScreenTriangles::kFreePlane == VM_PLANE_FREE, "one sentinel for a 
 
 namespace {
 
-std::string mib(uint64_t bytes) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.2f MiB", double(bytes) / (1 << 20));
-  return b;
-}
-
 // A frame's per-stage figures, summed over its regions.
 struct Tally {
   ClRuntime::StageTimes time{};
@@ -203,9 +197,9 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
         // cannot fit is an error, not a bucket that goes over.
         if (!stages::halve_bucket(region, half_a, half_b, 1))
           throw InputError(InputErrorKind::TooLarge, scene.source, "", "", -1,
-                           "memory budget of " + mib(opts.memory_budget) +
+                           "memory budget of " + stages::mib(opts.memory_budget) +
                                " is too small: one pixel of the screen needs " +
-                               mib(budget.needed() + (opts.memory_budget - budget.limit())) +
+                               stages::mib(budget.needed() + (opts.memory_budget - budget.limit())) +
                                " of device memory");
         bytes_per_tri = std::max(bytes_per_tri, budget.needed() / S + 1);
         todo.push_back(half_b);

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "core/error.h"
+#include "core/stages/budget.h"
 #include "core/stages/grid.h"
 
 namespace vismap::stages {
@@ -39,9 +40,8 @@ std::vector<cl_int4> plan_buckets(ClRuntime& rt, const SceneBuffers& sb, Frame& 
   const uint64_t held = sb.bytes + rt.allocated_bytes(), fixed = held + budget / 8;
   if (budget <= fixed + (held >> 3))
     throw InputError(InputErrorKind::TooLarge, "", "", "", -1,
-                     "memory budget of " + std::to_string(budget >> 20) +
-                         " MiB is too small: the scene alone holds " + std::to_string(held >> 20) +
-                         " MiB of device memory");
+                     "memory budget of " + mib(budget) + " is too small: the scene alone holds " +
+                         mib(held) + " of device memory");
   const uint64_t work = budget - fixed;
   st.bucket_work_bytes = work;
 
