@@ -37,8 +37,9 @@ double parse_number(const std::string& flag, const std::string& s) {
 
 uint32_t parse_pixels(const std::string& flag, const std::string& s) {
   double v = parse_number(flag, s);
-  if (v < 1 || v > 16384 || v != std::floor(v))
-    throw UsageError(flag + ": expected an integer in 1..16384, got '" + s + "'");
+  if (v < 1 || v > kMaxViewport || v != std::floor(v))
+    throw UsageError(flag + ": expected an integer in 1.." + std::to_string(kMaxViewport) +
+                     ", got '" + s + "'");
   return static_cast<uint32_t>(v);
 }
 

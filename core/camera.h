@@ -9,6 +9,10 @@
 
 namespace vismap {
 
+// The widest and tallest viewport a camera may have, in pixels: what validate() accepts, and
+// what every reader of a camera (scene files, pbrt, the CLI) checks against.
+inline constexpr uint32_t kMaxViewport = 16384;
+
 using Vec3 = std::array<double, 3>;
 using Mat4 = std::array<double, 16>;  // column-major, as OpenGL
 

@@ -574,3 +574,22 @@ TEST(LoadErrors, DegenerateTransformsAreRefused) {
     EXPECT_NO_THROW(load_scene(scene("ok.json", ok))) << ok;
   }
 }
+
+// Issue 35 (smaller): a scene-file camera 65,536 pixels wide passed the schema and was refused
+// later as over 16,384; the schema now says the camera's own limit, kMaxViewport.
+TEST(LoadErrors, SceneFileViewportLimitIsTheCamerasLimit) {
+  TempDir dir;
+  dir.write("tri.obj", "v 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n");
+  const std::string wide = std::to_string(kMaxViewport + 1);
+  expect_error(dir.write("wide.json", R"({"meshes":[{"file":"tri.obj"}],"camera":{"width":)" +
+                                          wide + "}}"),
+               K::BadScene, {"camera.width", "1.." + std::to_string(kMaxViewport)});
+  const Scene s = load_scene(dir.write(
+      "edge.json", R"({"meshes":[{"file":"tri.obj"}],"camera":{"width":)" +
+                       std::to_string(kMaxViewport) + R"(,"height":2}})"));
+  ASSERT_TRUE(s.camera.has_value());
+  EXPECT_EQ(s.camera->width, kMaxViewport);
+  Camera c = *s.camera;
+  fit_near_far(c, s);  // as a render does when the file gives none
+  EXPECT_NO_THROW(c.validate());
+}

@@ -332,10 +332,11 @@ class PbrtReader {
       auto ps = params(f);
       for (const char* n : {"xresolution", "yresolution"})
         if (const Param* p = find(ps, n)) {
-          if (p->nums.size() != 1 || !(p->nums[0] >= 1 && p->nums[0] <= 65536) ||
+          if (p->nums.size() != 1 || !(p->nums[0] >= 1 && p->nums[0] <= kMaxViewport) ||
               p->nums[0] != std::floor(p->nums[0]))
             fail_at(f, p->at, InputErrorKind::BadCamera,
-                    std::string(n) + " must be one whole number of pixels in 1..65536");
+                    std::string(n) + " must be one whole number of pixels in 1.." +
+                        std::to_string(kMaxViewport));
           (n[0] == 'x' ? camera_.width : camera_.height) = uint32_t(p->nums[0]);
         }
       if (camera_set_) fit_fov();

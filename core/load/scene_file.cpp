@@ -77,8 +77,9 @@ struct Checker {
     return {v[0], v[1], v[2]};
   }
   uint32_t pixels(const json& j, const std::string& path) const {
-    if (!j.is_number_integer() || j.get<int64_t>() < 1 || j.get<int64_t>() > 65536)
-      bad(path, "expected an integer in 1..65536");
+    // The camera's own limit (issue 35: 65,536 passed here and was refused later as over 16,384).
+    if (!j.is_number_integer() || j.get<int64_t>() < 1 || j.get<int64_t>() > kMaxViewport)
+      bad(path, "expected an integer in 1.." + std::to_string(kMaxViewport));
     return uint32_t(j.get<int64_t>());
   }
 };
