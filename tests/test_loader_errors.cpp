@@ -593,3 +593,38 @@ TEST(LoadErrors, SceneFileViewportLimitIsTheCamerasLimit) {
   fit_near_far(c, s);  // as a render does when the file gives none
   EXPECT_NO_THROW(c.validate());
 }
+
+// Issue 35, case 7: a scene file naming one file many times is refused from entries x triangles
+// (and bytes) when the file is first loaded, before any copy: a 1 MB scene naming the bunny
+// 10,000 times had copied it until bad_alloc at 7.6 GB after 48 s.
+TEST(LoadErrors, InstancingIsCountedBeforeCopying) {
+  TempDir dir;
+  dir.write("tri.obj", "v 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n");
+  auto scene_of = [&](const std::string& name, const std::string& file, int entries) {
+    std::string j = R"({"meshes": [)";
+    for (int i = 0; i < entries; ++i)
+      j += std::string(i ? "," : "") + R"({"file": ")" + file + R"(", "translate": [)" +
+           std::to_string(i) + ", 0, 0]}";
+    return dir.write(name, j + "]}");
+  };
+  LoadOptions limited;
+  limited.max_triangles = 999;
+  expect_error(scene_of("many.json", "tri.obj", 1000), K::TooLarge,
+               {"meshes[0].file", "1000 entries name tri.obj", "limit is 999"}, limited);
+  EXPECT_NO_THROW(load_scene(scene_of("fits.json", "tri.obj", 999), limited));
+  // No triangle limit (the CLI): what the copies would hold. A 100 x 100 grid (20,000
+  // triangles, ~440 KB as a mesh) named 20,000 times would hold ~8.8 GB.
+  std::string grid;
+  for (int y = 0; y <= 100; ++y)
+    for (int x = 0; x <= 100; ++x)
+      grid += "v " + std::to_string(x) + " " + std::to_string(y) + " 0\n";
+  for (int y = 0; y < 100; ++y)
+    for (int x = 0; x < 100; ++x) {
+      const int a = 1 + y * 101 + x, b = a + 1, c = a + 101, d = c + 1;
+      grid += "f " + std::to_string(a) + " " + std::to_string(b) + " " + std::to_string(d) +
+              "\nf " + std::to_string(a) + " " + std::to_string(d) + " " + std::to_string(c) + "\n";
+    }
+  dir.write("grid.obj", grid);
+  expect_error_within(20, scene_of("grid.json", "grid.obj", 20000), K::TooLarge,
+                      {"meshes[0].file", "20000 entries name grid.obj", "more than one load may"});
+}

@@ -177,6 +177,17 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
   std::map<std::string, Scene> loaded;  // file -> untransformed scene, loaded once
   uint64_t triangles = 0;
   const json& meshes = doc["meshes"];
+  // How many entries name each file (issue 35, case 7: a 1 MB scene naming the bunny 10,000
+  // times copied it until bad_alloc at 7.6 GB). A file's copies are counted when it is first
+  // loaded, before any copy is made, against the triangle limit and what one load may hold.
+  std::map<std::string, uint64_t> references;
+  for (const json& e : meshes)
+    if (e.is_object() && !e.contains("expression") && e.contains("file") &&
+        e["file"].is_string() && !e["file"].get<std::string>().empty()) {
+      const std::string f = e["file"].get<std::string>();
+      ++references[f[0] == '/' ? f : src.base_dir + f];
+    }
+  uint64_t projected_triangles = 0, projected_bytes = 0;
   for (size_t i = 0; i < meshes.size(); ++i) {
     std::string path = "meshes[" + std::to_string(i) + "]";
     const json& e = meshes[i];
@@ -257,6 +268,27 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
         throw InputError(e.kind(), e.file(), e.mesh(), e.element(), e.index(),
                          e.detail() + " (referenced by " + src.file + " " + path + ")");
       }
+      const uint64_t copies = std::max<uint64_t>(references[full], 1);
+      uint64_t tris = 0, bytes = 0;
+      for (const Mesh& pm : it->second.meshes) {
+        tris += pm.source_triangles;
+        bytes += sizeof(Mesh) + pm.name.size() +
+                 4 * (pm.positions.size() + pm.indices.size() + pm.face_ids.size() +
+                      pm.patches.size() + pm.uv.size() + pm.normals.size());
+      }
+      projected_triangles = checked_add(projected_triangles, checked_mul(copies, tris));
+      projected_bytes = checked_add(projected_bytes, checked_mul(copies, bytes));
+      const std::string named = std::to_string(copies) + " entries name " + file + " (" +
+                                std::to_string(tris) + " triangles)";
+      if (opts.max_triangles != 0 && projected_triangles > opts.max_triangles)
+        fail(InputErrorKind::TooLarge, src, "", path + ".file", -1,
+             named + ": the scene would hold " + std::to_string(projected_triangles) +
+                 " triangles, limit is " + std::to_string(opts.max_triangles));
+      if (projected_bytes > kMaxInputBytes)
+        fail(InputErrorKind::TooLarge, src, "", path + ".file", -1,
+             named + ": their copies would hold " + std::to_string(projected_bytes >> 20) +
+                 " MiB, more than one load may (" + std::to_string(kMaxInputBytes >> 20) +
+                 " MiB)");
     }
     double det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
                  m[8] * (m[1] * m[6] - m[5] * m[2]);
