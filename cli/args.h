@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/camera.h"
+#include "core/error.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 
@@ -17,6 +18,18 @@ namespace vismap::cli {
 struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
+
+// Runs f; an InputError it throws that names no file (the camera's, a dicer's, the frame's)
+// names `scene` instead of "<input>" (issue 35).
+template <class F>
+auto naming_scene(const std::string& scene, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const InputError& e) {
+    if (!e.file().empty()) throw;
+    throw InputError(e.kind(), scene, e.mesh(), e.element(), e.index(), e.detail());
+  }
+}
 
 Vec3 parse_vec3(const std::string& flag, const std::string& s);
 double parse_number(const std::string& flag, const std::string& s);

@@ -78,8 +78,18 @@ CheckArgs parse_check(int argc, char** argv) {
 }
 }  // namespace
 
+namespace {
+int run_check(const CheckArgs& a);
+}  // namespace
+
 int cmd_check(int argc, char** argv) {
-  CheckArgs a = parse_check(argc, argv);
+  const CheckArgs a = parse_check(argc, argv);
+  return naming_scene(a.scene, [&] { return run_check(a); });
+}
+
+namespace {
+
+int run_check(const CheckArgs& a) {
   Scene scene = load_scene(a.scene);
   Camera cam = make_camera(scene, a.view);
   Renderer renderer(a.view.device);
@@ -152,5 +162,7 @@ int cmd_check(int argc, char** argv) {
   std::printf("%s\n", j.dump().c_str());
   return bad.empty() ? 0 : 4;
 }
+
+}  // namespace
 
 }  // namespace vismap::cli

@@ -420,10 +420,16 @@ void print_render_stats(const RenderReport& r) {
                r.load_ms, r.render_ms, r.write_ms, r.total_ms);
 }
 
+int run_render(RenderArgs& a, std::chrono::steady_clock::time_point t0);
+
 int cmd_render(int argc, char** argv) {
-  using Clock = std::chrono::steady_clock;
-  auto t0 = Clock::now();
+  const auto t0 = std::chrono::steady_clock::now();
   RenderArgs a = parse_render(argc, argv);
+  return naming_scene(a.scene, [&] { return run_render(a, t0); });
+}
+
+int run_render(RenderArgs& a, std::chrono::steady_clock::time_point t0) {
+  using Clock = std::chrono::steady_clock;
   // An expression in x and y alone is MPR's 2D mode; one that uses z is a 3D object.
   if (is_sexp(a.scene)) {
     const implicit::Tape tape = implicit::load(a.scene);

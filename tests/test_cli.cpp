@@ -129,6 +129,15 @@ TEST_F(Cli, BadInputFailsCleanly) {
 
   CliRun cam = run("render " + bunny + " -o " + out.string() + " --eye 0,0,0 --target 0,0,0", dir);
   EXPECT_NE(cam.status, 0);
+  // Issue 35 (smaller): a render-time error names the scene, not "<input>"; check's too.
+  for (const char* cmd : {"render ", "check "}) {
+    CliRun near_far = run(cmd + bunny + (cmd[0] == 'r' ? " -o " + out.string() : std::string()) +
+                              " --near 5 --far 1",
+                          dir);
+    EXPECT_EQ(near_far.status, 1) << cmd;
+    EXPECT_NE(near_far.err.find(bunny + ": camera: near/far"), std::string::npos) << near_far.err;
+    EXPECT_EQ(near_far.err.find("<input>"), std::string::npos) << near_far.err;
+  }
   CliRun usage = run("render " + bunny + " -o " + out.string() + " --format tiff", dir);
   EXPECT_EQ(usage.status, 2);
   EXPECT_FALSE(fs::exists(out));
