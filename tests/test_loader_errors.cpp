@@ -628,3 +628,20 @@ TEST(LoadErrors, InstancingIsCountedBeforeCopying) {
   expect_error_within(20, scene_of("grid.json", "grid.obj", 20000), K::TooLarge,
                       {"meshes[0].file", "20000 entries name grid.obj", "more than one load may"});
 }
+
+// Issue 35 (smaller): a pbrt Include of a file that is not pbrt echoed its first line in the
+// error ('unknown directive root:x:0:0:...'); the message keeps to the file, line and column.
+TEST(LoadErrors, PbrtIncludeDoesNotEchoTheIncludedText) {
+  TempDir dir;
+  dir.write("secret.txt", "hunter2:topsecret\n");
+  const std::string scene = dir.write("inc.pbrt", "Include \"secret.txt\"\nWorldBegin\nWorldEnd\n");
+  expect_error(scene, K::ParseError, {"secret.txt: line 1: column 1", "not a pbrt directive"});
+  try {
+    load_scene(scene);
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).find("hunter2"), std::string::npos) << e.what();
+  }
+  // The scene's own unknown words are still quoted (they are the user's own text).
+  expect_error(dir.write("own.pbrt", "Frobnicate 1\n"), K::ParseError,
+               {"unknown directive 'Frobnicate'"});
+}

@@ -391,7 +391,12 @@ class PbrtReader {
       fail_at(f, t.at, InputErrorKind::BadScene,
               "pbrt directive '" + std::string(d) + "' is not supported (docs/SCENE_FORMAT.md)");
     } else {
-      fail_at(f, t.at, InputErrorKind::ParseError, "unknown directive " + quote(d));
+      // An included file's words are not echoed (issue 35: Include "/etc/passwd" printed its
+      // first line); the message keeps to its file, line and column.
+      fail_at(f, t.at, InputErrorKind::ParseError,
+              depth > 0 ? std::string("not a pbrt directive (an included file's text is not "
+                                      "shown)")
+                        : "unknown directive " + quote(d));
     }
   }
 
@@ -548,7 +553,15 @@ class PbrtReader {
       fail_at(f, t.at, e.kind(), "Include " + quote(name) + ": " + e.what());
     }
     Source src{path, dir_of(path), budget_};
-    parse(src, bytes, depth + 1);
+    try {
+      parse(src, bytes, depth + 1);
+    } catch (const InputError& e) {  // the included file's error, saying who included it
+      int64_t line = 1;
+      for (size_t i = 0; i < t.at; ++i) line += f.s[i] == '\n';
+      throw InputError(e.kind(), e.file(), e.mesh(), e.element(), e.index(),
+                       e.detail() + " (included by " + f.src.file + " line " +
+                           std::to_string(line) + ")");
+    }
   }
 
   bool file_exists(const std::string& p) {
