@@ -101,11 +101,13 @@ void validate_view(const ViewArgs& a) {
 }
 
 Scene dice_for_view(Renderer& renderer, Scene scene, const Camera& cam, const ViewArgs& a,
-                    TessellateStats* st) {
+                    TessellateStats* st, uint64_t memory_budget, double time_limit_s) {
   if (!scene.has_surfaces()) return scene;
   TessellateOptions o;
   o.tolerance_px = float(a.tolerance_px);
   o.implicit_tolerance_px = float(a.implicit_tolerance_px);
+  o.memory_budget = memory_budget;
+  o.time_limit_s = time_limit_s;
   return renderer.tessellate(scene, cam, o, st);
 }
 

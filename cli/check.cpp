@@ -93,7 +93,7 @@ int run_check(const CheckArgs& a) {
   Scene scene = load_scene(a.scene);
   Camera cam = make_camera(scene, a.view);
   Renderer renderer(a.view.device);
-  scene = dice_for_view(renderer, std::move(scene), cam, a.view);
+  scene = dice_for_view(renderer, std::move(scene), cam, a.view, nullptr, a.opts.memory_budget);
   check::ReversedScene rev;
   if (a.reverse) {
     rev = check::reverse_order(scene);

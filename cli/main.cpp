@@ -441,7 +441,8 @@ int run_render(RenderArgs& a, std::chrono::steady_clock::time_point t0) {
   Camera cam = make_camera(scene, a.view);
   Renderer renderer(a.view.device);
   TessellateStats ts;
-  scene = dice_for_view(renderer, std::move(scene), cam, a.view, &ts);
+  scene = dice_for_view(renderer, std::move(scene), cam, a.view, &ts, a.memory_budget,
+                        a.time_limit_s);
   RenderOptions opts;
   opts.attributes = a.format == "bin";
   opts.memory_budget = a.memory_budget;

@@ -197,9 +197,9 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
         // cannot fit is an error, not a bucket that goes over.
         if (!stages::halve_bucket(region, half_a, half_b, 1))
           throw InputError(InputErrorKind::TooLarge, scene.source, "", "", -1,
-                           "memory budget of " + stages::mib(opts.memory_budget) +
+                           "memory budget of " + mib(opts.memory_budget) +
                                " is too small: one pixel of the screen needs " +
-                               stages::mib(budget.needed() + (opts.memory_budget - budget.limit())) +
+                               mib(budget.needed() + (opts.memory_budget - budget.limit())) +
                                " of device memory");
         bytes_per_tri = std::max(bytes_per_tri, budget.needed() / S + 1);
         todo.push_back(half_b);
@@ -378,11 +378,14 @@ Scene Renderer::tessellate(const Scene& scene, const Camera& camera,
     out.dropped_degenerate = scene.dropped_degenerate;
     out.source = scene.source;
     out.meshes.reserve(scene.meshes.size());
+    const stages::Deadline deadline(opts.time_limit_s, scene.source);
+    const stages::TimeCheck check_time = [&] { deadline.check(Stage::Tessellate); };
     for (const Mesh& m : scene.meshes) {
+      check_time();
       if (m.implicit)
         out.meshes.push_back(stages::dice_implicit(impl_->rt, m, camera, opts, st));
       else if (!m.patches.empty())
-        out.meshes.push_back(stages::dice_patches(impl_->rt, m, camera, opts, st));
+        out.meshes.push_back(stages::dice_patches(impl_->rt, m, camera, opts, st, check_time));
       else if (m.subdivision)
         out.meshes.push_back(
             stages::dice_subdivision(impl_->rt, m, camera, opts, impl_->loop_plans, st));

@@ -474,6 +474,8 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
         TessellateOptions to;
         to.tolerance_px = float(h.tolerance_px);
         to.implicit_tolerance_px = float(h.implicit_tolerance_px);
+        to.memory_budget = srv_.cfg.limits.render_memory_bytes;
+        to.time_limit_s = srv_.cfg.limits.render_time_limit_s;
         job.scene = std::make_shared<const Scene>(renderer->tessellate(*job.scene, cam, to));
       }
       RenderOptions opts;

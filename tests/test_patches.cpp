@@ -314,3 +314,53 @@ TEST(Patches, MirroredPatchesStayCrackFree) {
 }
 
 }  // namespace
+
+// Issue 35, case 4: dicing is counted before it is done and refused from the count. Crumpled
+// patches (random control points) near the eye dice finely; under a memory budget smaller than
+// what the count says the dice would hold, tessellate refuses (TooLarge, naming the mesh and the
+// budget) before it allocates, and with room it dices the same patches.
+TEST(Patches, DicingPastTheMemoryBudgetIsRefusedFromTheCount) {
+  std::mt19937 rng(35);
+  std::uniform_real_distribution<float> u(-1, 1);
+  Mesh m;
+  m.name = "crumpled";
+  const int n = 400;
+  for (int p = 0; p < n; ++p)
+    for (int k = 0; k < 48; ++k) m.patches.push_back(u(rng));
+  m.source_triangles = n;
+  Scene s;
+  s.meshes.push_back(std::move(m));
+  Camera cam;
+  cam.width = cam.height = 1024;
+  cam.eye = {0.0, 0.0, 3.0};
+  cam.target = {0.0, 0.0, 0.0};
+  fit_near_far(cam, s);
+  TessellateStats st;
+  const Scene d = renderer().tessellate(s, cam, TessellateOptions{0.2f}, &st);
+  const uint64_t tris = d.meshes[0].triangle_count();
+  ASSERT_GT(tris, 50000u);  // fine enough that the count matters
+  TessellateOptions tight{0.2f};
+  tight.memory_budget = 72 * tris / 2;  // half of what the triangles alone are counted at
+  try {
+    renderer().tessellate(s, cam, tight, &st);
+    FAIL() << "past the budget";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.kind(), InputErrorKind::TooLarge) << e.what();
+    EXPECT_EQ(e.mesh(), "crumpled");
+    EXPECT_NE(std::string(e.what()).find("over the memory budget of"), std::string::npos)
+        << e.what();
+  }
+  TessellateOptions roomy{0.2f};
+  roomy.memory_budget = 200 * tris + (1 << 20);
+  EXPECT_EQ(renderer().tessellate(s, cam, roomy, &st).meshes[0].triangle_count(), tris);
+  // The time limit holds in tessellate too: one already past stops it, naming the stage.
+  TessellateOptions hurried{0.2f};
+  hurried.time_limit_s = 1e-9;
+  try {
+    renderer().tessellate(s, cam, hurried, &st);
+    FAIL() << "past the time limit";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.kind(), InputErrorKind::TimeLimit) << e.what();
+    EXPECT_NE(std::string(e.what()).find("tessellate"), std::string::npos) << e.what();
+  }
+}

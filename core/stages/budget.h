@@ -8,19 +8,11 @@
 #pragma once
 
 #include <cstdint>
-#include <cstdio>
-#include <string>
 
 #include "core/device/cl_runtime.h"
+#include "core/util/format.h"
 
 namespace vismap::stages {
-
-// Bytes as the budget's messages print them: "0.95 MiB", never a "0 MiB" rounded down.
-inline std::string mib(uint64_t bytes) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.2f MiB", double(bytes) / (1 << 20));
-  return b;
-}
 
 class RegionBudget {
  public:

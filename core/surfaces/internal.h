@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <vector>
@@ -60,8 +61,11 @@ constexpr uint64_t kMaxDicedTriangles = uint64_t(1) << 27;
 
 // One patch mesh diced: positions, indices (vertices shared, across patches too), uv (per corner), face_ids (the patch of each
 // triangle), source_triangles = patch count; name, color and flags copied.
+// check_time: throws past TessellateOptions::time_limit_s (Renderer::tessellate's deadline).
+using TimeCheck = std::function<void()>;
+
 Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam, const TessellateOptions& o,
-                  TessellateStats& st);
+                  TessellateStats& st, const TimeCheck& check_time);
 
 // One implicit object (Mesh::implicit) diced: positions, indices, normals (per vertex, from the
 // gradient), face_ids 0..n-1 (each triangle its own source), source_triangles = n; name, color.

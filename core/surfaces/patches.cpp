@@ -15,6 +15,7 @@
 
 #include "core/error.h"
 #include "core/surfaces/internal.h"
+#include "core/util/format.h"
 #include "core/util/weld.h"
 
 namespace vismap::stages {
@@ -24,7 +25,7 @@ namespace {
 }  // namespace
 
 Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in, const TessellateOptions& o,
-                  TessellateStats& st) {
+                  TessellateStats& st, const TimeCheck& check_time) {
   // Long on purpose (~170 lines): two launches (patch_rates, patch_dice) and the host steps
   // between and after them (a side's rate shared by its patches, poles, offsets, the weld), each
   // a block over the same plan and offset arrays, in the order the data moves.
@@ -59,6 +60,7 @@ Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in, const T
   std::vector<uint32_t> plan(12 * size_t(n));
   rt.read(Stage::Tessellate, d_rates, 0, 48 * size_t(n), plan.data());
   st.launches += 1;
+  check_time();
   st.host_syncs += 1;
 
   // Each side gets the largest demand of the patches that share it (its four control points, bit
@@ -133,7 +135,18 @@ Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in, const T
       throw InputError(InputErrorKind::TooLarge, "", mesh.name, "patch", int64_t(p),
                        "dicing needs more than 2^27 triangles at tolerance " +
                            std::to_string(o.tolerance_px) + " px; raise the tolerance");
+    // What the dice will hold at its peak, counted before anything is allocated (issue 35, case
+    // 4: 100,000 crumpled patches reached 9.2 GB before the triangle cap refused them): the
+    // device's and the host's arrays and the weld's table, 84 bytes a vertex and 72 a triangle.
+    if (o.memory_budget && 84 * nv + 72 * nt > o.memory_budget)
+      throw InputError(InputErrorKind::TooLarge, "", mesh.name, "patch", int64_t(p),
+                       "dicing needs " + mib(84 * nv + 72 * nt) + " by this patch (" +
+                           std::to_string(nt) + " triangles) at tolerance " +
+                           std::to_string(o.tolerance_px) + " px, over the memory budget of " +
+                           mib(o.memory_budget) + "; raise the tolerance or the budget");
   }
+
+  check_time();
 
   Mesh out;
   out.name = mesh.name;

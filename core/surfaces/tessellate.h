@@ -23,6 +23,12 @@ struct TessellateOptions {
   // Keep an implicit surface's back faces. By default they are left out where they cannot be
   // seen: the eye outside the solid and the near plane cutting no leaf cell.
   bool implicit_back_faces = false;
+  // The frame's limits, as RenderOptions' (the CLI and the server pass the same ones); 0: none.
+  // memory_budget: a dicer that has counted what it would hold refuses (TooLarge) past it,
+  // before it allocates (Bezier patches; issue 35, case 4). time_limit_s: checked before each
+  // mesh and between a dicer's launches (TimeLimit, naming stage tessellate).
+  uint64_t memory_budget = 0;
+  double time_limit_s = 0;
 };
 
 struct TessellateStats {
