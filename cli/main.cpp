@@ -141,7 +141,8 @@ int render_implicit_2d(const RenderArgs& a, const implicit::Tape& tape,
   v.height = a.view.height.value_or(v.width);
   Renderer renderer(a.view.device);
   const auto t_dev = Clock::now();
-  const implicit::Regions2D r = renderer.implicit_2d(tape, v, a.view.tolerance_px);
+  const implicit::Regions2D r =
+      renderer.implicit_2d(tape, v, a.view.tolerance_px, a.time_limit_s, a.memory_budget);
   const auto t_map = Clock::now();
   const std::string svg = implicit::write_svg_2d(r, v);
   write_atomically(a.out, svg);

@@ -383,7 +383,7 @@ Scene Renderer::tessellate(const Scene& scene, const Camera& camera,
     for (const Mesh& m : scene.meshes) {
       check_time();
       if (m.implicit)
-        out.meshes.push_back(stages::dice_implicit(impl_->rt, m, camera, opts, st));
+        out.meshes.push_back(stages::dice_implicit(impl_->rt, m, camera, opts, st, check_time));
       else if (!m.patches.empty())
         out.meshes.push_back(stages::dice_patches(impl_->rt, m, camera, opts, st, check_time));
       else if (m.subdivision)
@@ -398,9 +398,13 @@ Scene Renderer::tessellate(const Scene& scene, const Camera& camera,
 }
 
 implicit::Regions2D Renderer::implicit_2d(const implicit::Tape& tape, const implicit::View2D& view,
-                                          double tolerance_px) {
-  return device_errors(impl_->rt,
-                       [&] { return implicit::contour_2d(impl_->rt, tape, view, tolerance_px); });
+                                          double tolerance_px, double time_limit_s,
+                                          uint64_t memory_budget) {
+  const stages::Deadline deadline(time_limit_s, "");
+  return device_errors(impl_->rt, [&] {
+    return implicit::contour_2d(impl_->rt, tape, view, tolerance_px,
+                                [&] { deadline.check(Stage::Implicit); }, memory_budget);
+  });
 }
 
 PlanarMap Renderer::render(const Scene& scene, const Camera& camera, const RenderOptions& opts,

@@ -62,9 +62,11 @@ class Renderer {
   // undiced surfaces (InputError BadScene).
   Scene tessellate(const Scene& scene, const Camera& camera, const TessellateOptions& opts = {},
                    TessellateStats* stats = nullptr);
-  // An expression in x and y drawn as filled regions on this device (core/surfaces/implicit2d.h).
+  // An expression in x and y drawn as filled regions on this device (core/surfaces/implicit2d.h),
+  // within the time limit and memory budget given (0: none), as a frame's.
   implicit::Regions2D implicit_2d(const implicit::Tape& tape, const implicit::View2D& view,
-                                  double tolerance_px);
+                                  double tolerance_px, double time_limit_s = 0,
+                                  uint64_t memory_budget = 0);
   PlanarMap render(const Scene& scene, const Camera& camera, const RenderOptions& opts = {},
                    RenderStats* stats = nullptr, ScreenTriangles* screen = nullptr);
   // One sample per pixel centre (row-major, y down): the global input triangle index

@@ -425,3 +425,29 @@ TEST(Implicit3D, MixedSceneThroughTheExactPipeline) {
   EXPECT_GT(area[0], 1000);
   EXPECT_GT(area[1], 1000);
 }
+
+// Issue 35, case 3: the time limit holds inside implicit tessellation (checked after each round
+// of the region queue and each batch of leaf points), not only between meshes: the architecture
+// model at implicit tolerance 0.5 px dices for many seconds; with a 1 s limit it stops with
+// TimeLimit naming stage tessellate. (Checked between meshes only, the limit was met at the start
+// and the dice ran on to its end or to the queue's own cap.)
+TEST(Implicit3D, TimeLimitHoldsInsideTheDice) {
+  const std::string path = std::string(VISMAP_SOURCE_DIR) + "/bench/implicit/architecture.json";
+  if (!std::filesystem::exists(std::string(VISMAP_SHARED_DATA_DIR) +
+                               "/implicit/mpr_architecture.sexp"))
+    GTEST_SKIP() << "no ../shared/data";
+  const Scene s = load_scene(path);
+  ASSERT_TRUE(s.camera.has_value());
+  Camera cam = *s.camera;
+  fit_near_far(cam, s);
+  TessellateOptions o;
+  o.implicit_tolerance_px = 0.5f;
+  o.time_limit_s = 1.0;
+  try {
+    renderer().tessellate(s, cam, o);
+    FAIL() << "the dice should pass a 1 s limit";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.kind(), InputErrorKind::TimeLimit) << e.what();
+    EXPECT_NE(std::string(e.what()).find("in stage tessellate"), std::string::npos) << e.what();
+  }
+}

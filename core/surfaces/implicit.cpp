@@ -22,7 +22,8 @@ constexpr uint64_t kChunkBytes = uint64_t(256) << 20;
 ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, const float lo[3],
                                  float size, uint32_t dims, const std::vector<uint32_t>& splits,
                                  uint64_t max_bytes,
-                                 const std::vector<std::array<float, 4>>& planes) {
+                                 const std::vector<std::array<float, 4>>& planes,
+                                 const std::function<void()>& check_time) {
   ImplicitQueue q;
   const uint32_t syncs0 = rt.host_syncs();
   const uint32_t slots = std::max<uint32_t>(tape.slots, 1), maxlen = uint32_t(tape.size());
@@ -72,6 +73,7 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     q.launches += 6;  // the fill, three kernels, two scans (each counted as one)
     cl_uint tot[VM_ITOTAL_SLOTS];
     rt.read(Stage::Implicit, totals, 0, sizeof tot, tot);
+    if (check_time) check_time();
     ImplicitRound r;
     r.regions = n;
     r.full = tot[VM_ITOTAL_FULL];
@@ -115,7 +117,8 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
 
 std::vector<float> eval_leaf_points(ClRuntime& rt, const implicit::SlotTape& tape,
                                     const ImplicitQueue& q, const std::vector<float>& xyz,
-                                    uint32_t m, uint32_t* launches_out) {
+                                    uint32_t m, uint32_t* launches_out,
+                                    const std::function<void()>& check_time) {
   uint32_t launches = 0;
   const size_t n = q.leaves.size();
   std::vector<float> out(n * m);
@@ -175,6 +178,7 @@ std::vector<float> eval_leaf_points(ClRuntime& rt, const implicit::SlotTape& tap
     rt.launch(Stage::Implicit, "implicit_points", pts.size(), reg, uint32_t(nb), pool, scratch,
               slots, root, p, m, val);
     rt.read(Stage::Implicit, val, 0, pts.size() * sizeof(float), out.data() + first * m);
+    if (check_time) check_time();
   }
   if (launches_out) *launches_out += launches;
   return out;

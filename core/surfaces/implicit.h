@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "core/device/cl_runtime.h"
@@ -35,15 +36,20 @@ struct ImplicitQueue {
 // would pass `max_bytes` (0: no cap), naming the round. `planes` (a, b, c, d; empty: none): a
 // region with a x + b y + c z + d < 0 over its whole box is culled (3D frames: the view's
 // planes in the expression's space), so only what the frame can see is split further.
+// check_time (when given) runs after each round's counts are read: it throws past the frame's
+// time limit, so one long dice stops within a round of it.
 ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, const float lo[3],
                                  float size, uint32_t dims, const std::vector<uint32_t>& splits,
                                  uint64_t max_bytes = 0,
-                                 const std::vector<std::array<float, 4>>& planes = {});
+                                 const std::vector<std::array<float, 4>>& planes = {},
+                                 const std::function<void()>& check_time = {});
 
 // Plain evaluation on the device of each leaf's tape at its points (m per leaf, xyz per point),
 // in batches that keep the scratch under 256 MiB; the launches made are added to *launches.
+// check_time (when given) runs after each batch.
 std::vector<float> eval_leaf_points(ClRuntime& rt, const implicit::SlotTape& tape,
                                     const ImplicitQueue& q, const std::vector<float>& xyz,
-                                    uint32_t m, uint32_t* launches = nullptr);
+                                    uint32_t m, uint32_t* launches = nullptr,
+                                    const std::function<void()>& check_time = {});
 
 }  // namespace vismap::stages

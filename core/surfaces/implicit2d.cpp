@@ -58,7 +58,8 @@ bool uses_z(const Tape& t) {
   return false;
 }
 
-Regions2D contour_2d(ClRuntime& rt, const Tape& tape, const View2D& v, double tolerance_px) {
+Regions2D contour_2d(ClRuntime& rt, const Tape& tape, const View2D& v, double tolerance_px,
+                     const std::function<void()>& check_time, uint64_t max_bytes) {
   // Long on purpose (~150 lines): MPR's 2D mode as the steps the comments below name (cell size,
   // the queue, corners, crossings, segments, loops, components), each a loop over the arrays the
   // step before it made.
@@ -90,7 +91,8 @@ Regions2D contour_2d(ClRuntime& rt, const Tape& tape, const View2D& v, double to
   const Tape clipped = clipped_to_box(tape, wlo, whi, 2);
   const SlotTape st = allocate_slots(clipped);
   const float lo[3] = {float(v.x0), float(v.y0), 0.f};
-  const stages::ImplicitQueue q = stages::run_implicit_queue(rt, st, lo, float(size), 2, splits);
+  const stages::ImplicitQueue q =
+      stages::run_implicit_queue(rt, st, lo, float(size), 2, splits, max_bytes, {}, check_time);
   for (const auto& r : q.rounds) {
     out.clauses_per_round.push_back(r.clauses);
     out.full_cells += r.full;
@@ -110,7 +112,7 @@ Regions2D contour_2d(ClRuntime& rt, const Tape& tape, const View2D& v, double to
       xyz.insert(xyz.end(), {float(v.x0 + double(i) * h), float(v.y0 + double(j) * h), 0.f});
     }
   }
-  const std::vector<float> val = stages::eval_leaf_points(rt, st, q, xyz, 4);
+  const std::vector<float> val = stages::eval_leaf_points(rt, st, q, xyz, 4, nullptr, check_time);
   out.queue_ms = ms_since(t0);
   const auto t1 = Clock::now();
   // Corner values by grid index (every copy of a corner holds the same value: the shortened
@@ -155,6 +157,7 @@ Regions2D contour_2d(ClRuntime& rt, const Tape& tape, const View2D& v, double to
       next[edge[exits[x]]] = edge[partner];
     }
   }
+  if (check_time) check_time();
   // Loops: follow the segments; each crossing starts one segment and ends one.
   std::unordered_set<Key, KeyHash> seen;
   for (const auto& [start, unused] : next) {

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -37,8 +38,11 @@ struct Regions2D {
 };
 
 // Throws InputError BadScene when the expression uses z. The boundary drawn lies within
-// tolerance_px of f = 0 (cell diagonal; docs/IMPLICIT.md "2D").
-Regions2D contour_2d(ClRuntime& rt, const Tape& t, const View2D& view, double tolerance_px);
+// tolerance_px of f = 0 (cell diagonal; docs/IMPLICIT.md "2D"). check_time (when given) runs
+// after each round of the queue, each batch of corners and the host's contouring: it throws
+// past the caller's time limit (issue 35, case 5). max_bytes caps the queue's buffers (0: none).
+Regions2D contour_2d(ClRuntime& rt, const Tape& t, const View2D& view, double tolerance_px,
+                     const std::function<void()>& check_time = {}, uint64_t max_bytes = 0);
 
 // Filled SVG: one <path> per region (fill-rule nonzero), the window as its viewBox in pixels.
 std::string write_svg_2d(const Regions2D& r, const View2D& view, const std::string& color = "#333");

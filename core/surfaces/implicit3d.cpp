@@ -187,11 +187,12 @@ struct CellGrid {
 // queue, its leaves' corners' depths (the box's nearest corner is often far nearer than any
 // surface). At least the near plane; 1 for an orthographic view (the scale does not depend on it).
 double nearest_depth(ClRuntime& rt, const implicit::SlotTape& code, const CellGrid& g,
-                     const ViewScale& v, const M4& xf, double side, TessellateStats& st) {
+                     const ViewScale& v, const M4& xf, double side, uint64_t max_bytes,
+                     const TimeCheck& check_time, TessellateStats& st) {
   if (!v.persp) return 1;
-  const ImplicitQueue coarse = run_implicit_queue(rt, code, g.lo, g.size, 3, {4, 4},
-                                                  kMaxQueueBytes,
-                                                  view_planes(v.cam.view_projection(), xf, side / 16));
+  const ImplicitQueue coarse =
+      run_implicit_queue(rt, code, g.lo, g.size, 3, {4, 4}, max_bytes,
+                         view_planes(v.cam.view_projection(), xf, side / 16), check_time);
   st.launches += coarse.launches;
   const Mat4 view = v.cam.view();
   double d_min = INFINITY;
@@ -493,7 +494,7 @@ void vertex_normals(Mesh& out, const std::vector<uint32_t>& src, const NetVertic
 }  // namespace
 
 Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
-                   const TessellateOptions& o, TessellateStats& st) {
+                   const TessellateOptions& o, TessellateStats& st, const TimeCheck& check_time) {
   const implicit::Tape& tape = *mesh.implicit;
   const M4& xf = mesh.implicit_xform;
   const double* blo = mesh.implicit_box.data();
@@ -515,12 +516,16 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
 
   // The device: the cell size for the nearest depth in view, the region queue down to it, the
   // leaf cells' corners.
-  const double d_min = nearest_depth(rt, code, g, v, xf, side, st);
+  // The queue's buffers under the frame's budget where one is set (issue 35, case 3: its own
+  // 4 GiB cap let RSS reach 6.4 GB against a 2 GiB budget), and the time limit per round.
+  const uint64_t max_bytes =
+      o.memory_budget ? std::min(o.memory_budget, kMaxQueueBytes) : kMaxQueueBytes;
+  const double d_min = nearest_depth(rt, code, g, v, xf, side, max_bytes, check_time, st);
   choose_cells(g, side, tol * d_min / (std::sqrt(3.0) * v.sigma * v.k_px), mesh);
   const ImplicitQueue q = [&] {
     try {
-      return run_implicit_queue(rt, code, g.lo, g.size, 3, g.splits, kMaxQueueBytes,
-                                view_planes(v.cam.view_projection(), xf, g.h));
+      return run_implicit_queue(rt, code, g.lo, g.size, 3, g.splits, max_bytes,
+                                view_planes(v.cam.view_projection(), xf, g.h), check_time);
     } catch (const InputError& e) {  // say which object, and what would need less
       throw InputError(e.kind(), e.file(), mesh.name, e.element(), e.index(),
                        e.detail() + " (" + std::to_string(g.N) +
@@ -533,7 +538,8 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   t0 = Clock::now();
   count_queue(q, code, g.N, st);
   const LeafCells cells = leaf_cells(q, g);
-  const std::vector<float> val = eval_leaf_points(rt, code, q, cells.xyz, 8, &st.launches);
+  const std::vector<float> val =
+      eval_leaf_points(rt, code, q, cells.xyz, 8, &st.launches, check_time);
   st.implicit_points_ms += ms_since(t0);
   t0 = Clock::now();
 
@@ -543,6 +549,7 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   out.color = mesh.color;
   NetVertices nv = net_vertices(cells, val, g, mesh);
   net_quads(cells, val, g, nv, out.indices);
+  check_time();
   const std::array<double, 9> inv = inverse3(xf);  // for the eye's place and the normals
   const double det = xf[0] * (xf[5] * xf[10] - xf[9] * xf[6]) -
                      xf[4] * (xf[1] * xf[10] - xf[9] * xf[2]) +

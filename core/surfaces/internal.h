@@ -70,7 +70,7 @@ Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam, const Tess
 // One implicit object (Mesh::implicit) diced: positions, indices, normals (per vertex, from the
 // gradient), face_ids 0..n-1 (each triangle its own source), source_triangles = n; name, color.
 Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam, const TessellateOptions& o,
-                   TessellateStats& st);
+                   TessellateStats& st, const TimeCheck& check_time);
 
 // What a Loop control mesh needs every frame (topology, stencils), built once per mesh.
 struct LoopPlan;
