@@ -179,3 +179,36 @@ TEST(Loop, KillerooDicesCrackFreeAndRenders) {
 }
 
 }  // namespace
+
+// Issue 35, case 6: the Loop plans a renderer keeps are bounded (TessellateOptions::
+// loop_plan_cache_bytes); past the bound the least recently used plans of other meshes go, and a
+// mesh whose plan went is diced the same way again (its plan rebuilt). Six sessions' plans had
+// taken the server from 2.6 to 8.6 GB, kept after they closed.
+TEST(Loop, PlanCacheIsBoundedLeastRecentlyUsedFirst) {
+  Renderer r;
+  Scene a, b;
+  a.meshes.push_back(octahedron());
+  Mesh big = octahedron();
+  big.name = "octahedron x2";
+  for (float& x : big.positions) x *= 2;
+  b.meshes.push_back(big);
+  TessellateOptions o;
+  o.tolerance_px = 0.5f;
+  TessellateStats sa, sb, sb2, sa2;
+  const Scene da = r.tessellate(a, view(512, 4), o, &sa);
+  ASSERT_GT(sa.loop_plan_bytes, 0u);
+  EXPECT_EQ(sa.loop_plans_evicted, 0u);
+  r.tessellate(b, view(512, 8), o, &sb);  // both kept under the default bound
+  EXPECT_EQ(sb.loop_plans_evicted, 0u);
+  EXPECT_GT(sb.loop_plan_bytes, sa.loop_plan_bytes);
+  TessellateOptions tight = o;
+  tight.loop_plan_cache_bytes = 1;  // only the plan being diced stays
+  r.tessellate(b, view(512, 8), tight, &sb2);
+  EXPECT_EQ(sb2.loop_plans_evicted, 1u);  // a's, the least recently used
+  EXPECT_EQ(sb2.loop_plan_bytes, sb.loop_plan_bytes - sa.loop_plan_bytes);
+  const Scene da2 = r.tessellate(a, view(512, 4), tight, &sa2);  // rebuilt; b's goes now
+  EXPECT_EQ(sa2.loop_plans_evicted, 1u);
+  EXPECT_EQ(sa2.loop_plan_bytes, sa.loop_plan_bytes);
+  EXPECT_EQ(da2.meshes[0].positions, da.meshes[0].positions);
+  EXPECT_EQ(da2.meshes[0].indices, da.meshes[0].indices);
+}

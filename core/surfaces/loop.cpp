@@ -63,6 +63,7 @@ struct LoopPlan {
   std::vector<float> control_positions;   // re-uploaded when they change
   std::vector<LoopLevel> levels;
   uint64_t bytes = 0;
+  uint64_t last_use = 0;  // LoopPlans::clock when it was last diced
   cl::Buffer d_control;
 };
 
@@ -218,6 +219,26 @@ void ensure_level(LoopPlan& plan, const Mesh& mesh, uint32_t l) {
   }
 }
 
+// Drops the least recently used plans but `keep` until all hold at most `cap` bytes (or only
+// `keep` is left); their device buffers go with them. Returns the bytes the plans hold.
+uint64_t evict_plans(LoopPlans& plans, const LoopPlan* keep, uint64_t cap, TessellateStats& st) {
+  uint64_t total = 0;
+  for (const auto& [mesh, plan] : plans.by_mesh) total += plan ? plan->bytes : 0;
+  while (total > cap) {
+    auto oldest = plans.by_mesh.end();
+    for (auto it = plans.by_mesh.begin(); it != plans.by_mesh.end(); ++it)
+      if (it->second.get() != keep &&
+          (oldest == plans.by_mesh.end() || !it->second ||
+           (oldest->second && it->second->last_use < oldest->second->last_use)))
+        oldest = it;
+    if (oldest == plans.by_mesh.end()) break;
+    total -= oldest->second ? oldest->second->bytes : 0;
+    plans.by_mesh.erase(oldest);
+    ++st.loop_plans_evicted;
+  }
+  return total;
+}
+
 void to_device(ClRuntime& rt, LoopLevel& L) {
   if (L.on_device) return;
   L.d_refine[0] = rt.upload(L.refine.start, "loop refine rows");
@@ -239,12 +260,16 @@ Mesh dice_subdivision(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   if (mesh.triangle_count() == 0 || mesh.vertex_count() == 0)
     throw InputError(InputErrorKind::EmptyMesh, "", mesh.name, "", -1,
                      "a subdivision surface needs a control mesh");
-  std::shared_ptr<LoopPlan>& slot = plans[&mesh];
+  std::shared_ptr<LoopPlan>& slot = plans.by_mesh[&mesh];
   if (!slot || slot->control_indices != mesh.indices) {
     slot = std::make_shared<LoopPlan>();
     slot->control_indices = mesh.indices;
   }
-  LoopPlan& plan = *slot;
+  const std::shared_ptr<LoopPlan> held = slot;  // slot's map entry may move under eviction
+  LoopPlan& plan = *held;
+  plan.last_use = ++plans.clock;
+  // Room for this plan first, then what it built (issue 35, case 6).
+  evict_plans(plans, &plan, o.loop_plan_cache_bytes, st);
   ensure_level(plan, mesh, 0);
   if (plan.control_positions != mesh.positions || !plan.d_control()) {
     plan.control_positions = mesh.positions;
@@ -303,6 +328,7 @@ Mesh dice_subdivision(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   st.subdivision_level = std::max(st.subdivision_level, l);
   st.pieces += mesh.triangle_count();
   st.triangles += L.faces.size() / 3;
+  st.loop_plan_bytes = evict_plans(plans, &plan, o.loop_plan_cache_bytes, st);
   return out;
 }
 

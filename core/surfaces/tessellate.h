@@ -29,6 +29,10 @@ struct TessellateOptions {
   // mesh and between a dicer's launches (TimeLimit, naming stage tessellate).
   uint64_t memory_budget = 0;
   double time_limit_s = 0;
+  // Loop subdivision plans (host topology and stencils, and their device copies) kept for the
+  // next frame, in bytes of host plan: past it, the least recently used plans of other meshes
+  // are dropped (issue 35, case 6: six sessions' plans held 6 GB in the server for good).
+  uint64_t loop_plan_cache_bytes = uint64_t(1) << 30;
 };
 
 struct TessellateStats {
@@ -40,6 +44,8 @@ struct TessellateStats {
   uint64_t over_rate = 0;       // Bezier patches diced at the largest rate (128) without reaching
                                 // the tolerance there (near the eye, across the near plane)
   uint32_t subdivision_level = 0;  // the deepest Loop level used
+  uint64_t loop_plan_bytes = 0;    // the Loop plans the renderer keeps after this call
+  uint64_t loop_plans_evicted = 0;  // plans dropped by this call to keep within the cache bound
   // Implicit surfaces: the most cells per axis of an object's grid, leaf cells, and the clauses
   // of the full tape (clipped to its box) against those of the leaves' shortened tapes.
   uint64_t implicit_cells = 0;
