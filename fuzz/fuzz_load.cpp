@@ -11,8 +11,8 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // New formats go at the end, so that the seeds' format bytes keep their meaning.
-  static const char* names[] = {"f.ply", "f.ply.gz", "f.obj",  "f.off", "f.stl",    "f.gltf",
-                                "f.glb", "f.json",   "f.pbrt", "f.bpt", "f.patches"};
+  static const char* names[] = {"f.ply", "f.ply.gz", "f.obj",  "f.off", "f.stl",     "f.gltf",
+                                "f.glb", "f.json",   "f.pbrt", "f.bpt", "f.patches", "f.sexp"};
   constexpr size_t kNames = sizeof(names) / sizeof(names[0]);
   if (size < 1) return 0;
   const std::string name = names[data[0] % kNames];

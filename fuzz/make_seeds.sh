@@ -36,3 +36,11 @@ printf '\x05{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes
 nodes=''
 for i in $(seq 1 64); do nodes="$nodes{\"children\":[$i,$i]},"; done
 printf '\x05{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[%s{"mesh":0}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}],"bufferViews":[{"buffer":0,"byteLength":36}],"buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]}' "$nodes" > "$out/gltf_shared_children.gltf.5"
+# Issue 35: the .sexp reader (format byte 11) and the scene-file and pbrt cases it fixed.
+printf '\x0b(- (+ (square x) (square y) (square z)) 1)' > "$out/sphere.sexp.11"
+printf '\x0b(max (- (abs x) 1) (- (abs y) 1) (- (abs z) 1) (- 0.5 (sqrt (+ (square x) (square y)))))' > "$out/box_hole.sexp.11"
+printf '\x0b(+ x (- (/ 1 0) (/ 1 0)))' > "$out/folds_to_nan.sexp.11"
+printf '\x07{"meshes":[{"expression":"(- (+ (square x) (square y) (square z)) 1)","bounds":[-2,-2,-2,2,2,2],"matrix":[1,0,0,0,0,1,0,0,0,0,1,0.5,0,0,0,1]}]}' > "$out/projective_matrix.json.7"
+printf '\x07{"meshes":[{"expression":"(- (square x) 1)","bounds":[0,0,0,1e-300,1,1]}]}' > "$out/thin_bounds.json.7"
+printf '\x08WorldBegin\nScale 0 0 0\nShape "trianglemesh" "point P" [0 0 0 1 0 0 0 1 0] "integer indices" [0 1 2]\nWorldEnd\n' > "$out/scale_zero.pbrt.8"
+printf '\x08LookAt 0 0 5 0 0 0 0 1 0\nCamera "perspective" "float fov" [45]\nWorldBegin\nAttributeBegin\nTranslate 0 0 1\nShape "loopsubdiv" "point P" [1 0 0 -1 0 0 0 1 0 0 -1 0 0 0 1 0 0 -1] "integer indices" [0 2 4 2 1 4 1 3 4 3 0 4 2 0 5 1 2 5 3 1 5 0 3 5]\nAttributeEnd\nWorldEnd\n' > "$out/loop_octahedron.pbrt.8"
