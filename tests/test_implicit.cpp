@@ -430,3 +430,31 @@ TEST(Implicit2D, TimeCheckStopsTheContouring) {
   }
   EXPECT_EQ(calls, 2);
 }
+
+// Issue 35, case 1: a long tape that no box shortens (a sphere under 10,000 nested (+ ... 0))
+// made the bounds search hold a copy of it per ambiguous box: 5.9 GB and 38 s here before the
+// region queue refused the object (10^5 of them, a 4.3 MB upload, grew past 14 GB). The search
+// now counts the tapes a level holds and refuses past 256 MiB, asking for bounds.
+TEST(Implicit, BoundsSearchOfALongTapeIsBounded) {
+  std::string s;
+  const int n = 10000;
+  for (int i = 0; i < n; ++i) s += "(+ ";
+  s += "(- (+ (square x) (square y) (square z)) 1)";
+  for (int i = 0; i < n; ++i) s += " 0)";
+  const Tape t = parse(s, "nested.sexp");
+  ASSERT_GT(t.size(), size_t(n));  // nothing folded away: (+ f 0) is kept
+  try {
+    find_bounds(t, "nested.sexp");
+    FAIL() << "the search should refuse";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.kind(), InputErrorKind::TooLarge) << e.what();
+    EXPECT_NE(std::string(e.what()).find("the bounds search would hold more than 256 MiB"),
+              std::string::npos)
+        << e.what();
+  }
+  // The sphere alone is found as before.
+  const std::array<double, 6> b =
+      find_bounds(parse("(- (+ (square x) (square y) (square z)) 1)", "ball.sexp"), "ball.sexp");
+  EXPECT_LT(b[0], -1);
+  EXPECT_GT(b[3], 1);
+}

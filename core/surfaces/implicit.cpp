@@ -37,6 +37,10 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
   uint32_t n = 1;
   uint64_t clauses = maxlen;  // the round's tape lengths summed: its choice bytes
   uint32_t per_in = 1;        // regions a parent of the last round (kernels: vm_choice_off)
+  // What the round starts from and holds throughout: its regions and their tape pool. The caps
+  // below count it with the round's own buffers and the next round's, which are all held at
+  // once (issue 35, case 1: each group counted alone let a round hold more than the cap).
+  uint64_t held = sizeof(VmIRegion) + uint64_t(maxlen) * sizeof(VmIClause);
   cl::Buffer totals = rt.alloc(VM_ITOTAL_SLOTS * sizeof(cl_uint), "implicit totals");
   std::vector<cl_float4> pl(std::max<size_t>(planes.size(), 1), cl_float4{{0, 0, 0, 1}});
   for (size_t k = 0; k < planes.size(); ++k)
@@ -50,7 +54,8 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     // intervals and of liveness for the regions of one chunk at a time (at most 256 MiB: a
     // round of millions of regions on a tape of hundreds of slots runs in pieces).
     const uint32_t chunk = uint32_t(std::clamp<uint64_t>(kChunkBytes / (slots * 9ull), 1, n));
-    check_bytes(uint64_t(n) * (8 + 16) + clauses + uint64_t(chunk) * slots * 9, max_bytes, round);
+    const uint64_t working = uint64_t(n) * (8 + 16) + clauses + uint64_t(chunk) * slots * 9;
+    check_bytes(held + working, max_bytes, round);
     cl::Buffer scratch = rt.alloc(size_t(chunk) * slots * sizeof(cl_float2), "implicit slots");
     cl::Buffer live = rt.alloc(size_t(chunk) * slots, "implicit liveness");
     cl::Buffer choices = rt.alloc(std::max<size_t>(clauses, 1), "implicit choices");
@@ -87,8 +92,9 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     if (next_n > 0xffffffffull || pool_next == 0xffffffffu)
       throw InputError(InputErrorKind::TooLarge, "", "", "implicit round", int64_t(round),
                        "more than 2^32 regions");
-    check_bytes(uint64_t(pool_next) * sizeof(VmIClause) + next_n * sizeof(VmIRegion), max_bytes,
-                round);
+    // The next round's inputs; after the last round they are also copied to the host (the leaves).
+    const uint64_t next_held = uint64_t(pool_next) * sizeof(VmIClause) + next_n * sizeof(VmIRegion);
+    check_bytes(held + working + (last ? 2 : 1) * next_held, max_bytes, round);
     cl::Buffer next_pool = rt.alloc(std::max<size_t>(pool_next, 1) * sizeof(VmIClause),
                                     "implicit tape pool");
     cl::Buffer next = rt.alloc(std::max<size_t>(next_n, 1) * sizeof(VmIRegion), "implicit regions");
@@ -100,6 +106,7 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     }
     regions = next;
     pool = next_pool;
+    held = next_held;
     n = uint32_t(next_n);
     clauses = uint64_t(pool_next) * per;
     per_in = per;
