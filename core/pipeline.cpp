@@ -28,6 +28,7 @@
 #include "core/stages/raster.h"
 #include "core/stages/silhouettes.h"
 #include "core/stages/transform.h"
+#include "core/surfaces/implicit.h"
 #include "core/surfaces/implicit2d.h"
 #include "core/surfaces/internal.h"
 #include "core/util/clock.h"
@@ -403,7 +404,8 @@ implicit::Regions2D Renderer::implicit_2d(const implicit::Tape& tape, const impl
   const stages::Deadline deadline(time_limit_s, "");
   return device_errors(impl_->rt, [&] {
     return implicit::contour_2d(impl_->rt, tape, view, tolerance_px,
-                                [&] { deadline.check(Stage::Implicit); }, memory_budget);
+                                [&] { deadline.check(Stage::Implicit); },
+                                stages::implicit_queue_cap(memory_budget));
   });
 }
 

@@ -20,9 +20,11 @@ struct CliRun {
   std::string err, out;  // out: only when run with keep_stdout
 };
 
-CliRun run(const std::string& args, const fs::path& dir, bool keep_stdout = false) {
+// prefix: a command the CLI runs under (prlimit).
+CliRun run(const std::string& args, const fs::path& dir, bool keep_stdout = false,
+           const std::string& prefix = "") {
   fs::path err = dir / "stderr.txt", out = dir / "stdout.txt";
-  std::string cmd = std::string(VISMAP_CLI) + " " + args + " 2>" + err.string() + " >" +
+  std::string cmd = prefix + std::string(VISMAP_CLI) + " " + args + " 2>" + err.string() + " >" +
                     (keep_stdout ? out.string() : std::string("/dev/null"));
   int rc = std::system(cmd.c_str());
   CliRun r;
@@ -315,3 +317,21 @@ TEST_F(Cli, ImplicitTwoDimensional) {
   EXPECT_EQ(mesh.status, 2);
   EXPECT_FALSE(fs::exists(out));
 }
+
+// Issue 35, case 2: a device allocation that cannot be made is refused as too large for the
+// frame; PoCL, left to make it, aborted the process (an assertion in
+// pocl_create_migration_commands). A 2D window far out (1e38) keeps every cell ambiguous, so the
+// queue grows until an allocation fails under a 2 GB address-space cap.
+TEST_F(Cli, FailedDeviceAllocationIsAnErrorNotAnAbort) {
+  if (std::system("prlimit --version > /dev/null 2>&1") != 0) GTEST_SKIP() << "no prlimit";
+  std::ofstream(dir / "disc.sexp") << "(- (+ (square x) (square y)) 1)\n";
+  const fs::path out = dir / "disc.svg";
+  CliRun r = run("render " + (dir / "disc.sexp").string() + " -o " + out.string() +
+                     " --bounds 1e38,1e38,3e38,3e38",
+                 dir, false, "prlimit --as=2000000000 ");
+  EXPECT_EQ(r.status, 1) << r.err;  // 134 was SIGABRT
+  EXPECT_NE(r.err.find("disc.sexp: implicit"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("Assertion"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+

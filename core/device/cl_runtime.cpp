@@ -301,7 +301,15 @@ cl::Buffer ClRuntime::alloc(size_t bytes, const char* what) {
   bytes = std::max<size_t>(bytes, 16);
   void* block = nullptr;
   size_t block_bytes = bytes;
-  if (host_blocks_ && bytes >= kHostBlockMinBytes) block = take_host_block(block_bytes);
+  if (host_blocks_ && bytes >= kHostBlockMinBytes) {
+    block = take_host_block(block_bytes);
+    // No memory for the block: PoCL would try the same allocation itself and abort the process
+    // when it fails (an assertion in pocl_create_migration_commands, issue 35, case 2), so the
+    // buffer is refused here, as too large for this frame.
+    if (!block)
+      throw InputError(InputErrorKind::TooLarge, "", "", what, -1,
+                       "no memory for " + std::to_string(bytes) + " bytes of device memory");
+  }
   try {
     cl::Buffer b = block ? cl::Buffer(ctx_, CL_MEM_READ_WRITE | CL_MEM_USE_HOST_PTR, bytes, block)
                          : cl::Buffer(ctx_, CL_MEM_READ_WRITE, bytes);

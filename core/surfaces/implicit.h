@@ -21,6 +21,15 @@ struct ImplicitRound {
   uint64_t clauses = 0;  // clauses evaluated in the round (sum of the regions' tape lengths)
 };
 
+// The most a region queue may hold where no memory budget says less (3D dicing and the 2D mode).
+inline constexpr uint64_t kMaxImplicitQueueBytes = uint64_t(4) << 30;
+
+// The queue's cap for a frame's memory budget (0: none): the budget, at most the above.
+inline uint64_t implicit_queue_cap(uint64_t memory_budget) {
+  return memory_budget && memory_budget < kMaxImplicitQueueBytes ? memory_budget
+                                                                  : kMaxImplicitQueueBytes;
+}
+
 struct ImplicitQueue {
   // The ambiguous regions of the last round, each with its shortened tape (a slice of pool:
   // VmIRegion::tape_off / tape_len in clauses of 4 words).

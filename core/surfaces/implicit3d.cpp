@@ -170,7 +170,6 @@ std::vector<std::array<float, 4>> view_planes(const Mat4& vp, const M4& xf, doub
   return planes;
 }
 
-constexpr uint64_t kMaxQueueBytes = uint64_t(4) << 30;
 
 // The object's cube and its grid of N cells per axis of side h (corners canonical: lo + i h in
 // double, then float).
@@ -518,8 +517,7 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   // leaf cells' corners.
   // The queue's buffers under the frame's budget where one is set (issue 35, case 3: its own
   // 4 GiB cap let RSS reach 6.4 GB against a 2 GiB budget), and the time limit per round.
-  const uint64_t max_bytes =
-      o.memory_budget ? std::min(o.memory_budget, kMaxQueueBytes) : kMaxQueueBytes;
+  const uint64_t max_bytes = implicit_queue_cap(o.memory_budget);
   const double d_min = nearest_depth(rt, code, g, v, xf, side, max_bytes, check_time, st);
   choose_cells(g, side, tol * d_min / (std::sqrt(3.0) * v.sigma * v.k_px), mesh);
   const ImplicitQueue q = [&] {
