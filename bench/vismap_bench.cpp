@@ -5,6 +5,7 @@
 //
 //   vismap_bench SCENE [--width W] [--height H] [--runs N] [--tile-pixels 0,16,32,...]
 //                [--camera auto|bench|frame] [--device NAME] [--writes N] [--budget-s S]
+//                [--no-cull]
 //
 // --budget-s: stop a setting's warm runs once they have taken S seconds (at least one run), and
 // skip the extra render for the binary writer's size when one render takes more than S/4: slow
@@ -107,6 +108,7 @@ struct Args {
   uint32_t width = 1024, height = 1024, runs = 5, writes = 3;
   double budget_s = 1e9;
   bool width_set = false;
+  bool cull = true;  // --no-cull: RenderOptions::cull off (the frame before issue 32's culling)
   std::vector<uint32_t> tiles{0};
 };
 
@@ -150,6 +152,8 @@ int main(int argc, char** argv) {
         a.camera = value();
       else if (f == "--device")
         a.device = value();
+      else if (f == "--no-cull")
+        a.cull = false;
       else if (!f.empty() && f[0] == '-')
         return usage();
       else
@@ -187,6 +191,7 @@ int main(int argc, char** argv) {
     // First render: pays the upload and PoCL's kernel JIT.
     RenderOptions first_opts;
     first_opts.tile_pixels = a.tiles[0];
+    first_opts.cull = a.cull;
     RenderStats first;
     auto t3 = Clock::now();
     (void)renderer.render(scene, cam, first_opts, &first);
@@ -197,6 +202,7 @@ int main(int argc, char** argv) {
     for (uint32_t tile : a.tiles) {
       RenderOptions opts;
       opts.tile_pixels = tile;
+      opts.cull = a.cull;
       std::vector<double> pipe, kernels, host;
       std::map<std::string, std::vector<double>> stage_ms, kernel_ms;
       std::vector<std::string> stage_order;
@@ -304,6 +310,9 @@ int main(int argc, char** argv) {
       num("fragments", double(st.fragments));
       num("visible_fragments", double(st.visible_fragments));
       num("sliver_fragments", double(st.sliver_fragments));
+      num("culled_triangles", double(st.culled_triangles));
+      num("dropped_fragments", double(st.dropped_fragments));
+      num("cull", a.cull ? 1 : 0);
       num("clip_rounds", st.clip_rounds);
       num("host_syncs", st.host_syncs);
       num("launches", st.launches);

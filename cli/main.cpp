@@ -95,6 +95,7 @@ struct RenderArgs {
   std::string scene, out, format, fill = "shade";  // format: "" until resolved
   ViewArgs view;
   bool stats = false;
+  bool cull = true;  // --no-cull: clip every triangle in view (RenderOptions::cull)
   uint64_t memory_budget = 0;
   double time_limit_s = 0;
   uint32_t quantum = 16;  // compact: grid steps per pixel
@@ -248,6 +249,8 @@ RenderArgs parse_render(int argc, char** argv) {
       parse_line_color(value(), a.svg);
     else if (f == "--stats")
       a.stats = true;
+    else if (f == "--no-cull")
+      a.cull = false;
     else if (f == "--memory-budget")
       a.memory_budget = parse_bytes(f, value());
     else if (f == "--time-limit") {
@@ -373,6 +376,12 @@ void print_frame_stats(const RenderReport& r) {
       static_cast<unsigned long long>(r.st.crossing_lines),
       static_cast<unsigned long long>(r.st.thin_fragments),
       static_cast<unsigned long long>(r.st.deep_tournaments));
+  std::fprintf(stderr,
+               "left out as provably hidden: %llu screen triangles (cull), %llu fragments "
+               "(stopped in the clip rounds)%s\n",
+               static_cast<unsigned long long>(r.st.culled_triangles),
+               static_cast<unsigned long long>(r.st.dropped_fragments),
+               r.args.cull ? "" : "; culling off (--no-cull)");
   if (r.args.memory_budget)
     std::fprintf(stderr,
                  "memory budget %.1f MB: %u bucket(s), each planned under %.1f MB of work\n",
@@ -448,6 +457,7 @@ int run_render(RenderArgs& a, std::chrono::steady_clock::time_point t0) {
   opts.attributes = a.format == "bin";
   opts.memory_budget = a.memory_budget;
   opts.time_limit_s = a.time_limit_s;
+  opts.cull = a.cull;
   bool tty = ::isatty(2);
   if (tty) {
     opts.progress = [t0, shown = false](double f) mutable {

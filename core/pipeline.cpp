@@ -21,6 +21,7 @@
 #include "core/stages/candidates.h"
 #include "core/stages/clip.h"
 #include "core/stages/crossings.h"
+#include "core/stages/cull.h"
 #include "core/stages/deadline.h"
 #include "core/stages/emit.h"
 #include "core/stages/map_build.h"
@@ -265,7 +266,14 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
   snap_depths(rt, fr, s, Stage::Transform);
   const Grids grids = choose_grids(opts.tile_pixels, fr.W, fr.H, S);
   st.tile_pixels = grids.tile_px;
-  const TriangleBins tb = bin_triangles(rt, s, grids.fine);
+  const TriangleBins tb = bin_triangles(rt, s, grids.fine, opts.cull);
+  // From here on the provably hidden triangles are out of the frame (their boxes emptied).
+  CullBounds cull;
+  deadline.check(Stage::Cull);
+  if (!opts.cull)
+    cull = no_cull_bounds(rt);
+  else if (!cull_hidden(rt, s, tb, sil, totals, budget, cull))
+    return false;
   deadline.check(Stage::Crossings);
   Crossings cx;
   if (!find_crossings(rt, s, tb, totals, budget, cx)) return false;
@@ -282,16 +290,16 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
   Fragments frags;
   const uint64_t before_clip = budget.used(rt);
   for (;;) {
-    const ClipStatus cs = clip_fragments(rt, s, region, fr.use_boxes, cand, ce, totals, deadline,
-                                         budget, progress, frags);
+    const ClipStatus cs = clip_fragments(rt, s, region, fr.use_boxes, cand, ce, cull, totals,
+                                         deadline, budget, progress, frags);
     if (cs == ClipStatus::Done) break;
     if (cs == ClipStatus::OverBudget) return false;
     // A fragment needs more supporting lines than the program was built for: rebuild with twice
     // as many and run the clipping again. Nothing is dropped.
     if (rt.maxl() >= 256) throw DeviceError("a fragment needs more than 256 supporting lines");
     rt.build(rt.maxl() * 2);
-    rt.fill_u32(totals, 0, VM_TOTAL_SLOTS, Stage::Clip);
-    budget.forget_since(rt, before_clip);  // the first try's fragments are gone
+    rt.fill_u32(totals, 0, VM_TOTAL_CULLED, Stage::Clip);  // (all but the cull's count, the last)
+    budget.forget_since(rt, before_clip);                  // the first try's fragments are gone
   }
   deadline.check(Stage::Occlusion);
   const Visibility vis = decide_visibility(rt, frags, s, tb, ce, cx, totals);
@@ -313,11 +321,15 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
   st.thin_fragments += vis.thin;
   st.deep_tournaments += vis.deep;
   st.sliver_fragments += em.totals[VM_TOTAL_SLIVERS];
+  const uint32_t kept = S - em.totals[VM_TOTAL_CULLED];
+  st.culled_triangles += em.totals[VM_TOTAL_CULLED];
+  st.dropped_fragments += em.totals[VM_TOTAL_DROPPED];
   tally.items(Stage::Silhouettes, uint64_t(3) * S, sil.count);
   tally.items(Stage::Bin, uint64_t(S) + sil.count, uint64_t(tb.leaves.entries) + eb.leaves.entries);
-  tally.items(Stage::Crossings, S, cx.pairs);
-  tally.items(Stage::Candidates, S, cand.total);
-  tally.items(Stage::Clip, S, frags.count);
+  tally.items(Stage::Cull, S, kept);
+  tally.items(Stage::Crossings, kept, cx.pairs);
+  tally.items(Stage::Candidates, kept, cand.total);
+  tally.items(Stage::Clip, kept, frags.count);
   tally.items(Stage::Occlusion, frags.count, vis.count);
   if (screen) keep_screen_triangles(em.tris, region, fr.use_boxes != 0, *screen);
   return true;
@@ -363,8 +375,8 @@ RasterStats Renderer::raster_ids(const Scene& scene, const Camera& camera,
   });
 }
 
-Scene Renderer::tessellate(const Scene& scene, const Camera& camera,
-                           const TessellateOptions& opts, TessellateStats* stats) {
+Scene Renderer::tessellate(const Scene& scene, const Camera& camera, const TessellateOptions& opts,
+                           TessellateStats* stats) {
   TessellateStats local;
   TessellateStats& st = stats ? *stats : local;
   st = TessellateStats{};
@@ -403,9 +415,9 @@ implicit::Regions2D Renderer::implicit_2d(const implicit::Tape& tape, const impl
                                           uint64_t memory_budget) {
   const stages::Deadline deadline(time_limit_s, "");
   return device_errors(impl_->rt, [&] {
-    return implicit::contour_2d(impl_->rt, tape, view, tolerance_px,
-                                [&] { deadline.check(Stage::Implicit); },
-                                stages::implicit_queue_cap(memory_budget));
+    return implicit::contour_2d(
+        impl_->rt, tape, view, tolerance_px, [&] { deadline.check(Stage::Implicit); },
+        stages::implicit_queue_cap(memory_budget));
   });
 }
 

@@ -35,6 +35,10 @@ struct RenderOptions {
   // Seconds of host wall time the render may take; 0: no limit. Checked between launches: past
   // it the render stops with InputError TimeLimit and nothing is returned.
   double time_limit_s = 0;
+  // Leave out what is provably hidden (core/stages/cull.h): triangles before the crossings,
+  // candidates and clip rounds, fragments during them. The visible region of every source is the
+  // same either way; off, the frame clips every triangle in view (for comparisons and tests).
+  bool cull = true;
 };
 
 // Tells the C allocator to keep freed memory for reuse instead of handing it back to the kernel

@@ -32,6 +32,9 @@ struct RenderStats {
   uint64_t thin_fragments = 0;     // thinner than the fine sample grid: decided at exact points
   uint64_t deep_tournaments = 0;   // fragments decided by a tournament of > VM_TOUR_MAX triangles
   uint64_t sliver_fragments = 0;   // fragments without interior (zero area; dropped)
+  // Left out because provably hidden (the cull stage, core/stages/cull.h): screen triangles
+  // before the crossings, and fragments the clip rounds stopped (neither split nor finished).
+  uint64_t culled_triangles = 0, dropped_fragments = 0;
   uint64_t peak_device_bytes = 0;  // most device memory held at once (scene upload included)
   uint64_t allocated_device_bytes = 0;  // sum of every allocation during the render
   uint32_t clip_rounds = 0;             // summed over buckets

@@ -8,6 +8,25 @@
  * never by rounded vertices, so every split is exact (DESIGN §3). */
 
 #define VM_NONE 0xffffffffu
+/* A node's recorded cut when the fragment there was proven hidden and dropped. */
+#define VM_DROP 0xfffffffeu
+
+/* What the cull proved (cull.cl): the fine bins' leaves of the whole region with their bounds,
+ * and the screen triangles the fragments come from. on = 0: nothing proven, nothing dropped. */
+typedef struct {
+  __global const VmScreenTri* tris;
+  __global const uint* tile_leaf;
+  __global const double2* leaf_cull;
+  VmGrid g;
+  int on;
+} CullView;
+
+/* Is the fragment of screen triangle t with box b (frag_box) proven hidden? */
+inline bool frag_proven_hidden(const CullView* cv, uint t, double4 b) {
+  const VmScreenTri T = cv->tris[t];
+  const int4 fb = (int4)((int)floor(b.x), (int)floor(b.y), (int)ceil(b.z), (int)ceil(b.w));
+  return fragment_hidden(&T, fb, cv->g, cv->tile_leaf, cv->leaf_cull);
+}
 
 /* Signs of the fragment's vertices (vertex i = line i ^ line i+1) with respect to LE, and
  * whether the segment E really cuts the fragment's interior: its line strictly separates two
@@ -57,8 +76,9 @@ inline uint split_side(const VmLine* L, uint n, const int* sgn, int side, VmLine
  * lines; sgn: its vertex signs against that edge), or VM_NONE. The fragment's box (from
  * approximate vertices, widened by a grid unit: only a filter) lets most far-away segments go
  * without the exact tests. */
-inline uint find_cut(const VmLine* L, uint nl, uint from, __global const uint* cand, uint n,
-                     __global const VmEdge* edges, int* sgn) {
+/* The fragment's box from its approximate vertices, widened by a grid unit so that it holds the
+ * exact fragment (the vertices' rounding is far below that): (lo.x, lo.y, hi.x, hi.y). */
+inline double4 frag_box(const VmLine* L, uint nl) {
   double2 lo = (double2)(INFINITY, INFINITY), hi = (double2)(-INFINITY, -INFINITY);
   Line3 first = line_of_vm(L[0]), cur = first;
   for (uint j = 0; j < nl; ++j) {
@@ -68,8 +88,12 @@ inline uint find_cut(const VmLine* L, uint nl, uint from, __global const uint* c
     hi = fmax(hi, v);
     cur = nxt;
   }
-  lo -= (double2)(1.0, 1.0);
-  hi += (double2)(1.0, 1.0);
+  return (double4)(lo.x - 1.0, lo.y - 1.0, hi.x + 1.0, hi.y + 1.0);
+}
+
+inline uint find_cut(const VmLine* L, uint nl, uint from, __global const uint* cand, uint n,
+                     __global const VmEdge* edges, int* sgn, double4 box) {
+  const double2 lo = box.xy, hi = box.zw;
   for (uint k = from; k < n; ++k) {
     VmEdge E = edges[cand[k]];
     if (!isinf(E.q0) &&
@@ -103,7 +127,8 @@ inline void clip_walk(uint levels, VmFragMeta m, __global const VmLine* L, __glo
                       __global const uint* cand, uint ncand, __global const VmEdge* edges,
                       uint* count, __global uint* status, int place, uint queue, uint* done,
                       __global VmFragMeta* next_meta, __global VmLine* next_lines,
-                      __global VmFragMeta* done_meta, __global VmLine* done_lines) {
+                      __global VmFragMeta* done_meta, __global VmLine* done_lines,
+                      const CullView* cv, uint* dropped) {
   VmLine P[VM_CLIP_LEVELS][VM_MAXL];
   int sgn[VM_CLIP_LEVELS][VM_MAXL];
   uint nl[VM_CLIP_LEVELS], from[VM_CLIP_LEVELS], ks[VM_CLIP_LEVELS];
@@ -115,14 +140,20 @@ inline void clip_walk(uint levels, VmFragMeta m, __global const VmLine* L, __glo
   for (;;) {
     uint k;
     if (!place) {
-      k = find_cut(P[lev], nl[lev], from[lev], cand, ncand, edges, sgn[lev]);
+      const double4 box = frag_box(P[lev], nl[lev]);
+      /* (a root fragment is its whole triangle, which the cull kept: no test) */
+      k = cv->on && (h > 1 || m.next > 0) && frag_proven_hidden(cv, m.tri, box)
+              ? VM_DROP
+              : find_cut(P[lev], nl[lev], from[lev], cand, ncand, edges, sgn[lev], box);
       splits[h - 1] = k;
     } else {
       k = splits[h - 1];
-      if (k != VM_NONE) cuts(P[lev], nl[lev], edges[cand[k]], sgn[lev]);
+      if (k != VM_NONE && k != VM_DROP) cuts(P[lev], nl[lev], edges[cand[k]], sgn[lev]);
     }
     ks[lev] = k;
-    if (k == VM_NONE) { /* finished at this level */
+    if (k == VM_DROP) { /* proven hidden (cull.cl): neither split further nor finished */
+      ++*dropped;
+    } else if (k == VM_NONE) { /* finished at this level */
       if (!place) {
         ++count[1 + lev];
       } else {
@@ -179,15 +210,17 @@ inline void clip_walk(uint levels, VmFragMeta m, __global const VmLine* L, __glo
  * lines, so the clipped fragment is still bounded by lines through grid points and fragments of
  * neighbouring regions meet exactly. A triangle whose box meets the region but whose interior
  * does not gets nlines = 0 and is dropped by the first round. */
-__kernel void frag_init(__global const VmScreenTri* tris, uint ntris, int4 region, int clip_region,
-                        __global VmFragMeta* meta, __global VmLine* lines, __global uint* state) {
+__kernel void frag_init(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
+                        int4 region, int clip_region, __global VmFragMeta* meta,
+                        __global VmLine* lines, __global uint* state) {
   uint t = get_global_id(0);
   if (t >= ntris) return;
   if (t == 0) /* the queue state of the first round (layout.h VM_CLIP_*) */
     for (int w = 0; w < VM_CLIP_WORDS; ++w) state[w] = w == VM_CLIP_NQ ? ntris : 0u;
   VmScreenTri s = tris[t];
   VmLine P[VM_MAXL], Q[VM_MAXL];
-  uint n = 3;
+  /* a triangle the cull left out (cull.cl: its box emptied) has no fragment */
+  uint n = tri_bb[t].x > tri_bb[t].z ? 0 : 3;
   for (int i = 0; i < 3; ++i) {
     int j = i == 2 ? 0 : i + 1;
     P[i] = vm_line_of(s.x[i], s.y[i], s.x[j], s.y[j]);
@@ -251,7 +284,9 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_find(
     __global const uint* states, uint sc, uint resume, uint fused, uint levels,
     __global const uint* cand_offset, __global const uint* cand_count, __global const uint* cand,
     __global const VmEdge* edges, __global uint* splits, __global uint* next_count,
-    __global uint* done_count, __global uint* block_sums, __global uint* status) {
+    __global uint* done_count, __global uint* block_sums, __global uint* status,
+    __global const VmScreenTri* tris, VmGrid cull_grid, __global const uint* cull_tile_leaf,
+    __global const double2* leaf_cull, int cull_on) {
   /* Two counts a word (a group's totals are at most 8 VM_SCAN_WG = 2048 < 2^16): .x the
    * children and level 0's finished, .y levels 1 and 2's. */
   __local uint scan_a[VM_SCAN_WG], scan_b[VM_SCAN_WG];
@@ -261,10 +296,12 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_find(
   VmFragMeta m;
   m.nlines = 0;
   if (i < grid && i < nq) m = meta[i];
+  const CullView cv = {tris, cull_tile_leaf, leaf_cull, cull_grid, cull_on};
+  uint dropped = 0; /* (counted by clip_apply, once the pass takes effect) */
   if (m.nlines > 0) /* (0: past the queue, or a root fragment outside its region, frag_init) */
     clip_walk(levels, m, lines + (size_t)i * VM_MAXL, splits + (size_t)i * VM_CLIP_NODES,
               cand + cand_offset[m.tri], cand_count[m.tri], edges, count, status, 0, 0, 0, 0, 0,
-              0, 0);
+              0, 0, &cv, &dropped);
   if (!fused) { /* one level */
     if (i < grid) {
       next_count[i] = count[0];
@@ -304,12 +341,13 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_find(
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_apply(
     __global const VmFragMeta* meta, __global const VmLine* lines, uint grid,
     __global uint* states, uint sc, uint resume, uint fused, uint levels,
-    __global const uint* totals, __global const uint* block_sums, uint next_grid, uint done_cap,
+    __global uint* totals, __global const uint* block_sums, uint next_grid, uint done_cap,
     __global const uint* cand_offset, __global const uint* cand, __global const VmEdge* edges,
     __global uint* splits, __global const uint* next_offset,
     __global const uint* done_offset, __global VmFragMeta* next_meta,
     __global VmLine* next_lines, __global VmFragMeta* done_meta, __global VmLine* done_lines) {
-  /* (the counts as clip_find's, VM_CLIP_COUNTS == 4) */
+  /* (the counts as clip_find's, VM_CLIP_COUNTS == 4; dropped fragments are counted here, in
+   * totals[VM_TOTAL_DROPPED], as the pass takes effect) */
   __local uint4 before_sums[VM_SCAN_WG], all_sums[VM_SCAN_WG];
   const uint i = get_global_id(0), lid = get_local_id(0), g = get_group_id(0);
   uint4 before = (uint4)(0, 0, 0, 0), all;
@@ -381,7 +419,10 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_apply
     done[l] = at + done_before[l] + done_offset[(size_t)l * grid + i];
     at += done_all[l];
   }
+  const CullView cv = {0, 0, 0, {0, 0, 0, 0}, 0}; /* (apply reads the recorded drops) */
+  uint dropped = 0;
   clip_walk(levels, m, lines + (size_t)i * VM_MAXL, splits + (size_t)i * VM_CLIP_NODES,
             cand + cand_offset[m.tri], 0, edges, 0, 0, 1, before.x + next_offset[i], done,
-            next_meta, next_lines, done_meta, done_lines);
+            next_meta, next_lines, done_meta, done_lines, &cv, &dropped);
+  if (dropped) atomic_add(&totals[VM_TOTAL_DROPPED], dropped);
 }

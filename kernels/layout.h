@@ -104,7 +104,9 @@ typedef struct {
 #define VM_TOTAL_DONE 3    /* fragments a clip round finished (scan_to) */
 #define VM_TOTAL_THIN 4    /* fragments thinner than the fine sample grid (occlusion.cl occlude) */
 #define VM_TOTAL_DEEP 5    /* tournaments of more than VM_TOUR_MAX triangles (occlude_deep) */
-#define VM_TOTAL_SLOTS 6
+#define VM_TOTAL_DROPPED 6 /* fragments the clip rounds proved hidden and dropped (cull.cl) */
+#define VM_TOTAL_CULLED 7  /* screen triangles proven hidden before the crossings (cull.cl) */
+#define VM_TOTAL_SLOTS 8
 
 /* Status flags a kernel can raise in totals[VM_TOTAL_STATUS] (read back by the host). */
 #define VM_STATUS_LINES_OVERFLOW 1u
@@ -208,7 +210,8 @@ static_assert(sizeof(VmGrid) == 16, "VmGrid layout");
 /* The host reads the totals as VM_TOTAL_SLOTS words, launches scan_blocks with VM_SCAN_WG items
  * a group (its reqd_work_group_size) and VM_SCAN_BLOCK counts a group, and sizes the pair
  * scratch by VM_PAIRS_INLINE. */
-static_assert(VM_TOTAL_STATUS == 0 && VM_TOTAL_SLOTS == 6, "totals slots 0..5");
+static_assert(VM_TOTAL_STATUS == 0 && VM_TOTAL_SLOTS == 8 && VM_TOTAL_CULLED == VM_TOTAL_SLOTS - 1,
+              "totals slots 0..7, the cull's count last (a clip rerun zeroes the others)");
 static_assert(VM_TOTAL_DEEP == VM_TOTAL_THIN + 1, "occlusion reads thin and deep in one read");
 static_assert(VM_SCAN_BLOCK == VM_SCAN_WG * VM_SCAN_PER_ITEM &&
                   (VM_SCAN_WG & (VM_SCAN_WG - 1)) == 0,

@@ -108,38 +108,73 @@ inline void opposite_vertex(__global const VmScreenTri* tris, uint e, long* x, l
   *y = tris[t].y[k2];
 }
 
-/* 1 when edge e is the representative (lowest id) of a silhouette edge. */
-inline uint is_silhouette(__global const VmScreenTri* tris, uint e,
-                          __global const uint* slot_of_edge, __global const uint* table,
-                          __global const uint* second, __global const uint* many,
-                          __global const uint* slot_min) {
-  uint s = slot_of_edge[e];
-  if (many[s]) return slot_min[s] == e; /* three or more: a silhouette, kept once */
-  uint a = table[s] - 1, b = second[s];
-  if (b == 0) return 1; /* one triangle: a boundary edge */
-  b -= 1;
-  if (min(a, b) != e) return 0;
+/* How edge e's key is shared: by one triangle (VM_EDGE_ONE), by three or more (VM_EDGE_MANY), or
+ * by exactly two, the other being the edge returned. */
+#define VM_EDGE_ONE 0xffffffffu
+#define VM_EDGE_MANY 0xfffffffeu
+inline uint edge_partner(uint e, uint s, __global const uint* table, __global const uint* second,
+                         __global const uint* many) {
+  if (many[s]) return VM_EDGE_MANY;
+  const uint a = table[s] - 1, b = second[s];
+  if (b == 0) return VM_EDGE_ONE;
+  return a == e ? b - 1 : a;
+}
+
+/* Whether the key of edge e (shared with `partner`) is a silhouette: a boundary, non-manifold
+ * edge or a fold (both triangles on one side of it). */
+inline uint key_is_silhouette(__global const VmScreenTri* tris, uint e, uint partner) {
+  if (partner == VM_EDGE_ONE || partner == VM_EDGE_MANY) return 1;
   EdgeKey key = edge_key(tris, e);
   long ax, ay, bx, by;
-  opposite_vertex(tris, a, &ax, &ay);
-  opposite_vertex(tris, b, &bx, &by);
+  opposite_vertex(tris, e, &ax, &ay);
+  opposite_vertex(tris, partner, &bx, &by);
   long sa = orient_points(key.x0, key.y0, key.x1, key.y1, ax, ay);
   long sb = orient_points(key.x0, key.y0, key.x1, key.y1, bx, by);
   return (sa > 0 && sb < 0) || (sa < 0 && sb > 0) ? 0 : 1;
 }
 
-/* flags[e] as is_silhouette, and each block of VM_SCAN_WG edges' count of them (edge_emit's
- * work-groups) into group_sums by atomics: silhouettes are a small share of the edges, and the
- * sums are the same in any order. No barrier: on PoCL this kernel ran ~20 % slower as a fused
- * scan (a work-group loop around its hash lookups). */
+/* flags[e] = 1 when edge e is the representative (lowest id) of a silhouette edge, and each block
+ * of VM_SCAN_WG edges' count of them (edge_emit's work-groups) into group_sums by atomics:
+ * silhouettes are a small share of the edges, and the sums are the same in any order. No
+ * barrier: on PoCL this kernel ran ~20 % slower as a fused scan (a work-group loop around its
+ * hash lookups). For the cull (cull.cl) and the classification after it (edge_reclassify), also
+ * every edge's partner and whether its key is a silhouette (key_sil). */
 __kernel void edge_classify(__global const VmScreenTri* tris, uint nedges,
                             __global const uint* slot_of_edge, __global const uint* table,
                             __global const uint* second, __global const uint* many,
                             __global const uint* slot_min, __global uint* flags,
-                            __global uint* group_sums) {
+                            __global uint* group_sums, __global uint* partners,
+                            __global uchar* key_sil) {
   const uint e = get_global_id(0);
   if (e >= nedges) return;
-  const uint f = is_silhouette(tris, e, slot_of_edge, table, second, many, slot_min);
+  const uint s = slot_of_edge[e];
+  const uint p = edge_partner(e, s, table, second, many);
+  const uint k = key_is_silhouette(tris, e, p);
+  const uint f = p == VM_EDGE_MANY ? slot_min[s] == e : p == VM_EDGE_ONE ? 1u : k && e < p;
+  flags[e] = f;
+  partners[e] = p;
+  key_sil[e] = (uchar)k;
+  if (f) atomic_inc(&group_sums[e / VM_SCAN_WG]);
+}
+
+/* The silhouettes of the triangles the cull kept (keep[t]), from edge_classify's partners: an
+ * edge of two kept triangles as before; of a kept and a culled one, a boundary now, written by
+ * the kept one's edge; of one kept triangle, a boundary; three or more, a silhouette as before
+ * (written once, whatever was culled: an extra silhouette only adds a clipping line). Edges of
+ * culled triangles only are left out. */
+__kernel void edge_reclassify(uint nedges, __global const uint* keep, __global const uint* partners,
+                              __global const uint* flags_all, __global uint* flags,
+                              __global uint* group_sums) {
+  const uint e = get_global_id(0);
+  if (e >= nedges) return;
+  const uint p = partners[e], kept = keep[e / 3];
+  uint f;
+  if (p == VM_EDGE_MANY)
+    f = flags_all[e];
+  else if (p == VM_EDGE_ONE)
+    f = kept;
+  else
+    f = kept && keep[p / 3] ? flags_all[e] : kept;
   flags[e] = f;
   if (f) atomic_inc(&group_sums[e / VM_SCAN_WG]);
 }

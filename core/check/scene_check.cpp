@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/check/map_diff.h"
 #include "core/check/planar_check.h"
 #include "core/util/clock.h"
 
@@ -32,6 +33,16 @@ SceneFigures check_scene(Renderer& renderer, const Scene& scene, const Camera& c
   f.crossing_lines = st.crossing_lines;
   f.free_planes =
       size_t(std::count(screen.plane_k.begin(), screen.plane_k.end(), ScreenTriangles::kFreePlane));
+  f.culled_triangles = st.culled_triangles;
+  f.dropped_fragments = st.dropped_fragments;
+  if (o.cull_compare) {
+    RenderOptions off = ro;
+    off.cull = false;
+    off.keep_screen_triangles = false;
+    const MapDiff d = compare_maps(map, renderer.render(scene, camera, off));
+    f.cull_differing = d.differing;
+    f.cull_xor_area = d.visible_area > 0 ? d.xor_area / d.visible_area : d.xor_area;
+  }
 
   double perimeter = 0;  // grid units
   for (size_t t = 0; t < screen.size(); ++t)
@@ -121,6 +132,8 @@ std::vector<std::string> over_tolerance(const SceneFigures& f, const Tolerances&
   // held to the exact tolerance with or without crossing lines (docs/NUMERICS.md §2).
   chk("coverage_error", f.coverage_error, t.exact);
   chk("outside_source", f.outside_source, t.outside_source);
+  // What the cull leaves out changes no visible point: exactly the same regions (issue 32).
+  chk("cull_differing", f.cull_differing, size_t(0));
   return bad;
 }
 
@@ -166,6 +179,10 @@ nlohmann::ordered_json to_json(const SceneFigures& f) {
   put("rounded_crossing_pairs", f.rounded_crossing_pairs);
   put("tie_cycle_area", f.tie_cycle_area);
   j["free_planes"] = f.free_planes;
+  j["culled_triangles"] = f.culled_triangles;
+  j["dropped_fragments"] = f.dropped_fragments;
+  put("cull_differing", f.cull_differing);
+  put("cull_xor_area", f.cull_xor_area);
   return j;
 }
 

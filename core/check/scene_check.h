@@ -23,6 +23,9 @@ struct SceneCheckOptions {
   uint32_t pixels = 1024;      // pixel_compare raster size; 0: no pixel comparison
   uint32_t tile_pixels = 0;    // RenderOptions::tile_pixels
   uint64_t memory_budget = 0;  // RenderOptions::memory_budget
+  // Render again with RenderOptions::cull off and compare the maps exactly (map_diff.h): what the
+  // cull left out must change no source's visible region.
+  bool cull_compare = true;
 };
 
 // Figures of one run. std::nullopt: not computed (skipped by the options).
@@ -46,6 +49,12 @@ struct SceneFigures {
   // the visible area: left out of wrong_source and the outside-band figures.
   std::optional<double> tie_cycle_area;
   size_t free_planes = 0;
+  // The cull (issue 32): screen triangles it left out, fragments the clip rounds dropped, and
+  // against the frame without it (cull_compare) the sources whose visible region differs (must
+  // be 0) and their xor area relative to the visible area.
+  size_t culled_triangles = 0, dropped_fragments = 0;
+  std::optional<size_t> cull_differing;
+  std::optional<double> cull_xor_area;
   std::optional<double> reference_ms;  // exact_visibility + compare_with_reference
   std::optional<double> overlap_area, coverage_error, outside_area;
   std::optional<size_t> overlap_pairs, outside_source, degenerate, nonconvex;

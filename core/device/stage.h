@@ -14,6 +14,7 @@ enum class Stage : uint8_t {
   Transform,    // transform + near clip + cull + snap; depth planes; bucket cells
   Silhouettes,  // edge hash: silhouette, boundary and non-manifold edges
   Bin,          // adaptive tiles (leaves) of triangles and of clipping edges
+  Cull,         // provably hidden triangles left out; the bounds that prove it (issue 32)
   Crossings,    // penetrating, tying and touching pairs and their clipping entries
   Candidates,   // per triangle, the clipping edges that may cut it
   Clip,         // clipping rounds (the work queue)
@@ -24,14 +25,14 @@ enum class Stage : uint8_t {
   Tessellate,   // curved surfaces diced for the camera (before a frame; TessellateStats)
   Implicit,     // implicit surfaces: the interval region queue with tape shortening
 };
-constexpr size_t kStageCount = 12;
+constexpr size_t kStageCount = 13;
 // The stages a frame reports in RenderStats, in order.
 constexpr Stage kFrameStages[] = {Stage::Transform, Stage::Silhouettes, Stage::Bin,
-                                  Stage::Crossings, Stage::Candidates,  Stage::Clip,
+                                  Stage::Cull,      Stage::Crossings, Stage::Candidates,  Stage::Clip,
                                   Stage::Occlusion, Stage::Emit};
 
 constexpr const char* stage_name(Stage s) {
-  constexpr const char* names[kStageCount] = {"transform",  "silhouettes", "bin",       "crossings",
+  constexpr const char* names[kStageCount] = {"transform",  "silhouettes", "bin",       "cull",  "crossings",
                                               "candidates", "clip",        "occlusion", "emit",
                                               "raster",     "test",        "tessellate",
                                               "implicit"};

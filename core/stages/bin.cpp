@@ -30,7 +30,7 @@ void fill_leaves(ClRuntime& rt, cl::Buffer& bb, uint32_t n, const VmGrid& g, Lea
 
 // A coarse pass with every tile one leaf, each tile's depth from its coarse list, and a second
 // pass into the leaves when some tile split.
-Leaves bin_leaves(ClRuntime& rt, cl::Buffer& bb, uint32_t n, const VmGrid& g) {
+Leaves bin_leaves(ClRuntime& rt, cl::Buffer& bb, uint32_t n, const VmGrid& g, bool places) {
   const uint32_t ntiles = uint32_t(g.tiles_x) * uint32_t(g.tiles_y);
   Leaves lv;
   cl::Buffer count;
@@ -50,8 +50,10 @@ Leaves bin_leaves(ClRuntime& rt, cl::Buffer& bb, uint32_t n, const VmGrid& g) {
     fill_leaves(rt, bb, n, g, lv, count, 0);
   }
   lv.class_start = rt.alloc(size_t(lv.leaves) * sizeof(cl_uint4), "leaf class starts");
+  lv.rects = rt.alloc(places ? size_t(lv.leaves) * sizeof(cl_int4) : 16, "leaf rectangles");
+  lv.entry_leaf = rt.alloc(places ? std::max<size_t>(lv.entries, 1) * 4 : 16, "entry leaves");
   rt.launch(kStage, "leaf_sort_classes", ntiles, ntiles, lv.tile_leaf, lv.offset, count, lv.list,
-            lv.class_start);
+            lv.class_start, g, cl_int(places ? 1 : 0), lv.rects, lv.entry_leaf);
   return lv;
 }
 
@@ -67,12 +69,12 @@ Grids choose_grids(uint32_t tile_pixels, uint32_t W, uint32_t H, uint32_t S) {
   return g;
 }
 
-TriangleBins bin_triangles(ClRuntime& rt, const ScreenSet& s, const VmGrid& fine) {
+TriangleBins bin_triangles(ClRuntime& rt, const ScreenSet& s, const VmGrid& fine, bool places) {
   TriangleBins tb;
   tb.grid = fine;
   tb.bb = s.bb;  // written by snap_depth_planes
   tb.qr = s.qr;
-  tb.leaves = bin_leaves(rt, tb.bb, s.count, fine);
+  tb.leaves = bin_leaves(rt, tb.bb, s.count, fine, places);
   return tb;
 }
 

@@ -15,11 +15,14 @@ namespace vismap::stages {
 
 struct Leaves {
   cl::Buffer tile_leaf, offset, class_start, list;
+  cl::Buffer rects, entry_leaf;  // with `places`: per leaf its rectangle, per entry its leaf
   uint32_t leaves = 0, entries = 0;
 };
 
-// Adaptive leaves over n boxes (int4, grid units) on grid g.
-Leaves bin_leaves(ClRuntime& rt, cl::Buffer& boxes, uint32_t n, const VmGrid& g);
+// Adaptive leaves over n boxes (int4, grid units) on grid g; `places` also writes where each leaf
+// is and which leaf each entry is in (the cull's, core/stages/cull.h).
+Leaves bin_leaves(ClRuntime& rt, cl::Buffer& boxes, uint32_t n, const VmGrid& g,
+                  bool places = false);
 
 // The two grids of a region: edge tiles of tile_px pixels, fine tiles of half that (>= 4 px).
 struct Grids {
@@ -35,7 +38,8 @@ struct TriangleBins {
   Leaves leaves;
   VmGrid grid{};
 };
-TriangleBins bin_triangles(ClRuntime& rt, const ScreenSet& s, const VmGrid& fine);
+TriangleBins bin_triangles(ClRuntime& rt, const ScreenSet& s, const VmGrid& fine,
+                           bool places = false);
 
 // The silhouette edges (the first ce.silhouettes of ce.edges) on the edge grid.
 struct EdgeBins {

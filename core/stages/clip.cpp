@@ -44,7 +44,8 @@ struct Queue {
 
 ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& region,
                           cl_int clip_region, const Candidates& cand, const ClipEdges& ce,
-                          cl::Buffer& totals, const Deadline& deadline, const RegionBudget& budget,
+                          const CullBounds& cull, cl::Buffer& totals, const Deadline& deadline,
+                          const RegionBudget& budget,
                           const std::function<void(uint32_t)>& after_round, Fragments& out) {
   // Long on purpose (~175 lines): the queue's two buffers, the device state's two copies and the
   // finished list are one state machine that every round reads, grows and swaps; the lambdas below
@@ -70,7 +71,8 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
   // Two copies of the device-side queue state: round r reads state copy sc, writes sc ^ 1.
   cl::Buffer state = rt.alloc(2 * VM_CLIP_WORDS * 4, "clip queue state");
   uint32_t sc = 0;
-  rt.launch(kStage, "frag_init", S, s.tris, S, region, clip_region, q[0].meta, q[0].lines, state);
+  rt.launch(kStage, "frag_init", S, s.tris, S, s.bb, region, clip_region, q[0].meta, q[0].lines,
+            state);
   out.meta = rt.alloc(size_t(done_cap) * sizeof(VmFragMeta), "finished fragments");
   out.lines = rt.alloc(size_t(done_cap) * L * sizeof(VmLine), "finished fragment lines");
   out.count = 0;
@@ -112,15 +114,15 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
     }
     rt.launch_grouped(kStage, "clip_find", grid, VM_SCAN_WG, q[qi].meta, q[qi].lines, grid, state,
                       sc, resume, fused, levels, cand.offset, cand.count, cand.list, ce.edges,
-                      split_at, fused ? noff : ncount, fused ? doff : dcount, block_sums, totals);
+                      split_at, fused ? noff : ncount, fused ? doff : dcount, block_sums, totals,
+                      s.tris, cull.grid, cull.tile_leaf, cull.leaf_cull, cl_int(cull.on ? 1 : 0));
     if (!fused) {
       rt.scan_to(kStage, ncount, noff, grid, totals, VM_TOTAL_NEXT);
       rt.scan_to(kStage, dcount, doff, grid, totals, VM_TOTAL_DONE);
     }
     return levels;
   };
-  auto apply = [&](uint32_t qi, uint32_t grid, uint32_t next_grid, cl_uint resume,
-                   cl_uint levels) {
+  auto apply = [&](uint32_t qi, uint32_t grid, uint32_t next_grid, cl_uint resume, cl_uint levels) {
     const cl_uint fused = grid <= VM_CLIP_FUSED_MAX;  // as find's
     rt.launch_grouped(kStage, "clip_apply", grid, VM_SCAN_WG, q[qi].meta, q[qi].lines, grid, state,
                       sc, resume, fused, levels, totals, block_sums, next_grid, done_cap,
@@ -177,7 +179,9 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
       Queue& next = q[live ^ 1];
       // Under a budget the next queue is what it needs; otherwise room for a batch to grow.
       if (budget.limited() || next.cap < nn)
-        next = alloc_queue(budget.limited() ? nn : uint32_t(std::min<uint64_t>(growth * uint64_t(nn), UINT32_MAX)));
+        next = alloc_queue(budget.limited()
+                               ? nn
+                               : uint32_t(std::min<uint64_t>(growth * uint64_t(nn), UINT32_MAX)));
       apply(live, nq, next.cap, resume, levels);  // cannot stop: the host made room for it
       out.count += dn;
       out.rounds += rounds_of_pass(levels, nq, nn, done);
@@ -215,7 +219,8 @@ ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& regi
       nq = st[VM_CLIP_NQ];
       resume = st[VM_CLIP_STOP] != 0;
       if (st[VM_CLIP_STOP] == VM_CLIP_STOP_QUEUE) growth = std::min<uint32_t>(growth * 2, 16);
-      batch = uint64_t(nq) * 4 > nq_before ? std::min(2 * batch, kMaxPassesPerRead) : kPassesPerRead;
+      batch =
+          uint64_t(nq) * 4 > nq_before ? std::min(2 * batch, kMaxPassesPerRead) : kPassesPerRead;
     }
     if (after_round) after_round(out.rounds);
   }

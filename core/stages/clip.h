@@ -11,6 +11,7 @@
 #include "core/device/cl_runtime.h"
 #include "core/stages/budget.h"
 #include "core/stages/candidates.h"
+#include "core/stages/cull.h"
 #include "core/stages/deadline.h"
 #include "core/stages/silhouettes.h"
 #include "core/stages/transform.h"
@@ -34,9 +35,10 @@ enum class ClipStatus {
 // estimated from the queue lengths (the queues are allocated anew each round, so the sum of the
 // allocations would count each round's again) and checked against the budget before each
 // round's allocations.
+// A fragment that `cull` proves hidden is dropped (neither split further nor finished).
 ClipStatus clip_fragments(ClRuntime& rt, const ScreenSet& s, const cl_int4& region,
                           cl_int clip_region, const Candidates& cand, const ClipEdges& ce,
-                          cl::Buffer& totals, const Deadline& deadline, const RegionBudget& budget,
+                          const CullBounds& cull, cl::Buffer& totals, const Deadline& deadline, const RegionBudget& budget,
                           const std::function<void(uint32_t)>& after_round, Fragments& out);
 
 }  // namespace vismap::stages

@@ -1,5 +1,7 @@
 #include "core/stages/silhouettes.h"
 
+#include <algorithm>
+
 #include "core/stages/grid.h"
 
 namespace vismap::stages {
@@ -9,6 +11,8 @@ void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Sil
   const uint32_t nedges = 3 * s.count;
   sil.edges_in = nedges;
   sil.flags = rt.alloc(size_t(nedges) * 4, "edge flags");
+  sil.partners = rt.alloc(size_t(nedges) * 4, "edge partners");
+  sil.key_sil = rt.alloc(std::max<size_t>(nedges, 4), "edge keys on silhouettes");
   // The hash table only lives to classify (memory freed early is memory reused later).
   const uint32_t table_size = next_pow2(uint64_t(nedges) * 2);
   cl::Buffer table = rt.alloc(size_t(table_size) * 4, "edge hash table");
@@ -22,7 +26,7 @@ void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Sil
   rt.launch(kStage, "edge_insert", nedges, s.tris, nedges, table, table_size - 1, slot_of_edge,
             second, many, slot_min, totals);
   rt.launch(kStage, "edge_classify", nedges, s.tris, nedges, slot_of_edge, table, second, many,
-            slot_min, sil.flags, sil.groups.sums);
+            slot_min, sil.flags, sil.groups.sums, sil.partners, sil.key_sil);
   std::vector<uint32_t>& sums = rt.host_words(sil.groups.groups);
   rt.read_async(kStage, sil.groups.sums, 0, sums.size() * 4, sums.data());
 }

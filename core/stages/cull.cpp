@@ -1,0 +1,58 @@
+#include "core/stages/cull.h"
+
+#include <algorithm>
+
+namespace vismap::stages {
+
+namespace {
+constexpr Stage kStage = Stage::Cull;
+}
+
+CullBounds no_cull_bounds(ClRuntime& rt) {
+  CullBounds b;
+  b.tile_leaf = rt.alloc(16, "cull tile map (none)");
+  b.leaf_cull = rt.alloc(16, "cull bounds (none)");
+  b.grid = VmGrid{1, 1, 1, 0};
+  return b;
+}
+
+bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, Silhouettes& sil,
+                 cl::Buffer& totals, const RegionBudget& budget, CullBounds& out) {
+  const uint32_t S = s.count;
+  const Leaves& lv = tb.leaves;
+  const size_t E = std::max<size_t>(lv.entries, 1);
+  // Per leaf its bound (kept for the clip rounds); per list entry an interval, a cover and a flag
+  // byte; per triangle its keep flag; per edge the kept triangles' silhouette flags.
+  if (!budget.allows_more(
+          rt, uint64_t(lv.leaves) * 16 + E * 25 + uint64_t(S) * 4 + uint64_t(sil.edges_in) * 4))
+    return false;
+  out.tile_leaf = lv.tile_leaf;
+  out.grid = tb.grid;
+  out.leaf_cull = rt.alloc(std::max<size_t>(lv.leaves, 1) * sizeof(cl_double2), "cull bounds");
+  {
+    cl::Buffer iv = rt.alloc(E * sizeof(cl_double2), "cull intervals");
+    cl::Buffer cover = rt.alloc(E * sizeof(cl_double), "cull covers");
+    cl::Buffer flags = rt.alloc(std::max<size_t>(E, 4), "cull entry flags");
+    rt.launch(kStage, "cull_entries", lv.entries, s.tris, tb.bb, tb.qr, sil.key_sil, lv.rects,
+              lv.entry_leaf, lv.list, lv.entries, iv, cover, flags);
+    rt.launch(kStage, "cull_leaves", lv.leaves, lv.leaves, lv.offset, lv.class_start, iv, cover,
+              flags, out.leaf_cull);
+  }
+  cl::Buffer keep = rt.alloc(std::max<size_t>(S, 1) * 4, "cull keep");
+  rt.launch_grouped(kStage, "cull_tris", S, VM_SCAN_WG, s.tris, S, tb.bb, tb.qr, tb.grid,
+                    lv.tile_leaf, out.leaf_cull, keep, totals);
+  out.on = true;
+  // The kept triangles' silhouettes: edges they share with culled ones are boundaries now.
+  cl::Buffer flags = rt.alloc(size_t(sil.edges_in) * 4, "edge flags (kept)");
+  ClRuntime::GroupSums eg = rt.group_sums(sil.edges_in, "edge group totals (kept)");
+  rt.fill_u32(eg.sums, 0, eg.groups, kStage);
+  rt.launch(kStage, "edge_reclassify", sil.edges_in, sil.edges_in, keep, sil.partners, sil.flags,
+            flags, eg.sums);
+  sil.flags = flags;
+  sil.groups = eg;
+  std::vector<uint32_t>& sums = rt.host_words(eg.groups);
+  rt.read_async(kStage, eg.sums, 0, sums.size() * 4, sums.data());
+  return true;
+}
+
+}  // namespace vismap::stages

@@ -1,0 +1,250 @@
+/* Stage: cull (issue 32). Before any crossing, candidate or clip work, the screen triangles that
+ * are provably hidden are left out, and later (clip.cl) fragments that are provably hidden stop.
+ * The proof is per leaf C of the fine triangle bins, a closed grid rectangle (cull_leaves):
+ *
+ * - A sheet: where no silhouette edge (boundary, fold or non-manifold, silhouettes.cl) meets the
+ *   open cell, the triangles meeting it form surfaces that continue across every edge inside it,
+ *   so each of them projects onto the whole cell (SVGPU's premise: coverage changes only at
+ *   silhouettes). Each triangle's depth over the cell lies in [lo, hi] (its plane at the cell's
+ *   corners and its vertices' range); one sheet's intervals form one connected union, so the
+ *   topmost connected component of the union of all intervals (each widened up by the margin M)
+ *   holds at least one whole sheet, at least `top` everywhere over the cell.
+ * - A single cover: a triangle that contains the closed cell is such a sheet by itself.
+ *
+ * A triangle whose interval over the cell ends more than M below `top` is hidden at every point
+ * of the cell: the sheet is nearer there by more than M. M is the margin by which the
+ * occlusion stage's "hides" relation can disagree with the exact depths along any chain of the
+ * triangles that can cover one point of the cell: the tie band (VM_TIE_EPS of the largest |q|)
+ * per step and no more than the triangles meeting the cell in steps, as a crossing pair with
+ * integer planes decides by the exact sign of their difference. So the hidden triangle can be
+ * no part of the top of the tournament at any point (occlusion.cl: whatever beats a top member
+ * is a top member, and a path back through the tournament would need a depth spread of more
+ * than M), and what it hides the sheet hides too: removing it changes no visible point. A cell
+ * holding a triangle whose plane could not be snapped (rounded crossing lines) proves nothing.
+ * A triangle is culled when the test holds in every leaf whose open cell it meets
+ * (docs/ARCHITECTURE.md "Cull"). */
+
+/* Relative tie band per step of a chain (VM_TIE_EPS, with room for rounding and for pieces of one
+ * source, whose planes differ by their snaps: 2^-24 at most), times (steps + 2). */
+#define VM_CULL_STEP (1.25 * VM_TIE_EPS)
+/* Passes of the top-component search before a leaf gives up (and proves nothing). */
+#ifndef VM_CULL_MUTATION
+#define VM_CULL_MUTATION 0
+#endif
+#define VM_CULL_PASSES 32
+
+/* The closed rectangle (x0, y0, x1, y1) of a leaf, in grid units. */
+inline long4 leaf_rect(VmGrid g, int tx, int ty, uint d, int lx, int ly) {
+  const long ls = (long)1 << (g.tile_shift - (int)d);
+  const long x0 = ((long)tx << g.tile_shift) + lx * ls, y0 = ((long)ty << g.tile_shift) + ly * ls;
+  return (long4)(x0, y0, x0 + ls, y0 + ls);
+}
+
+/* The edge function of a -> b, orient(a, b, p) = ex (py - ay) - ey (px - ax), at the corner of
+ * the closed rectangle r where it is greatest (hi = 1) or least (hi = 0): an affine function is
+ * extreme at a corner, chosen by the signs of its coefficients (-ey for x, ex for y). Exact:
+ * grid coordinates are below 2^22, so each product is below 2^46. */
+inline long edge_fn_extreme(long ax, long ay, long bx, long by, long4 r, int hi) {
+  const long ex = bx - ax, ey = by - ay;
+  const long px = (-ey > 0) == (hi != 0) ? r.z : r.x, py = (ex > 0) == (hi != 0) ? r.w : r.y;
+  return ex * (py - ay) - ey * (px - ax);
+}
+
+/* Exact: does the closed triangle t (box b) meet the open rectangle r with positive area?
+ * Separating axes: the rectangle's sides, then t's edges (t is counter-clockwise on the grid,
+ * orient > 0: r is outside an edge when the edge's function is <= 0 at every corner). */
+inline bool tri_meets_open_rect(const VmScreenTri* t, int4 b, long4 r) {
+  if (b.z <= r.x || b.x >= r.z || b.w <= r.y || b.y >= r.w) return false;
+  if (b.x >= r.x && b.z <= r.z && b.y >= r.y && b.w <= r.w) return true; /* inside the cell */
+  for (int i = 0; i < 3; ++i) {
+    const int j = i == 2 ? 0 : i + 1;
+    if (edge_fn_extreme(t->x[i], t->y[i], t->x[j], t->y[j], r, 1) <= 0) return false;
+  }
+  return true;
+}
+
+/* Exact: does the closed triangle t (box b) contain the closed rectangle r (all four corners)? */
+inline bool tri_contains_rect(const VmScreenTri* t, int4 b, long4 r) {
+  if (b.x > r.x || b.z < r.z || b.y > r.y || b.w < r.w) return false;
+  for (int i = 0; i < 3; ++i) {
+    const int j = i == 2 ? 0 : i + 1;
+    if (edge_fn_extreme(t->x[i], t->y[i], t->x[j], t->y[j], r, 0) < 0) return false;
+  }
+  return true;
+}
+
+/* Exact: does the closed segment (a, b) meet the open rectangle r? */
+inline bool segment_meets_open_rect(long ax, long ay, long bx, long by, long4 r) {
+  if (max(ax, bx) <= r.x || min(ax, bx) >= r.z || max(ay, by) <= r.y || min(ay, by) >= r.w)
+    return false;
+  return edge_fn_extreme(ax, ay, bx, by, r, 1) > 0 && edge_fn_extreme(ax, ay, bx, by, r, 0) < 0;
+}
+
+/* The nearness plane of t over the closed box r (doubles, grid units): its least and greatest
+ * value there, at the corners its slopes' signs pick. */
+inline double2 plane_range(const VmScreenTri* t, double4 r) {
+  const DepthPlane p = depth_plane(t);
+  const double xl = p.gx > 0 ? r.x : r.z, yl = p.gy > 0 ? r.y : r.w;
+  const double xh = p.gx > 0 ? r.z : r.x, yh = p.gy > 0 ? r.w : r.y;
+  return (double2)(plane_at(p, xl, yl), plane_at(p, xh, yh));
+}
+
+/* t's nearness over its part in the closed box r lies in [lo, hi]: the plane's range over the
+ * box, cut to the range of its vertices qr (which bound it over the triangle). */
+inline double2 depth_interval(const VmScreenTri* t, double2 qr, double4 r) {
+  const double2 pr = plane_range(t, r);
+  return (double2)(fmax(pr.x, qr.x), fmin(pr.y, qr.y));
+}
+
+inline double4 rect_d(long4 r) {
+  return (double4)((double)r.x, (double)r.y, (double)r.z, (double)r.w);
+}
+
+/* What one list entry (a triangle in a leaf) adds to its leaf's proof, one work-item an entry:
+ * iv[j] its depth interval over the leaf, or lo = +inf where it does not meet the open cell;
+ * cover[j] its least depth over the cell where it contains the closed cell, else -inf;
+ * flags[j]: VM_CULL_MEETS, VM_CULL_SIL (a silhouette edge of it meets the open cell),
+ * VM_CULL_FREE (its depth plane is not snapped). */
+#define VM_CULL_MEETS 1u
+#define VM_CULL_SIL 2u
+#define VM_CULL_FREE 4u
+__kernel void cull_entries(__global const VmScreenTri* tris, __global const int4* tri_bb,
+                           __global const double2* tri_qr, __global const uchar* edge_sil,
+                           __global const int4* leaf_rects, __global const uint* entry_leaf,
+                           __global const uint* leaf_list, uint nentries, __global double2* iv,
+                           __global double* cover, __global uchar* flags) {
+  const uint j = get_global_id(0);
+  if (j >= nentries) return;
+  const int4 lr = leaf_rects[entry_leaf[j]];
+  const long4 r = (long4)(lr.x, lr.y, lr.z, lr.w);
+  const uint t = leaf_list[j];
+  const VmScreenTri T = tris[t];
+  const int4 b = tri_bb[t];
+  if (!tri_meets_open_rect(&T, b, r)) {
+    iv[j] = (double2)(INFINITY, -INFINITY);
+    cover[j] = -INFINITY;
+    flags[j] = 0;
+    return;
+  }
+  const double4 rd = rect_d(r);
+  uint f = VM_CULL_MEETS | (T.plane_k == VM_PLANE_FREE ? VM_CULL_FREE : 0u);
+  const double2 qr = tri_qr[t];
+  const bool inside = b.x >= r.x && b.z <= r.z && b.y >= r.y && b.w <= r.w;
+  iv[j] = inside ? qr : depth_interval(&T, qr, rd); /* (inside the cell: its vertices' range) */
+  cover[j] = tri_contains_rect(&T, b, r) ? plane_range(&T, rd).x : -INFINITY;
+  for (int e = 0; e < 3; ++e) {
+    if (!edge_sil[3 * (size_t)t + e]) continue;
+    const int k = e == 2 ? 0 : e + 1;
+    if (segment_meets_open_rect(T.x[e], T.y[e], T.x[k], T.y[k], r)) f |= VM_CULL_SIL;
+  }
+  flags[j] = (uchar)f;
+}
+
+/* Per leaf: (top, M) as proven above from its entries (cull_entries), or top = -inf where
+ * nothing is proven. */
+__kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
+                          __global const uint4* class_start, __global const double2* iv,
+                          __global const double* cover, __global const uchar* flags,
+                          __global double2* leaf_cull) {
+  const uint leaf = get_global_id(0);
+  if (leaf >= nleaves) return;
+  const uint n = class_start[leaf].w, off = leaf_offset[leaf];
+  uint meet = 0, any = 0;
+  double qabs = 0, single = -INFINITY;
+  for (uint k = off; k < off + n; ++k) {
+    const uint f = flags[k];
+    if (!(f & VM_CULL_MEETS)) continue;
+    ++meet;
+    any |= f;
+    const double2 v = iv[k];
+    qabs = fmax(qabs, fmax(fabs(v.x), fabs(v.y)));
+    single = fmax(single, cover[k]);
+  }
+  /* (|q| at any point of the cell that a triangle covers is within its interval there) */
+  const double M = (double)(meet + 2) * VM_CULL_STEP * qabs;
+  double top = -INFINITY;
+  if (meet > 0 && !(any & VM_CULL_FREE)) {
+    /* The topmost connected component of the union of [lo, hi + M]: from the highest reach
+     * down, taking in every interval that reaches the covered part, until none is added. */
+    double v = -INFINITY;
+    for (uint k = off; k < off + n; ++k) v = fmax(v, iv[k].y + M);
+    bool settled = false;
+    for (int pass = 0; pass < VM_CULL_PASSES && !settled; ++pass) {
+      double nv = v;
+      for (uint k = off; k < off + n; ++k)
+        if (iv[k].y + M >= v) nv = fmin(nv, iv[k].x);
+      settled = nv == v;
+      v = nv;
+    }
+    /* Its members are the intervals reaching v; none may have a silhouette edge in the cell,
+     * so that each of their sheets covers the whole cell. */
+#if VM_CULL_MUTATION != 1 /* (tests/test_cull.cpp: a cull without this must be caught) */
+    for (uint k = off; k < off + n && settled; ++k)
+      if ((flags[k] & VM_CULL_SIL) && iv[k].y + M >= v) settled = false;
+#endif
+    if (settled) top = v;
+  }
+  if (!(any & VM_CULL_FREE)) top = fmax(top, single);
+  leaf_cull[leaf] = (double2)(top, M);
+}
+
+/* Is t (whose box is b) hidden in every leaf whose open cell it meets? */
+inline bool tri_hidden(const VmScreenTri* T, int4 b, double2 qr, VmGrid g,
+                       __global const uint* tile_leaf, __global const double2* leaf_cull) {
+  VM_FOR_EACH_LEAF(w, b, g, tile_leaf) {
+    const long4 r = leaf_rect(g, w.tx, w.ty, leaf_depth(w.tl), w.lx, w.ly);
+    if (!tri_meets_open_rect(T, b, r)) continue;
+    const double2 c = leaf_cull[leaf_walk_leaf(&w)];
+    if (!(qr.y + c.y < c.x) && !(depth_interval(T, qr, rect_d(r)).y + c.y < c.x)) return false;
+  }
+  return true;
+}
+
+/* An empty box: what a culled triangle's box becomes (cull_tris), so that every traversal that
+ * tests boxes (crossing pairs, candidates, occluders, the root fragments) passes it by, as if it
+ * were not in the scene. */
+#define VM_EMPTY_BOX ((int4)(0x7fffffff, 0x7fffffff, -0x7fffffff - 1, -0x7fffffff - 1))
+
+/* keep[t] = 0 for a triangle proven hidden, whose box is then emptied (tri_bb[t] = VM_EMPTY_BOX:
+ * each item reads only its own box here); 1 otherwise. The culled are counted into
+ * totals[VM_TOTAL_CULLED]. */
+__kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cull_tris(
+    __global const VmScreenTri* tris, uint ntris, __global int4* tri_bb,
+    __global const double2* tri_qr, VmGrid g, __global const uint* tile_leaf,
+    __global const double2* leaf_cull, __global uint* keep, __global uint* totals) {
+  __local uint culled;
+  const uint t = get_global_id(0);
+  if (get_local_id(0) == 0) culled = 0;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  if (t < ntris) {
+    const VmScreenTri T = tris[t];
+    const bool hidden = tri_hidden(&T, tri_bb[t], tri_qr[t], g, tile_leaf, leaf_cull);
+    keep[t] = hidden ? 0u : 1u;
+    if (hidden) {
+      tri_bb[t] = VM_EMPTY_BOX;
+      atomic_inc(&culled);
+    }
+  }
+  barrier(CLK_LOCAL_MEM_FENCE);
+  if (get_local_id(0) == 0 && culled) atomic_add(&totals[VM_TOTAL_CULLED], culled);
+}
+
+/* Is the fragment of screen triangle T with box fb (grid units, closed: widened past its
+ * vertices) hidden in every leaf whose open cell the box meets? clip.cl drops it then. */
+inline bool fragment_hidden(const VmScreenTri* T, int4 fb, VmGrid g, __global const uint* tile_leaf,
+                            __global const double2* leaf_cull) {
+  const double4 fd = (double4)((double)fb.x, (double)fb.y, (double)fb.z, (double)fb.w);
+  const double vmax = fmax(fmax(T->q[0], T->q[1]), T->q[2]);
+  const DepthPlane p = depth_plane(T);
+  VM_FOR_EACH_LEAF(w, fb, g, tile_leaf) {
+    const long4 r = leaf_rect(g, w.tx, w.ty, leaf_depth(w.tl), w.lx, w.ly);
+    if (fb.z <= r.x || fb.x >= r.z || fb.w <= r.y || fb.y >= r.w) continue;
+    const double2 c = leaf_cull[leaf_walk_leaf(&w)];
+    /* The fragment's nearness over this cell: the plane over the box cut to the cell. */
+    const double4 b = (double4)(fmax(fd.x, (double)r.x), fmax(fd.y, (double)r.y),
+                                fmin(fd.z, (double)r.z), fmin(fd.w, (double)r.w));
+    const double hi = fmin(plane_at(p, p.gx > 0 ? b.z : b.x, p.gy > 0 ? b.w : b.y), vmax);
+    if (!(hi + c.y < c.x)) return false;
+  }
+  return true;
+}
