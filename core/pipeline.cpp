@@ -281,7 +281,7 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
   emit_crossings(rt, s, cx, ce);
   const EdgeBins eb = bin_edges(rt, ce, grids.edge);
   Candidates cand;
-  if (!find_candidates(rt, s, tb, ce, eb, cx, budget, cand)) return false;
+  if (!find_candidates(rt, s, tb, ce, eb, cx, cull, budget, cand)) return false;
   deadline.check(Stage::Clip);
 
   auto progress = [&](uint32_t rounds) {

@@ -33,11 +33,23 @@ inline bool edge_is_candidate(__global const VmScreenTri* T, VmEdge E) {
   return E.q0 - qa > -band || E.q1 - qb > -band;
 }
 
+/* What the cull proved (cull.cl), for candidates_of: the fine bins' leaves with their bounds, and
+ * the screen triangles' depth ranges. on = 0: nothing. */
+typedef struct {
+  __global const double2* tri_qr;
+  __global const uint* tile_leaf;
+  __global const double2* leaf_cull;
+  VmGrid g;
+  int on;
+} CullProof;
+
+/* Silhouette edges that pass edge_is_candidate, but not those along which t is proven hidden
+ * (cull.cl hidden_along): they cannot change its visibility. */
 inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
                           __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
                           __global const uint* tile_leaf, __global const uint* leaf_offset,
                           __global const uint4* class_start, __global const uint* leaf_list,
-                          __global uint* out) {
+                          const CullProof* cp, __global uint* out) {
   int4 tb = tri_bb[t];
   uint count = 0;
   VM_FOR_EACH_LEAF(w, tb, g, tile_leaf) {
@@ -51,6 +63,10 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
         int4 eb = edge_bb[e];
         if (max(tb.x, eb.x) > min(tb.z, eb.z) || max(tb.y, eb.y) > min(tb.w, eb.w)) continue;
         if (!edge_is_candidate(&tris[t], edges[e])) continue;
+        if (cp->on) {
+          const VmScreenTri T = tris[t];
+          if (hidden_along(&T, cp->tri_qr[t], eb, cp->g, cp->tile_leaf, cp->leaf_cull)) continue;
+        }
         if (out) out[count] = e;
         ++count;
       }
@@ -69,12 +85,14 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cand_count
     __global const uint* tile_leaf, __global const uint* leaf_offset,
     __global const uint4* class_start, __global const uint* leaf_list,
     __global const uint* cross_count, __global uint* counts, __global uint* offsets,
-    __global uint* group_sums) {
+    __global uint* group_sums, __global const double2* tri_qr, VmGrid cull_grid,
+    __global const uint* cull_tile_leaf, __global const double2* leaf_cull, int cull_on) {
   __local uint tmp[VM_SCAN_WG];
   const uint t = get_global_id(0);
+  const CullProof cp = {tri_qr, cull_tile_leaf, leaf_cull, cull_grid, cull_on};
   const uint count = t < ntris ? cross_count[t] + candidates_of(t, tris, tri_bb, edges, edge_bb, g,
                                                                 tile_leaf, leaf_offset,
-                                                                class_start, leaf_list, 0)
+                                                                class_start, leaf_list, &cp, 0)
                                : 0;
   const uint offset = vm_group_offset(count, tmp, group_sums);
   if (t < ntris) {
@@ -92,8 +110,10 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cand_fill(
     __global const uint4* class_start, __global const uint* leaf_list,
     __global const uint* cross_offset, __global const uint* cross_count, uint nsil,
     __global uint* offsets, __global const uint* group_bases,
-    uint groups, __global uint* cand) {
+    uint groups, __global uint* cand, __global const double2* tri_qr, VmGrid cull_grid,
+    __global const uint* cull_tile_leaf, __global const double2* leaf_cull, int cull_on) {
   const uint t = get_global_id(0);
+  const CullProof cp = {tri_qr, cull_tile_leaf, leaf_cull, cull_grid, cull_on};
   const uint base = vm_group_base(group_bases, groups);
   if (t >= ntris) return;
   const uint o = base + offsets[t];
@@ -101,5 +121,5 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cand_fill(
   uint nc = cross_count[t];
   for (uint k = 0; k < nc; ++k) cand[o + k] = nsil + cross_offset[t] + k;
   candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_leaf, leaf_offset, class_start, leaf_list,
-                cand + o + nc);
+                &cp, cand + o + nc);
 }

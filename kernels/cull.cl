@@ -32,6 +32,8 @@
 #define VM_CULL_MUTATION 0
 #endif
 #define VM_CULL_PASSES 32
+/* Components of the intervals' union a leaf looks at, from the top, for one free of silhouettes. */
+#define VM_CULL_GROUPS 4
 
 /* The closed rectangle (x0, y0, x1, y1) of a leaf, in grid units. */
 inline long4 leaf_rect(VmGrid g, int tx, int ty, uint d, int lx, int ly) {
@@ -104,15 +106,28 @@ inline double4 rect_d(long4 r) {
  * iv[j] its depth interval over the leaf, or lo = +inf where it does not meet the open cell;
  * cover[j] its least depth over the cell where it contains the closed cell, else -inf;
  * flags[j]: VM_CULL_MEETS, VM_CULL_SIL (a silhouette edge of it meets the open cell),
- * VM_CULL_FREE (its depth plane is not snapped). */
+ * VM_CULL_FREE (its depth plane is not snapped); slope[j] |dq/dx| + |dq/dy| (rounded up). */
 #define VM_CULL_MEETS 1u
 #define VM_CULL_SIL 2u
 #define VM_CULL_FREE 4u
+/* Is edge e a silhouette to the cull? From edge_classify's key_sil; for a key three or more
+ * triangles share, only when its triangles do not lie on both sides of it (duplicated faces, a
+ * fin: the surfaces still cover both sides near it). */
+inline bool cull_edge_sil(uint e, __global const uchar* key_sil, __global const uint* partners,
+                          __global const uint* slot_sides) {
+  const uint k = key_sil[e];
+  if (k != VM_KEY_SIL_MANY) return k != 0;
+  return (slot_sides[partners[e]] & (VM_SIDE_LEFT | VM_SIDE_RIGHT)) !=
+         (VM_SIDE_LEFT | VM_SIDE_RIGHT);
+}
+
 __kernel void cull_entries(__global const VmScreenTri* tris, __global const int4* tri_bb,
                            __global const double2* tri_qr, __global const uchar* edge_sil,
+                           __global const uint* partners, __global const uint* slot_sides,
                            __global const int4* leaf_rects, __global const uint* entry_leaf,
                            __global const uint* leaf_list, uint nentries, __global double2* iv,
-                           __global double* cover, __global uchar* flags) {
+                           __global double* cover, __global float* slope,
+                           __global uchar* flags) {
   const uint j = get_global_id(0);
   if (j >= nentries) return;
   const int4 lr = leaf_rects[entry_leaf[j]];
@@ -123,6 +138,7 @@ __kernel void cull_entries(__global const VmScreenTri* tris, __global const int4
   if (!tri_meets_open_rect(&T, b, r)) {
     iv[j] = (double2)(INFINITY, -INFINITY);
     cover[j] = -INFINITY;
+    slope[j] = 0;
     flags[j] = 0;
     return;
   }
@@ -132,8 +148,10 @@ __kernel void cull_entries(__global const VmScreenTri* tris, __global const int4
   const bool inside = b.x >= r.x && b.z <= r.z && b.y >= r.y && b.w <= r.w;
   iv[j] = inside ? qr : depth_interval(&T, qr, rd); /* (inside the cell: its vertices' range) */
   cover[j] = tri_contains_rect(&T, b, r) ? plane_range(&T, rd).x : -INFINITY;
+  const DepthPlane p = depth_plane(&T);
+  slope[j] = (float)((fabs(p.gx) + fabs(p.gy)) * (1 + 0x1p-20)); /* (rounded up) */
   for (int e = 0; e < 3; ++e) {
-    if (!edge_sil[3 * (size_t)t + e]) continue;
+    if (!cull_edge_sil(3 * t + e, edge_sil, partners, slot_sides)) continue;
     const int k = e == 2 ? 0 : e + 1;
     if (segment_meets_open_rect(T.x[e], T.y[e], T.x[k], T.y[k], r)) f |= VM_CULL_SIL;
   }
@@ -143,14 +161,15 @@ __kernel void cull_entries(__global const VmScreenTri* tris, __global const int4
 /* Per leaf: (top, M) as proven above from its entries (cull_entries), or top = -inf where
  * nothing is proven. */
 __kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
-                          __global const uint4* class_start, __global const double2* iv,
-                          __global const double* cover, __global const uchar* flags,
-                          __global double2* leaf_cull) {
+                          __global const uint4* class_start, __global const uint* leaf_list,
+                          __global const int4* tri_bb, __global const double2* iv,
+                          __global const double* cover, __global const float* slope,
+                          __global const uchar* flags, __global double2* leaf_cull) {
   const uint leaf = get_global_id(0);
   if (leaf >= nleaves) return;
   const uint n = class_start[leaf].w, off = leaf_offset[leaf];
   uint meet = 0, any = 0;
-  double qabs = 0, single = -INFINITY;
+  double qabs = 0, single = -INFINITY, gmax = 0, free_span = 0;
   for (uint k = off; k < off + n; ++k) {
     const uint f = flags[k];
     if (!(f & VM_CULL_MEETS)) continue;
@@ -159,32 +178,48 @@ __kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
     const double2 v = iv[k];
     qabs = fmax(qabs, fmax(fabs(v.x), fabs(v.y)));
     single = fmax(single, cover[k]);
+    gmax = fmax(gmax, (double)slope[k]);
+    if (f & VM_CULL_FREE) { /* (rare: a plane too steep to snap) */
+      const int4 b = tri_bb[leaf_list[k]];
+      free_span = fmax(free_span, (double)max(b.z - b.x, b.w - b.y));
+    }
   }
-  /* (|q| at any point of the cell that a triangle covers is within its interval there) */
-  const double M = (double)(meet + 2) * VM_CULL_STEP * qabs;
+  /* Per step: the tie band (|q| at any point of the cell that a triangle covers is within its
+   * interval there); and where a plane is not snapped, a rounded crossing line: within
+   * (1 + h) / (2 (2^23 - 255)) grid units of the true one over the pair's overlap (h its
+   * half-span plus 1.5, at most the free triangle's span: docs/NUMERICS.md §2), where the depth
+   * difference changes by at most the sum of the two slopes a grid unit. */
+  const double round = any & VM_CULL_FREE ? 2.0 * gmax * (free_span + 8.0) * 0x1p-23 : 0.0;
+  const double M = (double)(meet + 2) * (VM_CULL_STEP * qabs + round);
   double top = -INFINITY;
-  if (meet > 0 && !(any & VM_CULL_FREE)) {
-    /* The topmost connected component of the union of [lo, hi + M]: from the highest reach
-     * down, taking in every interval that reaches the covered part, until none is added. */
+  /* The connected components of the union of [lo, hi + M], from the top down: each from the
+   * highest reach below the one above, taking in every interval that reaches it, until none is
+   * added. The first whose members have no silhouette edge in the cell (their sheets cover it)
+   * proves the bound; one above it with silhouettes (a contour in front) does not matter. */
+  double ceiling = INFINITY; /* the groups left lie wholly below it */
+  for (int grp = 0; grp < VM_CULL_GROUPS && top == -INFINITY && meet > 0; ++grp) {
     double v = -INFINITY;
-    for (uint k = off; k < off + n; ++k) v = fmax(v, iv[k].y + M);
+    for (uint k = off; k < off + n; ++k)
+      if (iv[k].y + M < ceiling) v = fmax(v, iv[k].y + M);
+    if (v == -INFINITY) break;
     bool settled = false;
     for (int pass = 0; pass < VM_CULL_PASSES && !settled; ++pass) {
       double nv = v;
       for (uint k = off; k < off + n; ++k)
-        if (iv[k].y + M >= v) nv = fmin(nv, iv[k].x);
+        if (iv[k].y + M >= v && iv[k].y + M < ceiling) nv = fmin(nv, iv[k].x);
       settled = nv == v;
       v = nv;
     }
-    /* Its members are the intervals reaching v; none may have a silhouette edge in the cell,
-     * so that each of their sheets covers the whole cell. */
+    if (!settled) break;
+    bool clean = true;
 #if VM_CULL_MUTATION != 1 /* (tests/test_cull.cpp: a cull without this must be caught) */
-    for (uint k = off; k < off + n && settled; ++k)
-      if ((flags[k] & VM_CULL_SIL) && iv[k].y + M >= v) settled = false;
+    for (uint k = off; k < off + n && clean; ++k)
+      if ((flags[k] & VM_CULL_SIL) && iv[k].y + M >= v && iv[k].y + M < ceiling) clean = false;
 #endif
-    if (settled) top = v;
+    if (clean) top = v;
+    ceiling = v;
   }
-  if (!(any & VM_CULL_FREE)) top = fmax(top, single);
+  top = fmax(top, single);
   leaf_cull[leaf] = (double2)(top, M);
 }
 
@@ -245,6 +280,26 @@ inline bool fragment_hidden(const VmScreenTri* T, int4 fb, VmGrid g, __global co
                                 fmin(fd.z, (double)r.z), fmin(fd.w, (double)r.w));
     const double hi = fmin(plane_at(p, p.gx > 0 ? b.z : b.x, p.gy > 0 ? b.w : b.y), vmax);
     if (!(hi + c.y < c.x)) return false;
+  }
+  return true;
+}
+
+/* Is triangle T (depth range qr) hidden, as the leaves prove, on every closed cell that the box eb
+ * (a silhouette edge's, inclusive) touches? Then T is hidden on a neighbourhood of every point
+ * of the edge, so its visibility cannot change across the edge, and the edge need not cut its
+ * fragments (candidates.cl): every point where T's visibility changes is still on a candidate
+ * kept. (The box is widened down by one grid unit so that a cell it only touches from below or
+ * the left is walked too; a cell T does not meet holds nothing of T.) */
+inline bool hidden_along(const VmScreenTri* T, double2 qr, int4 eb, VmGrid g,
+                         __global const uint* tile_leaf, __global const double2* leaf_cull) {
+  const int4 b = (int4)(eb.x - 1, eb.y - 1, eb.z, eb.w);
+  const int4 tb = (int4)(min(min(T->x[0], T->x[1]), T->x[2]), min(min(T->y[0], T->y[1]), T->y[2]),
+                         max(max(T->x[0], T->x[1]), T->x[2]), max(max(T->y[0], T->y[1]), T->y[2]));
+  VM_FOR_EACH_LEAF(w, b, g, tile_leaf) {
+    const long4 r = leaf_rect(g, w.tx, w.ty, leaf_depth(w.tl), w.lx, w.ly);
+    if (!tri_meets_open_rect(T, tb, r)) continue;
+    const double2 c = leaf_cull[leaf_walk_leaf(&w)];
+    if (!(qr.y + c.y < c.x) && !(depth_interval(T, qr, rect_d(r)).y + c.y < c.x)) return false;
   }
   return true;
 }

@@ -108,6 +108,18 @@ typedef struct {
 #define VM_TOTAL_CULLED 7  /* screen triangles proven hidden before the crossings (cull.cl) */
 #define VM_TOTAL_SLOTS 8
 
+/* The silhouette hash's view of an edge (silhouettes.cl edge_classify), for the cull and the
+ * kept triangles' silhouettes: its partner, the other edge of its key, or VM_EDGE_ONE (a boundary)
+ * or VM_EDGE_MANY (three or more share it); key_sil 0 or 1 (its key is a silhouette), or
+ * VM_KEY_SIL_MANY: shared three or more times, partners holding the hash slot whose flags word
+ * has VM_SIDE_LEFT / VM_SIDE_RIGHT or'ed in by each edge for the side of the key its triangle is
+ * on (the cull counts such a key as covered on both sides when both bits are set). */
+#define VM_EDGE_ONE 0xffffffffu
+#define VM_EDGE_MANY 0xfffffffeu
+#define VM_KEY_SIL_MANY 2
+#define VM_SIDE_LEFT 2u
+#define VM_SIDE_RIGHT 4u
+
 /* Status flags a kernel can raise in totals[VM_TOTAL_STATUS] (read back by the host). */
 #define VM_STATUS_LINES_OVERFLOW 1u
 #define VM_STATUS_HASH_FULL 2u

@@ -109,9 +109,7 @@ inline void opposite_vertex(__global const VmScreenTri* tris, uint e, long* x, l
 }
 
 /* How edge e's key is shared: by one triangle (VM_EDGE_ONE), by three or more (VM_EDGE_MANY), or
- * by exactly two, the other being the edge returned. */
-#define VM_EDGE_ONE 0xffffffffu
-#define VM_EDGE_MANY 0xfffffffeu
+ * by exactly two, the other being the edge returned (layout.h). */
 inline uint edge_partner(uint e, uint s, __global const uint* table, __global const uint* second,
                          __global const uint* many) {
   if (many[s]) return VM_EDGE_MANY;
@@ -120,16 +118,19 @@ inline uint edge_partner(uint e, uint s, __global const uint* table, __global co
   return a == e ? b - 1 : a;
 }
 
+/* The side of edge e's key (in its canonical direction) that e's triangle lies on: > 0 left. */
+inline long key_side(__global const VmScreenTri* tris, uint e) {
+  EdgeKey key = edge_key(tris, e);
+  long x, y;
+  opposite_vertex(tris, e, &x, &y);
+  return orient_points(key.x0, key.y0, key.x1, key.y1, x, y);
+}
+
 /* Whether the key of edge e (shared with `partner`) is a silhouette: a boundary, non-manifold
  * edge or a fold (both triangles on one side of it). */
 inline uint key_is_silhouette(__global const VmScreenTri* tris, uint e, uint partner) {
   if (partner == VM_EDGE_ONE || partner == VM_EDGE_MANY) return 1;
-  EdgeKey key = edge_key(tris, e);
-  long ax, ay, bx, by;
-  opposite_vertex(tris, e, &ax, &ay);
-  opposite_vertex(tris, partner, &bx, &by);
-  long sa = orient_points(key.x0, key.y0, key.x1, key.y1, ax, ay);
-  long sb = orient_points(key.x0, key.y0, key.x1, key.y1, bx, by);
+  const long sa = key_side(tris, e), sb = key_side(tris, partner);
   return (sa > 0 && sb < 0) || (sa < 0 && sb > 0) ? 0 : 1;
 }
 
@@ -141,7 +142,7 @@ inline uint key_is_silhouette(__global const VmScreenTri* tris, uint e, uint par
  * every edge's partner and whether its key is a silhouette (key_sil). */
 __kernel void edge_classify(__global const VmScreenTri* tris, uint nedges,
                             __global const uint* slot_of_edge, __global const uint* table,
-                            __global const uint* second, __global const uint* many,
+                            __global const uint* second, __global uint* many,
                             __global const uint* slot_min, __global uint* flags,
                             __global uint* group_sums, __global uint* partners,
                             __global uchar* key_sil) {
@@ -152,8 +153,14 @@ __kernel void edge_classify(__global const VmScreenTri* tris, uint nedges,
   const uint k = key_is_silhouette(tris, e, p);
   const uint f = p == VM_EDGE_MANY ? slot_min[s] == e : p == VM_EDGE_ONE ? 1u : k && e < p;
   flags[e] = f;
-  partners[e] = p;
-  key_sil[e] = (uchar)k;
+  if (p == VM_EDGE_MANY) { /* (rare) the cull asks the slot which sides its triangles cover */
+    atomic_or(&many[s], key_side(tris, e) > 0 ? VM_SIDE_LEFT : VM_SIDE_RIGHT);
+    partners[e] = s;
+    key_sil[e] = VM_KEY_SIL_MANY;
+  } else {
+    partners[e] = p;
+    key_sil[e] = (uchar)k;
+  }
   if (f) atomic_inc(&group_sums[e / VM_SCAN_WG]);
 }
 
@@ -163,13 +170,13 @@ __kernel void edge_classify(__global const VmScreenTri* tris, uint nedges,
  * (written once, whatever was culled: an extra silhouette only adds a clipping line). Edges of
  * culled triangles only are left out. */
 __kernel void edge_reclassify(uint nedges, __global const uint* keep, __global const uint* partners,
-                              __global const uint* flags_all, __global uint* flags,
-                              __global uint* group_sums) {
+                              __global const uchar* key_sil, __global const uint* flags_all,
+                              __global uint* flags, __global uint* group_sums) {
   const uint e = get_global_id(0);
   if (e >= nedges) return;
   const uint p = partners[e], kept = keep[e / 3];
   uint f;
-  if (p == VM_EDGE_MANY)
+  if (key_sil[e] == VM_KEY_SIL_MANY)
     f = flags_all[e];
   else if (p == VM_EDGE_ONE)
     f = kept;

@@ -5,8 +5,9 @@
 namespace vismap::stages {
 
 bool find_candidates(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, const ClipEdges& ce,
-                     const EdgeBins& eb, const Crossings& cx, const RegionBudget& budget,
-                     Candidates& c) {
+                     const EdgeBins& eb, const Crossings& cx, const CullBounds& cull,
+                     const RegionBudget& budget, Candidates& c) {
+  const cl_int on = cull.on ? 1 : 0;
   constexpr Stage kStage = Stage::Candidates;
   const uint32_t S = s.count;
   const Leaves& lv = eb.leaves;
@@ -15,13 +16,15 @@ bool find_candidates(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, 
   ClRuntime::GroupSums g = rt.group_sums(S, "candidate group totals");
   rt.launch_grouped(kStage, "cand_count", S, VM_SCAN_WG, s.tris, S, tb.bb, ce.edges, eb.bb,
                     eb.grid, lv.tile_leaf, lv.offset, lv.class_start, lv.list, cx.entry_count,
-                    c.count, c.offset, g.sums);
+                    c.count, c.offset, g.sums, tb.qr, cull.grid, cull.tile_leaf, cull.leaf_cull,
+                    on);
   c.total = rt.group_total(kStage, g);
   if (!budget.allows_more(rt, size_t(c.total) * 4)) return false;
   c.list = rt.alloc(std::max<size_t>(c.total, 1) * 4, "candidates");
   rt.launch_grouped(kStage, "cand_fill", S, VM_SCAN_WG, s.tris, S, tb.bb, ce.edges, eb.bb,
                     eb.grid, lv.tile_leaf, lv.offset, lv.class_start, lv.list, cx.entry_offset,
-                    cx.entry_count, ce.silhouettes, c.offset, g.bases, g.groups, c.list);
+                    cx.entry_count, ce.silhouettes, c.offset, g.bases, g.groups, c.list, tb.qr,
+                    cull.grid, cull.tile_leaf, cull.leaf_cull, on);
   return true;
 }
 

@@ -9,6 +9,7 @@
 #include "core/stages/bin.h"
 #include "core/stages/budget.h"
 #include "core/stages/crossings.h"
+#include "core/stages/cull.h"
 #include "core/stages/silhouettes.h"
 #include "core/stages/transform.h"
 
@@ -20,8 +21,10 @@ struct Candidates {
 };
 
 // False when the list would pass the region's budget (counted, not filled).
+// A silhouette edge along which the triangle is proven hidden (`cull`, cull.cl hidden_along)
+// cannot change its visibility and is left out of its list.
 bool find_candidates(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, const ClipEdges& ce,
-                     const EdgeBins& eb, const Crossings& cx, const RegionBudget& budget,
-                     Candidates& c);
+                     const EdgeBins& eb, const Crossings& cx, const CullBounds& cull,
+                     const RegionBudget& budget, Candidates& c);
 
 }  // namespace vismap::stages

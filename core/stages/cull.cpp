@@ -24,7 +24,7 @@ bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, Silh
   // Per leaf its bound (kept for the clip rounds); per list entry an interval, a cover and a flag
   // byte; per triangle its keep flag; per edge the kept triangles' silhouette flags.
   if (!budget.allows_more(
-          rt, uint64_t(lv.leaves) * 16 + E * 25 + uint64_t(S) * 4 + uint64_t(sil.edges_in) * 4))
+          rt, uint64_t(lv.leaves) * 16 + E * 29 + uint64_t(S) * 4 + uint64_t(sil.edges_in) * 4))
     return false;
   out.tile_leaf = lv.tile_leaf;
   out.grid = tb.grid;
@@ -32,11 +32,13 @@ bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, Silh
   {
     cl::Buffer iv = rt.alloc(E * sizeof(cl_double2), "cull intervals");
     cl::Buffer cover = rt.alloc(E * sizeof(cl_double), "cull covers");
+    cl::Buffer slope = rt.alloc(E * sizeof(cl_float), "cull slopes");
     cl::Buffer flags = rt.alloc(std::max<size_t>(E, 4), "cull entry flags");
-    rt.launch(kStage, "cull_entries", lv.entries, s.tris, tb.bb, tb.qr, sil.key_sil, lv.rects,
-              lv.entry_leaf, lv.list, lv.entries, iv, cover, flags);
-    rt.launch(kStage, "cull_leaves", lv.leaves, lv.leaves, lv.offset, lv.class_start, iv, cover,
-              flags, out.leaf_cull);
+    rt.launch(kStage, "cull_entries", lv.entries, s.tris, tb.bb, tb.qr, sil.key_sil,
+              sil.partners, sil.slot_sides, lv.rects, lv.entry_leaf, lv.list, lv.entries, iv,
+              cover, slope, flags);
+    rt.launch(kStage, "cull_leaves", lv.leaves, lv.leaves, lv.offset, lv.class_start, lv.list,
+              tb.bb, iv, cover, slope, flags, out.leaf_cull);
   }
   cl::Buffer keep = rt.alloc(std::max<size_t>(S, 1) * 4, "cull keep");
   rt.launch_grouped(kStage, "cull_tris", S, VM_SCAN_WG, s.tris, S, tb.bb, tb.qr, tb.grid,
@@ -46,8 +48,8 @@ bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, Silh
   cl::Buffer flags = rt.alloc(size_t(sil.edges_in) * 4, "edge flags (kept)");
   ClRuntime::GroupSums eg = rt.group_sums(sil.edges_in, "edge group totals (kept)");
   rt.fill_u32(eg.sums, 0, eg.groups, kStage);
-  rt.launch(kStage, "edge_reclassify", sil.edges_in, sil.edges_in, keep, sil.partners, sil.flags,
-            flags, eg.sums);
+  rt.launch(kStage, "edge_reclassify", sil.edges_in, sil.edges_in, keep, sil.partners,
+            sil.key_sil, sil.flags, flags, eg.sums);
   sil.flags = flags;
   sil.groups = eg;
   std::vector<uint32_t>& sums = rt.host_words(eg.groups);

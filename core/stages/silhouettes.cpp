@@ -18,6 +18,7 @@ void find_silhouettes(ClRuntime& rt, const ScreenSet& s, cl::Buffer& totals, Sil
   cl::Buffer table = rt.alloc(size_t(table_size) * 4, "edge hash table");
   cl::Buffer second = rt.alloc(size_t(table_size) * 4, "edge hash second ids");
   cl::Buffer many = rt.alloc(size_t(table_size) * 4, "edge hash shared flags");
+  sil.slot_sides = many;  // (kept for the cull, cull.cl cull_edge_sil)
   cl::Buffer slot_min = rt.alloc(size_t(table_size) * 4, "edge slot min");
   cl::Buffer slot_of_edge = rt.alloc(size_t(nedges) * 4, "edge slots");
   sil.groups = rt.group_sums(nedges, "edge group totals");

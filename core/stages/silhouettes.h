@@ -15,6 +15,7 @@ struct Silhouettes {
   cl::Buffer flags;             // per screen-triangle edge (3 S): silhouette or not
   cl::Buffer partners;          // per edge: the other edge of its key, or VM_EDGE_ONE / _MANY
   cl::Buffer key_sil;           // per edge (a byte): its key is a silhouette (the cull's test)
+  cl::Buffer slot_sides;        // the hash's "many" words: the sides a shared key is covered on
   ClRuntime::GroupSums groups;  // silhouettes per VM_SCAN_WG edges (edge_classify's atomics)
   uint32_t edges_in = 0;      // 3 S
   uint32_t count = 0;         // E: read without blocking, set by emit_silhouettes
