@@ -272,7 +272,7 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
   deadline.check(Stage::Cull);
   if (!opts.cull)
     cull = no_cull_bounds(rt);
-  else if (!cull_hidden(rt, s, tb, sil, totals, budget, cull))
+  else if (!cull_hidden(rt, s, tb, fr.W, fr.H, sil, totals, budget, cull))
     return false;
   deadline.check(Stage::Crossings);
   Crossings cx;

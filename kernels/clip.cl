@@ -22,10 +22,10 @@ typedef struct {
 } CullView;
 
 /* Is the fragment of screen triangle t with box b (frag_box) proven hidden? */
-inline bool frag_proven_hidden(const CullView* cv, uint t, double4 b) {
+inline bool frag_proven_hidden(const CullView* cv, uint t, const VmLine* L, uint nl, double4 b) {
   const VmScreenTri T = cv->tris[t];
   const int4 fb = (int4)((int)floor(b.x), (int)floor(b.y), (int)ceil(b.z), (int)ceil(b.w));
-  return fragment_hidden(&T, fb, cv->g, cv->tile_leaf, cv->leaf_cull);
+  return fragment_hidden(&T, L, nl, fb, cv->g, cv->tile_leaf, cv->leaf_cull);
 }
 
 /* Signs of the fragment's vertices (vertex i = line i ^ line i+1) with respect to LE, and
@@ -142,7 +142,7 @@ inline void clip_walk(uint levels, VmFragMeta m, __global const VmLine* L, __glo
     if (!place) {
       const double4 box = frag_box(P[lev], nl[lev]);
       /* (a root fragment is its whole triangle, which the cull kept: no test) */
-      k = cv->on && (h > 1 || m.next > 0) && frag_proven_hidden(cv, m.tri, box)
+      k = cv->on && (h > 1 || m.next > 0) && frag_proven_hidden(cv, m.tri, P[lev], nl[lev], box)
               ? VM_DROP
               : find_cut(P[lev], nl[lev], from[lev], cand, ncand, edges, sgn[lev], box);
       splits[h - 1] = k;

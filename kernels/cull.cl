@@ -264,16 +264,22 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cull_tris(
   if (get_local_id(0) == 0 && culled) atomic_add(&totals[VM_TOTAL_CULLED], culled);
 }
 
-/* Is the fragment of screen triangle T with box fb (grid units, closed: widened past its
- * vertices) hidden in every leaf whose open cell the box meets? clip.cl drops it then. */
-inline bool fragment_hidden(const VmScreenTri* T, int4 fb, VmGrid g, __global const uint* tile_leaf,
-                            __global const double2* leaf_cull) {
+/* Is the fragment (lines L) of screen triangle T with box fb (grid units, closed: widened past its
+ * vertices) hidden in every leaf whose open cell it meets? clip.cl drops it then. */
+inline bool fragment_hidden(const VmScreenTri* T, const VmLine* L, uint nl, int4 fb, VmGrid g,
+                            __global const uint* tile_leaf, __global const double2* leaf_cull) {
   const double4 fd = (double4)((double)fb.x, (double)fb.y, (double)fb.z, (double)fb.w);
   const double vmax = fmax(fmax(T->q[0], T->q[1]), T->q[2]);
   const DepthPlane p = depth_plane(T);
   VM_FOR_EACH_LEAF(w, fb, g, tile_leaf) {
     const long4 r = leaf_rect(g, w.tx, w.ty, leaf_depth(w.tl), w.lx, w.ly);
     if (fb.z <= r.x || fb.x >= r.z || fb.w <= r.y || fb.y >= r.w) continue;
+    /* A cell the fragment (the positive side of its lines) does not meet holds none of it: a
+     * line with the whole cell on its closed outer side (at the corner it is greatest). */
+    bool apart = false;
+    for (uint i = 0; i < nl && !apart; ++i)
+      apart = line_eval_point(line_of_vm(L[i]), L[i].a > 0 ? r.z : r.x, L[i].b > 0 ? r.w : r.y) <= 0;
+    if (apart) continue;
     const double2 c = leaf_cull[leaf_walk_leaf(&w)];
     /* The fragment's nearness over this cell: the plane over the box cut to the cell. */
     const double4 b = (double4)(fmax(fd.x, (double)r.x), fmax(fd.y, (double)r.y),

@@ -1,6 +1,9 @@
 #include "core/stages/cull.h"
 
 #include <algorithm>
+#include <cmath>
+
+#include "core/stages/grid.h"
 
 namespace vismap::stages {
 
@@ -16,9 +19,37 @@ CullBounds no_cull_bounds(ClRuntime& rt) {
   return b;
 }
 
-bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, Silhouettes& sil,
-                 cl::Buffer& totals, const RegionBudget& budget, CullBounds& out) {
+namespace {
+
+// The leaves the cull proves over: about a quarter of the triangles' mean extent a, at least 4 px
+// (the fine bins' leaves when those are as small: the bunny's triangles are about 4 px, and
+// sheets of such triangles cover 4 px leaves). Larger triangles (the penetrating soup: about 45 px
+// against 64 px leaves) cover a leaf alone only where it is well inside them, so they get leaves
+// of their own, binned anew. a comes from the counts the fine binning has read: a triangle's box
+// meets about (1 + a/c)^2 leaves of side c.
+TriangleBins cull_bins(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, uint32_t W,
+                       uint32_t H) {
+  const double per = double(tb.leaves.entries) / std::max<uint32_t>(s.count, 1);
+  const uint32_t fine_px = uint32_t(tb.grid.tile_size / VM_GRID_SCALE);
+  const double extent_px = (std::sqrt(std::max(per, 1.0)) - 1.0) * fine_px;  // a
+  uint32_t px = fine_px;
+  while (px > 4 && px > extent_px / 4) px /= 2;
+  if (px == fine_px) return tb;
+  TriangleBins cb;
+  cb.grid = make_grid(px, W, H);
+  cb.bb = s.bb;
+  cb.qr = s.qr;
+  cb.leaves = bin_leaves(rt, cb.bb, s.count, cb.grid, true);
+  return cb;
+}
+
+}  // namespace
+
+bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& fine, uint32_t W,
+                 uint32_t H, Silhouettes& sil, cl::Buffer& totals, const RegionBudget& budget,
+                 CullBounds& out) {
   const uint32_t S = s.count;
+  const TriangleBins tb = cull_bins(rt, s, fine, W, H);
   const Leaves& lv = tb.leaves;
   const size_t E = std::max<size_t>(lv.entries, 1);
   // Per leaf its bound (kept for the clip rounds); per list entry an interval, a cover and a flag

@@ -28,13 +28,16 @@ struct CullBounds {
   bool on = false;
 };
 
-// Proves what it can over the region's screen set `s` (binned in `tb` with places, its
+// Proves what it can over the region's screen set `s` (binned in `fine` with places, its
 // silhouettes classified in `sil`): empties the boxes of the hidden triangles (s.bb, which tb
 // shares), counts them into totals[VM_TOTAL_CULLED] and makes sil's flags those of the kept
 // triangles' silhouettes (edge_reclassify). No blocking read. False when the region would pass its
 // budget.
-bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, Silhouettes& sil,
-                 cl::Buffer& totals, const RegionBudget& budget, CullBounds& out);
+// `fine`: the frame's fine triangle bins (with places); for large triangles the cull bins them
+// again on smaller leaves of its own (a W x H screen).
+bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& fine, uint32_t W,
+                 uint32_t H, Silhouettes& sil, cl::Buffer& totals, const RegionBudget& budget,
+                 CullBounds& out);
 
 // A CullBounds that proves nothing (small placeholder buffers for the kernels' arguments).
 CullBounds no_cull_bounds(ClRuntime& rt);
