@@ -377,11 +377,17 @@ void print_frame_stats(const RenderReport& r) {
       static_cast<unsigned long long>(r.st.thin_fragments),
       static_cast<unsigned long long>(r.st.deep_tournaments));
   std::fprintf(stderr,
-               "left out as provably hidden: %llu screen triangles (cull), %llu fragments "
-               "(stopped in the clip rounds)%s\n",
+               "left out: %llu back faces (closed meshes seen from outside); as provably hidden, "
+               "%llu screen triangles (cull), %llu candidate edges (the triangle hidden along "
+               "them), %llu fragments (stopped in the clip rounds)%s\n",
+               static_cast<unsigned long long>(r.st.back_faces),
                static_cast<unsigned long long>(r.st.culled_triangles),
+               static_cast<unsigned long long>(r.st.pruned_candidates),
                static_cast<unsigned long long>(r.st.dropped_fragments),
                r.args.cull ? "" : "; culling off (--no-cull)");
+  if (r.st.entangled_pairs == 0)
+    std::fprintf(stderr,
+                 "skipped: the crossing lines' sorting and entries (no entangled pair)\n");
   if (r.args.memory_budget)
     std::fprintf(stderr,
                  "memory budget %.1f MB: %u bucket(s), each planned under %.1f MB of work\n",

@@ -218,6 +218,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     // budget always give the same buckets.
     if (fr.use_boxes) bytes_per_tri = std::max(bytes_per_tri, (rt.allocated_bytes() - base) / S);
   }
+  st.back_faces = fr.back_faces;  // (read with the last region's count)
   st.host_syncs = rt.host_syncs();
   st.transfer_bytes = rt.write_bytes();
   tally.items(Stage::Emit, st.visible_fragments, map.vertex_count());
@@ -281,7 +282,7 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
   emit_crossings(rt, s, cx, ce);
   const EdgeBins eb = bin_edges(rt, ce, grids.edge);
   Candidates cand;
-  if (!find_candidates(rt, s, tb, ce, eb, cx, cull, budget, cand)) return false;
+  if (!find_candidates(rt, s, tb, ce, eb, cx, cull, totals, budget, cand)) return false;
   deadline.check(Stage::Clip);
 
   auto progress = [&](uint32_t rounds) {
@@ -298,11 +299,11 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
     // as many and run the clipping again. Nothing is dropped.
     if (rt.maxl() >= 256) throw DeviceError("a fragment needs more than 256 supporting lines");
     rt.build(rt.maxl() * 2);
-    rt.fill_u32(totals, 0, VM_TOTAL_CULLED, Stage::Clip);  // (all but the cull's count, the last)
+    rt.fill_u32(totals, 0, VM_TOTAL_PRUNED, Stage::Clip);  // (not the earlier stages' counts)
     budget.forget_since(rt, before_clip);                  // the first try's fragments are gone
   }
   deadline.check(Stage::Occlusion);
-  const Visibility vis = decide_visibility(rt, frags, s, tb, ce, cx, totals);
+  const Visibility vis = decide_visibility(rt, frags, s, tb, ce, cx, cull, totals);
 
   Emitted em;
   read_visible(rt, frags, vis, s, screen != nullptr, opts.attributes, totals, em);
@@ -324,6 +325,7 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
   const uint32_t kept = S - em.totals[VM_TOTAL_CULLED];
   st.culled_triangles += em.totals[VM_TOTAL_CULLED];
   st.dropped_fragments += em.totals[VM_TOTAL_DROPPED];
+  st.pruned_candidates += em.totals[VM_TOTAL_PRUNED];
   tally.items(Stage::Silhouettes, uint64_t(3) * S, sil.count);
   tally.items(Stage::Bin, uint64_t(S) + sil.count, uint64_t(tb.leaves.entries) + eb.leaves.entries);
   tally.items(Stage::Cull, S, kept);

@@ -35,6 +35,8 @@ struct RenderStats {
   // Left out because provably hidden (the cull stage, core/stages/cull.h): screen triangles
   // before the crossings, and fragments the clip rounds stopped (neither split nor finished).
   uint64_t culled_triangles = 0, dropped_fragments = 0;
+  uint64_t back_faces = 0;        // back faces of closed meshes seen from outside (transform)
+  uint64_t pruned_candidates = 0;  // silhouette edges along which a triangle is proven hidden
   uint64_t peak_device_bytes = 0;  // most device memory held at once (scene upload included)
   uint64_t allocated_device_bytes = 0;  // sum of every allocation during the render
   uint32_t clip_rounds = 0;             // summed over buckets

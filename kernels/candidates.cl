@@ -49,7 +49,7 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
                           __global const VmEdge* edges, __global const int4* edge_bb, VmGrid g,
                           __global const uint* tile_leaf, __global const uint* leaf_offset,
                           __global const uint4* class_start, __global const uint* leaf_list,
-                          const CullProof* cp, __global uint* out) {
+                          const CullProof* cp, uint* pruned, __global uint* out) {
   int4 tb = tri_bb[t];
   uint count = 0;
   VM_FOR_EACH_LEAF(w, tb, g, tile_leaf) {
@@ -65,7 +65,10 @@ inline uint candidates_of(uint t, __global const VmScreenTri* tris, __global con
         if (!edge_is_candidate(&tris[t], edges[e])) continue;
         if (cp->on) {
           const VmScreenTri T = tris[t];
-          if (hidden_along(&T, cp->tri_qr[t], eb, cp->g, cp->tile_leaf, cp->leaf_cull)) continue;
+          if (hidden_along(&T, cp->tri_qr[t], eb, cp->g, cp->tile_leaf, cp->leaf_cull)) {
+            if (pruned) ++*pruned;
+            continue;
+          }
         }
         if (out) out[count] = e;
         ++count;
@@ -86,15 +89,23 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cand_count
     __global const uint4* class_start, __global const uint* leaf_list,
     __global const uint* cross_count, __global uint* counts, __global uint* offsets,
     __global uint* group_sums, __global const double2* tri_qr, VmGrid cull_grid,
-    __global const uint* cull_tile_leaf, __global const double2* leaf_cull, int cull_on) {
+    __global const uint* cull_tile_leaf, __global const double2* leaf_cull, int cull_on,
+    __global uint* totals) {
   __local uint tmp[VM_SCAN_WG];
+  __local uint pruned_wg;
   const uint t = get_global_id(0);
+  if (get_local_id(0) == 0) pruned_wg = 0;
+  barrier(CLK_LOCAL_MEM_FENCE);
   const CullProof cp = {tri_qr, cull_tile_leaf, leaf_cull, cull_grid, cull_on};
+  uint pruned = 0;
   const uint count = t < ntris ? cross_count[t] + candidates_of(t, tris, tri_bb, edges, edge_bb, g,
                                                                 tile_leaf, leaf_offset,
-                                                                class_start, leaf_list, &cp, 0)
+                                                                class_start, leaf_list, &cp,
+                                                                &pruned, 0)
                                : 0;
-  const uint offset = vm_group_offset(count, tmp, group_sums);
+  if (pruned) atomic_add(&pruned_wg, pruned);
+  const uint offset = vm_group_offset(count, tmp, group_sums); /* (its barriers order pruned_wg) */
+  if (get_local_id(0) == 0 && pruned_wg) atomic_add(&totals[VM_TOTAL_PRUNED], pruned_wg);
   if (t < ntris) {
     counts[t] = count;
     offsets[t] = offset;
@@ -121,5 +132,5 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cand_fill(
   uint nc = cross_count[t];
   for (uint k = 0; k < nc; ++k) cand[o + k] = nsil + cross_offset[t] + k;
   candidates_of(t, tris, tri_bb, edges, edge_bb, g, tile_leaf, leaf_offset, class_start, leaf_list,
-                &cp, cand + o + nc);
+                &cp, 0, cand + o + nc);
 }

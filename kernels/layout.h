@@ -105,8 +105,16 @@ typedef struct {
 #define VM_TOTAL_THIN 4    /* fragments thinner than the fine sample grid (occlusion.cl occlude) */
 #define VM_TOTAL_DEEP 5    /* tournaments of more than VM_TOUR_MAX triangles (occlude_deep) */
 #define VM_TOTAL_DROPPED 6 /* fragments the clip rounds proved hidden and dropped (cull.cl) */
-#define VM_TOTAL_CULLED 7  /* screen triangles proven hidden before the crossings (cull.cl) */
-#define VM_TOTAL_SLOTS 8
+/* The counts of the stages before the clip rounds, last: a rerun of the clipping (more lines a
+ * fragment) zeroes the words before them only. */
+#define VM_TOTAL_PRUNED 7 /* candidate edges along which the triangle is proven hidden (candidates.cl) */
+#define VM_TOTAL_CULLED 8 /* screen triangles proven hidden before the crossings (cull.cl) */
+#define VM_TOTAL_SLOTS 9
+
+/* The frame's words (transform.cl; zeroed by transform_vertices): four depth-exponent
+ * reductions, then counts summed over the frame's regions. */
+#define VM_FRAME_BACK_FACES 4 /* back faces of closed meshes left out (clip_count) */
+#define VM_FRAME_WORDS 5
 
 /* The silhouette hash's view of an edge (silhouettes.cl edge_classify), for the cull and the
  * kept triangles' silhouettes: its partner, the other edge of its key, or VM_EDGE_ONE (a boundary)
@@ -222,8 +230,9 @@ static_assert(sizeof(VmGrid) == 16, "VmGrid layout");
 /* The host reads the totals as VM_TOTAL_SLOTS words, launches scan_blocks with VM_SCAN_WG items
  * a group (its reqd_work_group_size) and VM_SCAN_BLOCK counts a group, and sizes the pair
  * scratch by VM_PAIRS_INLINE. */
-static_assert(VM_TOTAL_STATUS == 0 && VM_TOTAL_SLOTS == 8 && VM_TOTAL_CULLED == VM_TOTAL_SLOTS - 1,
-              "totals slots 0..7, the cull's count last (a clip rerun zeroes the others)");
+static_assert(VM_TOTAL_STATUS == 0 && VM_TOTAL_SLOTS == 9 && VM_TOTAL_PRUNED == 7 &&
+                  VM_TOTAL_CULLED == 8,
+              "totals slots 0..8, the counts before the clip rounds last (a rerun zeroes the rest)");
 static_assert(VM_TOTAL_DEEP == VM_TOTAL_THIN + 1, "occlusion reads thin and deep in one read");
 static_assert(VM_SCAN_BLOCK == VM_SCAN_WG * VM_SCAN_PER_ITEM &&
                   (VM_SCAN_WG & (VM_SCAN_WG - 1)) == 0,

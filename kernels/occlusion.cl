@@ -358,7 +358,9 @@ inline uint occlude_one(uint i, __global const VmFragMeta* meta, __global const 
                         __global const uint4* class_start, __global const uint* tile_list,
                         __global const VmEdge* edges, uint nsil,
                         __global const uint* cross_offset, __global const uint* cross_count,
-                        __global const uint* partner, __global uint* status) {
+                        __global const uint* partner, __global uint* status, VmGrid cull_grid,
+                        __global const uint* cull_tile_leaf, __global const double2* leaf_cull,
+                        int cull_on) {
   VmFragMeta m = meta[i];
   long px, py;
   if (!interior_point(lines + (size_t)i * VM_MAXL, m.nlines, &px, &py)) {
@@ -368,6 +370,10 @@ inline uint occlude_one(uint i, __global const VmFragMeta* meta, __global const 
   const VmSample s = sample_fine(px, py);
   VmScreenTri t = tris[m.tri];
   int gx = s.gx, gy = s.gy;
+  if (cull_on) { /* proven hidden where the point is (cull.cl): no occluder need be looked at */
+    const double2 c = leaf_cull[leaf_of_point(gx, gy, cull_grid, cull_tile_leaf)];
+    if (tri_depth_at(&t, s.fx, s.fy) + c.y < c.x) return 0;
+  }
   uint leaf = leaf_of_point(gx, gy, g, tile_leaf);
   uint off = leaf_offset[leaf], cnt = class_start[leaf].w;
   /* A cycle through t needs one of its entangled partners at the point (a crossing line
@@ -415,12 +421,14 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void occlude(
     __global const uint4* class_start, __global const uint* tile_list,
     __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
     __global const uint* cross_count, __global const uint* partner, __global uint* visible,
-    __global uint* offsets, __global uint* group_sums, __global uint* status) {
+    __global uint* offsets, __global uint* group_sums, __global uint* status, VmGrid cull_grid,
+    __global const uint* cull_tile_leaf, __global const double2* leaf_cull, int cull_on) {
   __local uint tmp[VM_SCAN_WG];
   const uint i = get_global_id(0);
   const uint v = i < n ? occlude_one(i, meta, lines, tris, tri_bb, g, tile_leaf, leaf_offset,
                                      class_start, tile_list, edges, nsil, cross_offset,
-                                     cross_count, partner, status)
+                                     cross_count, partner, status, cull_grid, cull_tile_leaf,
+                                     leaf_cull, cull_on)
                        : 0;
   const uint o = vm_group_offset(v, tmp, group_sums);
   if (i < n) {

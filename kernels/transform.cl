@@ -2,13 +2,13 @@
  * triangle, run twice: clip_count sizes the output, clip_fill writes it at the scanned offsets.
  * Both run the same deterministic code, so the counts match by construction. */
 
-/* Item 0 also zeroes the frame's four depth exponents (clip_fill, clip_cells): one launch,
- * not a fill besides. */
+/* Item 0 also zeroes the frame's words (its four depth exponents, clip_fill and clip_cells, and
+ * its counts, VM_FRAME_*): one launch, not a fill besides. */
 __kernel void transform_vertices(__global const float* pos, uint nv, __constant double* m,
                                  __global double4* clip, __global int* depth_ex) {
   uint i = get_global_id(0);
   if (i == 0)
-    for (int k = 0; k < 4; ++k) depth_ex[k] = 0;
+    for (int k = 0; k < VM_FRAME_WORDS; ++k) depth_ex[k] = 0;
   if (i >= nv) return;
   double x = pos[3 * i], y = pos[3 * i + 1], z = pos[3 * i + 2];
   /* column-major 4x4, as OpenGL */
@@ -185,7 +185,7 @@ inline uint clip_triangle(uint t, __global const uint* idx, __global const doubl
                           __global const uint* mesh_cull, uint width, uint height, int ortho,
                           int4 region, int write, uint base, __global VmScreenTri* out,
                           __global float* bary_out, VmGrid cells, __global uint* hist,
-                          __global ushort4* box_out, __global int* depth_ex) {
+                          __global ushort4* box_out, __global int* depth_ex, uint* backs) {
   double4 p[VM_CLIP_MAXV], np[VM_CLIP_MAXV];
   float3 b[VM_CLIP_MAXV], nb[VM_CLIP_MAXV];
   int n = 3;
@@ -244,8 +244,10 @@ inline uint clip_triangle(uint t, __global const uint* idx, __global const doubl
     int a = 0, c1 = i, c2 = i + 1;
     long o = orient_points(X[a], Y[a], X[c1], Y[c1], X[c2], Y[c2]);
     if (o == 0) continue;
-    if (cull == VM_CULL_POSITIVE && o > 0) continue;
-    if (cull == VM_CULL_NEGATIVE && o < 0) continue;
+    if ((cull == VM_CULL_POSITIVE && o > 0) || (cull == VM_CULL_NEGATIVE && o < 0)) {
+      ++*backs; /* a back face of a closed mesh seen from outside (counted by clip_count) */
+      continue;
+    }
     int bx0 = min(X[a], min(X[c1], X[c2])), bx1 = max(X[a], max(X[c1], X[c2]));
     int by0 = min(Y[a], min(Y[c1], Y[c2])), by1 = max(Y[a], max(Y[c1], Y[c2]));
     if (bx1 <= region.x || bx0 >= region.z || by1 <= region.y || by0 >= region.w) continue;
@@ -310,16 +312,23 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_count
     __global const uint* tri_mesh, __global const uint* tri_local,
     __global const uint* mesh_cull, uint width, uint height, int ortho, int4 region,
     __global const ushort4* boxes, int use_boxes, __global uint* offsets,
-    __global uint* group_sums) {
+    __global uint* group_sums, __global uint* frame_words) {
   __local uint tmp[VM_SCAN_WG];
+  __local uint backs_wg;
   const uint t = get_global_id(0);
+  if (get_local_id(0) == 0) backs_wg = 0;
+  barrier(CLK_LOCAL_MEM_FENCE);
   VmGrid none = {0, 0, 0, 0};
+  uint backs = 0;
   const uint count = t < ntri && box_meets(boxes, use_boxes, t, region)
                          ? clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width,
-                                         height, ortho, region, 0, 0, 0, 0, none, 0, 0, 0)
+                                         height, ortho, region, 0, 0, 0, 0, none, 0, 0, 0, &backs)
                          : 0;
-  const uint offset = vm_group_offset(count, tmp, group_sums);
+  if (backs) atomic_add(&backs_wg, backs);
+  const uint offset = vm_group_offset(count, tmp, group_sums); /* (its barriers order backs_wg) */
   if (t < ntri) offsets[t] = offset;
+  if (get_local_id(0) == 0 && backs_wg)
+    atomic_add(&frame_words[VM_FRAME_BACK_FACES], backs_wg); /* (summed over buckets) */
 }
 
 /* Writes them at the group's base (scan.cl vm_group_base) plus clip_count's offsets, noting
@@ -340,9 +349,10 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void clip_fill(
   if (t >= ntri) return;
   if (!box_meets(boxes, use_boxes, t, region)) return;
   VmGrid none = {0, 0, 0, 0};
+  uint backs = 0;
   clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho, region, 1,
                 base + offsets[t], out, want_bary ? bary_out : 0, none, 0, 0,
-                note_ex ? depth_ex : 0);
+                note_ex ? depth_ex : 0, &backs);
 }
 
 /* For planning buckets: per-cell counts of the screen triangles whose box touches each cell
@@ -355,6 +365,7 @@ __kernel void clip_cells(__global const uint* idx, uint ntri, __global const dou
                          __global int* depth_ex) {
   uint t = get_global_id(0);
   if (t >= ntri) return;
+  uint backs = 0;
   clip_triangle(t, idx, clip, tri_mesh, tri_local, mesh_cull, width, height, ortho, region, 0, 0, 0,
-                0, cells, hist, boxes, depth_ex);
+                0, cells, hist, boxes, depth_ex, &backs);
 }

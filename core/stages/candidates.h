@@ -22,9 +22,9 @@ struct Candidates {
 
 // False when the list would pass the region's budget (counted, not filled).
 // A silhouette edge along which the triangle is proven hidden (`cull`, cull.cl hidden_along)
-// cannot change its visibility and is left out of its list.
+// cannot change its visibility and is left out of its list (counted in totals[VM_TOTAL_PRUNED]).
 bool find_candidates(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, const ClipEdges& ce,
                      const EdgeBins& eb, const Crossings& cx, const CullBounds& cull,
-                     const RegionBudget& budget, Candidates& c);
+                     cl::Buffer& totals, const RegionBudget& budget, Candidates& c);
 
 }  // namespace vismap::stages

@@ -6,7 +6,7 @@ namespace vismap::stages {
 
 Visibility decide_visibility(ClRuntime& rt, const Fragments& fr, const ScreenSet& s,
                              const TriangleBins& tb, const ClipEdges& ce, const Crossings& cx,
-                             cl::Buffer& totals) {
+                             const CullBounds& cull, cl::Buffer& totals) {
   constexpr Stage kStage = Stage::Occlusion;
   const uint32_t nd = fr.count;
   const Leaves& lv = tb.leaves;
@@ -17,7 +17,8 @@ Visibility decide_visibility(ClRuntime& rt, const Fragments& fr, const ScreenSet
   rt.launch_grouped(kStage, "occlude", nd, VM_SCAN_WG, fr.meta, fr.lines, nd, s.tris, tb.bb,
                     tb.grid, lv.tile_leaf, lv.offset, lv.class_start, lv.list, ce.edges,
                     ce.silhouettes, cx.entry_offset, cx.entry_count, ce.partner, v.visible,
-                    v.offset, v.groups.sums, totals);
+                    v.offset, v.groups.sums, totals, cull.grid, cull.tile_leaf, cull.leaf_cull,
+                    cl_int(cull.on ? 1 : 0));
   // Thin fragments and deep tournaments, counted by occlude, and the visible count in one read:
   // occlude's fused scan is right unless a fragment was thin or deep (their passes change the
   // visibility, and it is scanned again after them).

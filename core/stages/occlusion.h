@@ -12,6 +12,7 @@
 #include "core/stages/bin.h"
 #include "core/stages/clip.h"
 #include "core/stages/crossings.h"
+#include "core/stages/cull.h"
 #include "core/stages/silhouettes.h"
 #include "core/stages/transform.h"
 
@@ -25,8 +26,9 @@ struct Visibility {
   uint32_t deep = 0;           // tournaments of more than VM_TOUR_MAX triangles (occlude_deep)
 };
 
+// A fragment whose interior point lies below the bound of its leaf (`cull`) is hidden at once.
 Visibility decide_visibility(ClRuntime& rt, const Fragments& fr, const ScreenSet& s,
                              const TriangleBins& tb, const ClipEdges& ce, const Crossings& cx,
-                             cl::Buffer& totals);
+                             const CullBounds& cull, cl::Buffer& totals);
 
 }  // namespace vismap::stages

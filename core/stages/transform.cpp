@@ -38,7 +38,8 @@ Frame begin_frame(ClRuntime& rt, const SceneBuffers& sb, const Scene& scene, con
   f.mat = rt.upload(std::vector<double>(vp.begin(), vp.end()), "view-projection");
   f.mesh_cull = rt.upload(cull_modes(scene, sb.closed, cam), "cull modes");
   f.clip = rt.alloc(size_t(sb.nv) * sizeof(cl_double4), "clip-space vertices");
-  f.depth_ex = rt.alloc(4 * sizeof(cl_int), "depth exponents");  // zeroed by transform_vertices
+  // The depth exponents and the frame's counts (VM_FRAME_*), zeroed by transform_vertices.
+  f.depth_ex = rt.alloc(VM_FRAME_WORDS * sizeof(cl_int), "frame words");
   f.totals = rt.alloc(VM_TOTAL_SLOTS * 4, "totals");              // zeroed by clip_fill
   rt.launch(stage, "transform_vertices", std::max<uint32_t>(sb.nv, 1), sb.pos, sb.nv, f.mat,
             f.clip, f.depth_ex);
@@ -54,7 +55,9 @@ uint32_t count_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl
                       Stage stage) {
   rt.launch_grouped(stage, "clip_count", sb.ntri, VM_SCAN_WG, sb.idx, sb.ntri, fr.clip,
                     sb.tri_mesh, sb.tri_local, fr.mesh_cull, fr.W, fr.H, fr.ortho, region, fr.boxes,
-                    fr.use_boxes, fr.offsets, fr.screen_groups.sums);
+                    fr.use_boxes, fr.offsets, fr.screen_groups.sums, fr.depth_ex);
+  // The back faces so far, without a read of its own: complete with the group totals' below.
+  rt.read_async(stage, fr.depth_ex, VM_FRAME_BACK_FACES * 4, 4, &fr.back_faces);
   return rt.group_total(stage, fr.screen_groups);
 }
 

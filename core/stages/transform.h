@@ -31,8 +31,10 @@ struct Frame {
   cl_int ortho = 0, use_boxes = 0;
   // The depth-plane exponent reductions (note_depth_exponents): over the whole frame once
   // clip_cells has noted every screen triangle (buckets), else by the first clip_fill.
-  cl::Buffer depth_ex;
+  cl::Buffer depth_ex;  // and the frame's counts after them (VM_FRAME_*)
   bool depth_ex_done = false;
+  // Back faces of closed meshes left out so far (read back by count_screen with its count).
+  uint32_t back_faces = 0;
   // The region's VM_TOTAL_* words (counts and status flags the kernels raise), zeroed by
   // fill_screen for each region.
   cl::Buffer totals;
