@@ -53,12 +53,15 @@ void draw(const vismap::Scene& scene) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 3) fail("usage: vismap_gl2ps_peer SCENE OUT.svg [--width W --height H] [--no-cull]");
+  if (argc < 3)
+    fail("usage: vismap_gl2ps_peer SCENE OUT.svg [--width W --height H] [--no-cull] [--back-faces]");
   const std::string in = argv[1], out = argv[2];
   uint32_t W = 1024, H = 1024;
   GLint options = GL2PS_OCCLUSION_CULL | GL2PS_USE_CURRENT_VIEWPORT;
+  bool back_faces = false;  // --back-faces: OpenGL's back-face culling (glEnable(GL_CULL_FACE))
   for (int i = 3; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--no-cull")) options &= ~GL2PS_OCCLUSION_CULL;
+    else if (!std::strcmp(argv[i], "--back-faces")) back_faces = true;
     else if (i + 1 < argc && !std::strcmp(argv[i], "--width")) W = uint32_t(std::atoi(argv[++i]));
     else if (i + 1 < argc && !std::strcmp(argv[i], "--height")) H = uint32_t(std::atoi(argv[++i]));
     else fail(std::string("unknown option ") + argv[i]);
@@ -83,6 +86,10 @@ int main(int argc, char** argv) {
   glMatrixMode(GL_MODELVIEW);
   glLoadMatrixd(v.data());
   glEnable(GL_DEPTH_TEST);
+  if (back_faces) {  // (the picture loses what an open mesh shows of its inside: the fastest mode)
+    glEnable(GL_CULL_FACE);
+    glCullFace(GL_BACK);
+  }
   glShadeModel(GL_FLAT);
   glClearColor(1, 1, 1, 1);
 

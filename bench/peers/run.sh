@@ -1,7 +1,8 @@
 #!/bin/bash
 # Whole-process times of `vismap render SCENE -o OUT.svg` against GL2PS on the same view
-# (vismap_gl2ps_peer: its simple sort with occlusion culling, and the simple sort alone),
-# alternated in one run (issue 17 part 5), at 1024^2.
+# (vismap_gl2ps_peer: its simple sort with occlusion culling, the simple sort alone, and the
+# simple sort with OpenGL's back-face culling, GL2PS's fastest SVG), alternated in one run
+# (issue 17 part 5, issue 32), at 1024^2.
 #   bench/peers/run.sh [SCENE] [RUNS] [VISMAP] [VISMAP_B]
 #   (defaults: data/bunny.ply, 5, build/vismap; VISMAP_B: a second build for an A/B)
 # Needs build/bench/vismap_gl2ps_peer (bench/peers/setup.sh, then cmake -S . -B build again and
@@ -19,7 +20,7 @@ trap 'rm -rf "$TMP"' EXIT
 ms() { local t0 t1; t0=$(date +%s%N); "$@" > /dev/null; t1=$(date +%s%N); echo $(((t1 - t0) / 1000000)); }
 median() { sort -n | awk '{a[NR] = $1} END {print a[int((NR + 1) / 2)]}'; }
 for t in "${TOOLS[@]}"; do "$t" render "$SCENE" -o "$TMP/warm.svg" > /dev/null; done  # kernel caches
-names=(); for i in "${!TOOLS[@]}"; do names+=("vismap$i"); done; names+=(gl2ps_cull gl2ps_simple)
+names=(); for i in "${!TOOLS[@]}"; do names+=("vismap$i"); done; names+=(gl2ps_cull gl2ps_simple gl2ps_backface)
 for n in "${names[@]}"; do : > "$TMP/$n"; done
 for r in $(seq "$RUNS"); do
   line="run $r:"
@@ -29,8 +30,9 @@ for r in $(seq "$RUNS"); do
   done
   b=$(ms "$PEER" "$SCENE" "$TMP/gl2ps.svg"); echo "$b" >> "$TMP/gl2ps_cull"
   c=$(ms "$PEER" "$SCENE" "$TMP/gl2ps.svg" --no-cull); echo "$c" >> "$TMP/gl2ps_simple"
-  echo "$line gl2ps simple+cull $b ms, gl2ps simple $c ms"
+  d=$(ms "$PEER" "$SCENE" "$TMP/gl2ps.svg" --no-cull --back-faces); echo "$d" >> "$TMP/gl2ps_backface"
+  echo "$line gl2ps simple+cull $b ms, gl2ps simple $c ms, gl2ps simple+back-face culling $d ms"
 done
 line="median ($SCENE):"
 for i in "${!TOOLS[@]}"; do line+=" ${TOOLS[$i]} $(median < "$TMP/vismap$i") ms,"; done
-echo "$line gl2ps simple+cull $(median < "$TMP/gl2ps_cull") ms, gl2ps simple $(median < "$TMP/gl2ps_simple") ms"
+echo "$line gl2ps simple+cull $(median < "$TMP/gl2ps_cull") ms, gl2ps simple $(median < "$TMP/gl2ps_simple") ms, gl2ps simple+back-face culling $(median < "$TMP/gl2ps_backface") ms"
