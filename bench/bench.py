@@ -29,7 +29,7 @@ import svgplot  # noqa: E402
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHARED = os.path.join(os.path.dirname(ROOT), "shared", "data")
 GEN = os.path.join(ROOT, "bench", "scenes")
-STAGES = ["transform", "silhouettes", "bin", "crossings", "candidates", "clip", "occlusion", "emit"]
+STAGES = ["transform", "silhouettes", "bin", "cull", "crossings", "candidates", "clip", "occlusion", "emit"]
 
 # name, path, small enough for the exact `vismap check` reference (CGAL; the README calls the
 # bunny already too big for it: the others get the pixel comparison only, --pixels 1024)
@@ -200,7 +200,8 @@ def write_outputs(out, rows, sweep, env, have_check):
             "first_render_ms", "upload_ms", "pipeline_ms", "pipeline_min_ms", "pipeline_max_ms", "kernels_ms",
             "host_ms"] + ["stage_" + s + "_ms" for s in STAGES] + [
             "triangles_per_s", "screen_triangles", "silhouette_edges", "crossing_lines", "fragments",
-            "visible_fragments", "output_fragments", "output_triangles", "clip_rounds", "host_syncs", "peak_device_bytes",
+            "visible_fragments", "fragments_per_visible", "culled_triangles", "dropped_fragments",
+            "output_fragments", "output_triangles", "clip_rounds", "host_syncs", "peak_device_bytes",
             "zbuffer_ms", "zbuffer_kernels_ms", "zbuffer_ratio",
             "svg_bytes", "svg_ms", "bin_bytes", "bin_ms", "peak_rss_mb", "process_ms", "process_min_ms",
             "process_max_ms", "process_runs", "peak_rss_mb_cli", "cli_load_ms", "cli_render_ms", "cli_write_ms",
@@ -211,6 +212,8 @@ def write_outputs(out, rows, sweep, env, have_check):
         d = dict(r)
         for s in STAGES:
             d["stage_" + s + "_ms"] = r.get("stages", {}).get(s)
+        if r.get("visible_fragments"):  # fragments clipped per visible fragment (issue 32)
+            d["fragments_per_visible"] = round(r["fragments"] / r["visible_fragments"], 3)
         return d
 
     for name, data in (("results.csv", rows), ("sweep.csv", sweep)):
@@ -245,6 +248,15 @@ def write_outputs(out, rows, sweep, env, have_check):
                   f"({f1(r['pipeline_min_ms'])}-{f1(r['pipeline_max_ms'])}) | {f1(r['kernels_ms'])} | {f1(r['host_ms'])} | "
                   f"{r['triangles_per_s'] / 1e6:.2f} | {r['peak_device_bytes'] / 1e6:.1f} | {r['output_fragments']:.0f} | "
                   f"{r['svg_bytes'] / 1e6:.2f} | {f1(r['svg_ms'])} |")
+    md += ["", "## Work against the output: fragments clipped per visible fragment (issue 32)", "",
+           "| scene | res | screen triangles | culled (provably hidden) | fragments | dropped in the rounds | visible | fragments / visible |",
+           "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        if not r.get("visible_fragments"):
+            continue
+        md.append(f"| {r['scene']} | {r['width']} | {r['screen_triangles']:.0f} | {r.get('culled_triangles', 0):.0f} | "
+                  f"{r['fragments']:.0f} | {r.get('dropped_fragments', 0):.0f} | {r['visible_fragments']:.0f} | "
+                  f"{r['fragments'] / r['visible_fragments']:.2f} |")
     md += ["", "## Stage times (ms, median of warm runs; OpenCL event time) and share of the kernel sum", "",
            "| scene | res | " + " | ".join(STAGES) + " | top stage |", "|---|---:|" + "---:|" * len(STAGES) + "---|"]
     for r in rows:
