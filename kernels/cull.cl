@@ -104,9 +104,11 @@ inline double4 rect_d(long4 r) {
 
 /* What one list entry (a triangle in a leaf) adds to its leaf's proof, one work-item an entry:
  * iv[j] its depth interval over the leaf, or lo = +inf where it does not meet the open cell;
- * cover[j] its least depth over the cell where it contains the closed cell, else -inf;
+ * cover[j] its least depth over the cell where it contains the closed cell, else -inf; both as
+ * floats rounded outward (lo and cover down, hi up: the interval only grows, the bound only
+ * drops, 2^-24 relative against the margin's 10^-6 a step);
  * flags[j]: VM_CULL_MEETS, VM_CULL_SIL (a silhouette edge of it meets the open cell),
- * VM_CULL_FREE (its depth plane is not snapped); slope[j] |dq/dx| + |dq/dy| (rounded up). */
+ * VM_CULL_FREE (its depth plane is not snapped). */
 #define VM_CULL_MEETS 1u
 #define VM_CULL_SIL 2u
 #define VM_CULL_FREE 4u
@@ -125,9 +127,8 @@ __kernel void cull_entries(__global const VmScreenTri* tris, __global const int4
                            __global const double2* tri_qr, __global const uchar* edge_sil,
                            __global const uint* partners, __global const uint* slot_sides,
                            __global const int4* leaf_rects, __global const uint* entry_leaf,
-                           __global const uint* leaf_list, uint nentries, __global double2* iv,
-                           __global double* cover, __global float* slope,
-                           __global uchar* flags) {
+                           __global const uint* leaf_list, uint nentries, __global float2* iv,
+                           __global float* cover, __global uchar* flags) {
   const uint j = get_global_id(0);
   if (j >= nentries) return;
   const int4 lr = leaf_rects[entry_leaf[j]];
@@ -136,9 +137,8 @@ __kernel void cull_entries(__global const VmScreenTri* tris, __global const int4
   const VmScreenTri T = tris[t];
   const int4 b = tri_bb[t];
   if (!tri_meets_open_rect(&T, b, r)) {
-    iv[j] = (double2)(INFINITY, -INFINITY);
+    iv[j] = (float2)(INFINITY, -INFINITY);
     cover[j] = -INFINITY;
-    slope[j] = 0;
     flags[j] = 0;
     return;
   }
@@ -146,10 +146,9 @@ __kernel void cull_entries(__global const VmScreenTri* tris, __global const int4
   uint f = VM_CULL_MEETS | (T.plane_k == VM_PLANE_FREE ? VM_CULL_FREE : 0u);
   const double2 qr = tri_qr[t];
   const bool inside = b.x >= r.x && b.z <= r.z && b.y >= r.y && b.w <= r.w;
-  iv[j] = inside ? qr : depth_interval(&T, qr, rd); /* (inside the cell: its vertices' range) */
-  cover[j] = tri_contains_rect(&T, b, r) ? plane_range(&T, rd).x : -INFINITY;
-  const DepthPlane p = depth_plane(&T);
-  slope[j] = (float)((fabs(p.gx) + fabs(p.gy)) * (1 + 0x1p-20)); /* (rounded up) */
+  const double2 d = inside ? qr : depth_interval(&T, qr, rd); /* (inside: its vertices' range) */
+  iv[j] = (float2)(convert_float_rtn(d.x), convert_float_rtp(d.y));
+  cover[j] = tri_contains_rect(&T, b, r) ? convert_float_rtn(plane_range(&T, rd).x) : -INFINITY;
   for (int e = 0; e < 3; ++e) {
     if (!cull_edge_sil(3 * t + e, edge_sil, partners, slot_sides)) continue;
     const int k = e == 2 ? 0 : e + 1;
@@ -160,30 +159,40 @@ __kernel void cull_entries(__global const VmScreenTri* tris, __global const int4
 
 /* Per leaf: (top, M) as proven above from its entries (cull_entries), or top = -inf where
  * nothing is proven. */
+/* Also zeroes the `groups` words of `zero` (edge_reclassify's group counts): one launch less. */
 __kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
                           __global const uint4* class_start, __global const uint* leaf_list,
-                          __global const int4* tri_bb, __global const double2* iv,
-                          __global const double* cover, __global const float* slope,
-                          __global const uchar* flags, __global double2* leaf_cull) {
+                          __global const VmScreenTri* tris, __global const int4* tri_bb,
+                          __global const float2* iv, __global const float* cover,
+                          __global const uchar* flags, __global double2* leaf_cull,
+                          __global uint* zero, uint groups) {
   const uint leaf = get_global_id(0);
+  if (leaf < groups) zero[leaf] = 0;
   if (leaf >= nleaves) return;
   const uint n = class_start[leaf].w, off = leaf_offset[leaf];
   uint meet = 0, any = 0;
-  double qabs = 0, single = -INFINITY, gmax = 0, free_span = 0;
+  double qabs = 0, single = -INFINITY;
   for (uint k = off; k < off + n; ++k) {
     const uint f = flags[k];
     if (!(f & VM_CULL_MEETS)) continue;
     ++meet;
     any |= f;
-    const double2 v = iv[k];
-    qabs = fmax(qabs, fmax(fabs(v.x), fabs(v.y)));
-    single = fmax(single, cover[k]);
-    gmax = fmax(gmax, (double)slope[k]);
-    if (f & VM_CULL_FREE) { /* (rare: a plane too steep to snap) */
-      const int4 b = tri_bb[leaf_list[k]];
-      free_span = fmax(free_span, (double)max(b.z - b.x, b.w - b.y));
-    }
+    const float2 v = iv[k];
+    qabs = fmax(qabs, (double)fmax(fabs(v.x), fabs(v.y)));
+    single = fmax(single, (double)cover[k]);
   }
+  double gmax = 0, free_span = 0;
+  if (any & VM_CULL_FREE) /* (rare: a plane too steep to snap) */
+    for (uint k = off; k < off + n; ++k) {
+      if (!(flags[k] & VM_CULL_MEETS)) continue;
+      const VmScreenTri T = tris[leaf_list[k]];
+      const DepthPlane p = depth_plane(&T);
+      gmax = fmax(gmax, (fabs(p.gx) + fabs(p.gy)) * (1 + 0x1p-40));
+      if (flags[k] & VM_CULL_FREE) {
+        const int4 b = tri_bb[leaf_list[k]];
+        free_span = fmax(free_span, (double)max(b.z - b.x, b.w - b.y));
+      }
+    }
   /* Per step: the tie band (|q| at any point of the cell that a triangle covers is within its
    * interval there); and where a plane is not snapped, a rounded crossing line: within
    * (1 + h) / (2 (2^23 - 255)) grid units of the true one over the pair's overlap (h its
@@ -200,13 +209,14 @@ __kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
   for (int grp = 0; grp < VM_CULL_GROUPS && top == -INFINITY && meet > 0; ++grp) {
     double v = -INFINITY;
     for (uint k = off; k < off + n; ++k)
-      if (iv[k].y + M < ceiling) v = fmax(v, iv[k].y + M);
+      if ((double)iv[k].y + M < ceiling) v = fmax(v, (double)iv[k].y + M);
     if (v == -INFINITY) break;
     bool settled = false;
     for (int pass = 0; pass < VM_CULL_PASSES && !settled; ++pass) {
       double nv = v;
       for (uint k = off; k < off + n; ++k)
-        if (iv[k].y + M >= v && iv[k].y + M < ceiling) nv = fmin(nv, iv[k].x);
+        if ((double)iv[k].y + M >= v && (double)iv[k].y + M < ceiling)
+          nv = fmin(nv, (double)iv[k].x);
       settled = nv == v;
       v = nv;
     }
@@ -214,7 +224,8 @@ __kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
     bool clean = true;
 #if VM_CULL_MUTATION != 1 /* (tests/test_cull.cpp: a cull without this must be caught) */
     for (uint k = off; k < off + n && clean; ++k)
-      if ((flags[k] & VM_CULL_SIL) && iv[k].y + M >= v && iv[k].y + M < ceiling) clean = false;
+      if ((flags[k] & VM_CULL_SIL) && (double)iv[k].y + M >= v && (double)iv[k].y + M < ceiling)
+        clean = false;
 #endif
     if (clean) top = v;
     ceiling = v;

@@ -55,21 +55,23 @@ bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& fine, ui
   // Per leaf its bound (kept for the clip rounds); per list entry an interval, a cover and a flag
   // byte; per triangle its keep flag; per edge the kept triangles' silhouette flags.
   if (!budget.allows_more(
-          rt, uint64_t(lv.leaves) * 16 + E * 29 + uint64_t(S) * 4 + uint64_t(sil.edges_in) * 4))
+          rt, uint64_t(lv.leaves) * 16 + E * 13 + uint64_t(S) * 4 + uint64_t(sil.edges_in) * 4))
     return false;
   out.tile_leaf = lv.tile_leaf;
   out.grid = tb.grid;
   out.leaf_cull = rt.alloc(std::max<size_t>(lv.leaves, 1) * sizeof(cl_double2), "cull bounds");
+  // The kept triangles' silhouette counts per group, zeroed by cull_leaves.
+  ClRuntime::GroupSums eg = rt.group_sums(sil.edges_in, "edge group totals (kept)");
   {
-    cl::Buffer iv = rt.alloc(E * sizeof(cl_double2), "cull intervals");
-    cl::Buffer cover = rt.alloc(E * sizeof(cl_double), "cull covers");
-    cl::Buffer slope = rt.alloc(E * sizeof(cl_float), "cull slopes");
+    cl::Buffer iv = rt.alloc(E * sizeof(cl_float2), "cull intervals");
+    cl::Buffer cover = rt.alloc(E * sizeof(cl_float), "cull covers");
     cl::Buffer flags = rt.alloc(std::max<size_t>(E, 4), "cull entry flags");
     rt.launch(kStage, "cull_entries", lv.entries, s.tris, tb.bb, tb.qr, sil.key_sil,
               sil.partners, sil.slot_sides, lv.rects, lv.entry_leaf, lv.list, lv.entries, iv,
-              cover, slope, flags);
-    rt.launch(kStage, "cull_leaves", lv.leaves, lv.leaves, lv.offset, lv.class_start, lv.list,
-              tb.bb, iv, cover, slope, flags, out.leaf_cull);
+              cover, flags);
+    rt.launch(kStage, "cull_leaves", std::max(lv.leaves, eg.groups), lv.leaves, lv.offset,
+              lv.class_start, lv.list, s.tris, tb.bb, iv, cover, flags, out.leaf_cull, eg.sums,
+              eg.groups);
   }
   cl::Buffer keep = rt.alloc(std::max<size_t>(S, 1) * 4, "cull keep");
   rt.launch_grouped(kStage, "cull_tris", S, VM_SCAN_WG, s.tris, S, tb.bb, tb.qr, tb.grid,
@@ -77,8 +79,6 @@ bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& fine, ui
   out.on = true;
   // The kept triangles' silhouettes: edges they share with culled ones are boundaries now.
   cl::Buffer flags = rt.alloc(size_t(sil.edges_in) * 4, "edge flags (kept)");
-  ClRuntime::GroupSums eg = rt.group_sums(sil.edges_in, "edge group totals (kept)");
-  rt.fill_u32(eg.sums, 0, eg.groups, kStage);
   rt.launch(kStage, "edge_reclassify", sil.edges_in, sil.edges_in, keep, sil.partners,
             sil.key_sil, sil.flags, flags, eg.sums);
   sil.flags = flags;
