@@ -1,31 +1,34 @@
 /* Stage: cull (issue 32). Before any crossing, candidate or clip work, the screen triangles that
- * are provably hidden are left out, and later (clip.cl) fragments that are provably hidden stop.
- * The proof is per leaf C of the fine triangle bins, a closed grid rectangle (cull_leaves):
+ * are provably hidden are left out, and later (candidates.cl, clip.cl, occlusion.cl) the same
+ * proof prunes candidate edges, stops fragments and decides them. The proof is per leaf C, a
+ * closed grid rectangle (cull_leaves), about the triangles meeting its open cell:
  *
- * - A sheet: where no silhouette edge (boundary, fold or non-manifold, silhouettes.cl) meets the
- *   open cell, the triangles meeting it form surfaces that continue across every edge inside it,
- *   so each of them projects onto the whole cell (SVGPU's premise: coverage changes only at
- *   silhouettes). Each triangle's depth over the cell lies in [lo, hi] (its plane at the cell's
- *   corners and its vertices' range); one sheet's intervals form one connected union, so the
- *   topmost connected component of the union of all intervals (each widened up by the margin M)
- *   holds at least one whole sheet, at least `top` everywhere over the cell.
- * - A single cover: a triangle that contains the closed cell is such a sheet by itself.
+ * - Each one's nearness over the cell lies in [lo, hi] (its plane at the cell's corners and its
+ *   vertices' range). The occlusion stage's "hides" relation can order two triangles against
+ *   their exact depths at a point by at most d, the step: the tie band (VM_TIE_EPS of the largest
+ *   |q|), or where a plane is not snapped the rounding of its crossing lines; a crossing pair
+ *   with integer planes decides by the exact sign of their difference. A triangle t that beats
+ *   u at a point is nearer there than u minus d.
+ * - Connected components of the union of the intervals [lo, hi + d]: between two of them is a
+ *   gap wider than d that no triangle's depth crosses, so no chain of "beats" at any point of
+ *   the cell climbs from a lower component to a higher one.
+ * - A sheet: where no silhouette edge (boundary, fold or non-manifold, silhouettes.cl) of a
+ *   component's members meets the open cell, they form surfaces that continue across every edge
+ *   inside it, so each projects onto the whole cell (SVGPU's premise: coverage changes only at
+ *   silhouettes), and one sheet's intervals have a connected union: the component holds whole
+ *   sheets covering the cell, nearer than its lower end `top` everywhere.
  *
- * A triangle whose interval over the cell ends more than M below `top` is hidden at every point
- * of the cell: the sheet is nearer there by more than M. M is the margin by which the
- * occlusion stage's "hides" relation can disagree with the exact depths along any chain of the
- * triangles that can cover one point of the cell: the tie band (VM_TIE_EPS of the largest |q|)
- * per step and no more than the triangles meeting the cell in steps, as a crossing pair with
- * integer planes decides by the exact sign of their difference. So the hidden triangle can be
- * no part of the top of the tournament at any point (occlusion.cl: whatever beats a top member
- * is a top member, and a path back through the tournament would need a depth spread of more
- * than M), and what it hides the sheet hides too: removing it changes no visible point. A cell
- * holding a triangle whose plane could not be snapped (rounded crossing lines) proves nothing.
- * A triangle is culled when the test holds in every leaf whose open cell it meets
- * (docs/ARCHITECTURE.md "Cull"). */
+ * A triangle x in a lower component is then hidden at every point of the cell, and it can be no
+ * part of the top of the tournament at any point (occlusion.cl): a sheet member s beats it there,
+ * whatever beats a top member is one, and x would need a chain of "beats" climbing back to s
+ * across the gap. Whatever x hides the sheet hides too, so removing x changes no visible point.
+ * A triangle that contains the closed cell is a sheet by itself; as no gap is known below it, it
+ * proves a bound (meeting triangles + 2) steps below its least depth over the cell (no chain is
+ * longer than the triangles covering a point). A triangle is culled when the test
+ * hi + d < top holds in every leaf whose open cell it meets (docs/ARCHITECTURE.md "Cull"). */
 
 /* Relative tie band per step of a chain (VM_TIE_EPS, with room for rounding and for pieces of one
- * source, whose planes differ by their snaps: 2^-24 at most), times (steps + 2). */
+ * source, whose planes differ by their snaps: 2^-24 at most). */
 #define VM_CULL_STEP (1.25 * VM_TIE_EPS)
 /* Passes of the top-component search before a leaf gives up (and proves nothing). */
 #ifndef VM_CULL_MUTATION
@@ -157,8 +160,8 @@ __kernel void cull_entries(__global const VmScreenTri* tris, __global const int4
   flags[j] = (uchar)f;
 }
 
-/* Per leaf: (top, M) as proven above from its entries (cull_entries), or top = -inf where
- * nothing is proven. */
+/* Per leaf: (top, d) as proven above from its entries (cull_entries), or top = -inf where
+ * nothing is proven: a triangle whose nearness over the cell stays below top - d is hidden. */
 /* Also zeroes the `groups` words of `zero` (edge_reclassify's group counts): one launch less. */
 __kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
                           __global const uint4* class_start, __global const uint* leaf_list,
@@ -199,9 +202,9 @@ __kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
    * half-span plus 1.5, at most the free triangle's span: docs/NUMERICS.md §2), where the depth
    * difference changes by at most the sum of the two slopes a grid unit. */
   const double round = any & VM_CULL_FREE ? 2.0 * gmax * (free_span + 8.0) * 0x1p-23 : 0.0;
-  const double M = (double)(meet + 2) * (VM_CULL_STEP * qabs + round);
+  const double M = VM_CULL_STEP * qabs + round; /* the step d */
   double top = -INFINITY;
-  /* The connected components of the union of [lo, hi + M], from the top down: each from the
+  /* The connected components of the union of [lo, hi + d], from the top down: each from the
    * highest reach below the one above, taking in every interval that reaches it, until none is
    * added. The first whose members have no silhouette edge in the cell (their sheets cover it)
    * proves the bound; one above it with silhouettes (a contour in front) does not matter. */
@@ -230,7 +233,8 @@ __kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
     if (clean) top = v;
     ceiling = v;
   }
-  top = fmax(top, single);
+  /* A single cover: no gap known below it, so (meet + 2) steps below it, less the test's one. */
+  top = fmax(top, single - (double)(meet + 1) * M);
   leaf_cull[leaf] = (double2)(top, M);
 }
 

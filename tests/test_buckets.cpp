@@ -100,7 +100,9 @@ TEST(Buckets, RandomScenesInBucketsMatchReference) {
         << "seed " << seed << " (" << randomized::kind_name(rs.kind) << ", " << st.buckets
         << " buckets): " << check::to_json(f).dump();
   }
-  EXPECT_GT(bucketed, 30) << "the budget should split most of these scenes";
+  // (Most: 24 of the 40 with the cull, which leaves out what is provably hidden before the
+  // stages that the budget counts, 31 before it.)
+  EXPECT_GT(bucketed, 20) << "the budget should split most of these scenes";
 }
 
 TEST(Buckets, BudgetBelowTheSceneIsAClearError) {
