@@ -271,10 +271,8 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
   // From here on the provably hidden triangles are out of the frame (their boxes emptied).
   CullBounds cull;
   deadline.check(Stage::Cull);
-  if (!opts.cull)
-    cull = no_cull_bounds(rt);
-  else if (!cull_hidden(rt, s, tb, fr.W, fr.H, sil, totals, budget, cull))
-    return false;
+  if (!opts.cull || !cull_hidden(rt, s, tb, fr.W, fr.H, sil, totals, budget, cull))
+    cull = no_cull_bounds(rt);  // (off, or no room for it under the budget: every triangle kept)
   deadline.check(Stage::Crossings);
   Crossings cx;
   if (!find_crossings(rt, s, tb, totals, budget, cx)) return false;

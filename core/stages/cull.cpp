@@ -28,7 +28,7 @@ namespace {
 // of their own, binned anew. a comes from the counts the fine binning has read: a triangle's box
 // meets about (1 + a/c)^2 leaves of side c.
 TriangleBins cull_bins(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, uint32_t W,
-                       uint32_t H) {
+                       uint32_t H, const RegionBudget& budget) {
   const double per = double(tb.leaves.entries) / std::max<uint32_t>(s.count, 1);
   const uint32_t fine_px = uint32_t(tb.grid.tile_size / VM_GRID_SCALE);
   const double extent_px = (std::sqrt(std::max(per, 1.0)) - 1.0) * fine_px;  // a
@@ -37,6 +37,11 @@ TriangleBins cull_bins(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb
   if (px == fine_px) return tb;
   TriangleBins cb;
   cb.grid = make_grid(px, W, H);
+  // Its tiles and leaves (about 56 bytes a tile with places) and lists (12 bytes an entry, as
+  // estimated from the extent): where they would pass the region's budget, the fine leaves serve.
+  const double per_new = (1 + extent_px / px) * (1 + extent_px / px);
+  const uint64_t tiles = uint64_t(cb.grid.tiles_x) * uint64_t(cb.grid.tiles_y);
+  if (!budget.allows_more(rt, tiles * 56 + uint64_t(per_new * s.count * 12))) return tb;
   cb.bb = s.bb;
   cb.qr = s.qr;
   cb.leaves = bin_leaves(rt, cb.bb, s.count, cb.grid, true);
@@ -49,11 +54,13 @@ bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& fine, ui
                  uint32_t H, Silhouettes& sil, cl::Buffer& totals, const RegionBudget& budget,
                  CullBounds& out) {
   const uint32_t S = s.count;
-  const TriangleBins tb = cull_bins(rt, s, fine, W, H);
+  const TriangleBins tb = cull_bins(rt, s, fine, W, H, budget);
   const Leaves& lv = tb.leaves;
   const size_t E = std::max<size_t>(lv.entries, 1);
   // Per leaf its bound (kept for the clip rounds); per list entry an interval, a cover and a flag
   // byte; per triangle its keep flag; per edge the kept triangles' silhouette flags.
+  // The cull only saves work: where its buffers would pass the region's budget, the region is
+  // rendered without it (every triangle clipped), not split or refused.
   if (!budget.allows_more(
           rt, uint64_t(lv.leaves) * 16 + E * 13 + uint64_t(S) * 4 + uint64_t(sil.edges_in) * 4))
     return false;

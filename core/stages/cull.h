@@ -31,8 +31,8 @@ struct CullBounds {
 // Proves what it can over the region's screen set `s` (binned in `fine` with places, its
 // silhouettes classified in `sil`): empties the boxes of the hidden triangles (s.bb, which tb
 // shares), counts them into totals[VM_TOTAL_CULLED] and makes sil's flags those of the kept
-// triangles' silhouettes (edge_reclassify). No blocking read. False when the region would pass its
-// budget.
+// triangles' silhouettes (edge_reclassify). No blocking read. False, with nothing done, when its
+// buffers would pass the region's budget: the region is then rendered without the cull.
 // `fine`: the frame's fine triangle bins (with places); for large triangles the cull bins them
 // again on smaller leaves of its own (a W x H screen).
 bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& fine, uint32_t W,
