@@ -267,11 +267,15 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
   snap_depths(rt, fr, s, Stage::Transform);
   const Grids grids = choose_grids(opts.tile_pixels, fr.W, fr.H, S);
   st.tile_pixels = grids.tile_px;
-  const TriangleBins tb = bin_triangles(rt, s, grids.fine, opts.cull);
+  // The leaves' places are the cull's (a rectangle a leaf, a leaf an entry): under a budget only
+  // where they fit (the whole screen's leaves, before any split, and about four entries a triangle).
+  const uint64_t places_bytes = uint64_t(grids.fine.tiles_x) * grids.fine.tiles_y * 16 + S * 16ull;
+  const bool places = opts.cull && budget.fits_more(rt, places_bytes);
+  const TriangleBins tb = bin_triangles(rt, s, grids.fine, places);
   // From here on the provably hidden triangles are out of the frame (their boxes emptied).
   CullBounds cull;
   deadline.check(Stage::Cull);
-  if (!opts.cull || !cull_hidden(rt, s, tb, fr.W, fr.H, sil, totals, budget, cull))
+  if (!places || !cull_hidden(rt, s, tb, fr.W, fr.H, sil, totals, budget, cull))
     cull = no_cull_bounds(rt);  // (off, or no room for it under the budget: every triangle kept)
   deadline.check(Stage::Crossings);
   Crossings cx;

@@ -31,6 +31,10 @@ class RegionBudget {
   }
   // Whether allocating `more` bytes now keeps the region within its budget.
   bool allows_more(const ClRuntime& rt, uint64_t more) const { return allows(used(rt) + more); }
+  // The same for something the region can do without (the cull): nothing recorded in needed().
+  bool fits_more(const ClRuntime& rt, uint64_t more) const {
+    return limit_ == 0 || used(rt) + more <= limit_;
+  }
   // Allocations since `mark` (a used() value) are freed and will not be held again (a stage run
   // again from there, e.g. the clipping after a rebuild with more lines).
   void forget_since(const ClRuntime& rt, uint64_t mark) { base_ += used(rt) - mark; }

@@ -41,7 +41,7 @@ TriangleBins cull_bins(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb
   // estimated from the extent): where they would pass the region's budget, the fine leaves serve.
   const double per_new = (1 + extent_px / px) * (1 + extent_px / px);
   const uint64_t tiles = uint64_t(cb.grid.tiles_x) * uint64_t(cb.grid.tiles_y);
-  if (!budget.allows_more(rt, tiles * 56 + uint64_t(per_new * s.count * 12))) return tb;
+  if (!budget.fits_more(rt, tiles * 56 + uint64_t(per_new * s.count * 12))) return tb;
   cb.bb = s.bb;
   cb.qr = s.qr;
   cb.leaves = bin_leaves(rt, cb.bb, s.count, cb.grid, true);
@@ -61,7 +61,7 @@ bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& fine, ui
   // byte; per triangle its keep flag; per edge the kept triangles' silhouette flags.
   // The cull only saves work: where its buffers would pass the region's budget, the region is
   // rendered without it (every triangle clipped), not split or refused.
-  if (!budget.allows_more(
+  if (!budget.fits_more(
           rt, uint64_t(lv.leaves) * 16 + E * 13 + uint64_t(S) * 4 + uint64_t(sil.edges_in) * 4))
     return false;
   out.tile_leaf = lv.tile_leaf;
