@@ -148,6 +148,7 @@ int run_check(const CheckArgs& a) {
     l["chains"] = lines.chain_count();
     for (size_t k = 0; k < kLineKinds; ++k)
       l[std::string(line_kind_name(LineKind(k))) + "_edges"] = lines.edges[k];
+    l["unplaced_edges"] = lines.unplaced;
     l["change_pixels"] = lc.change_pixels;
     l["changes_covered"] = lc.changes_covered();
     l["change_pixels_no_vertex"] = lc.change_pixels_no_vertex;

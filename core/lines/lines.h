@@ -6,17 +6,22 @@
 // Every line is a chain of planar map edges, so it starts and ends at the map's own vertices:
 // a contour that passes behind a surface stops exactly where the occluder's edge crosses it.
 // Which kind an edge is follows from the two source triangles on its sides (ScreenTriangles,
-// the pipeline's snapped input) and the scene's meshes:
-//   - a map edge with background on one side lies on an edge of its source triangle: boundary
-//     when no other triangle of the mesh shares that edge, contour otherwise;
-//   - both sides of one source triangle: no line (a fragment split by an occluder that ended);
-//   - on neither source's edge: the two surfaces cross there (a crossing line): intersection;
+// the pipeline's snapped input), the scene's meshes and the pipeline's crossing lines
+// (docs/LINES.md "How an edge of the map is classified"):
+//   - background on one side: the source's edge; boundary when no other triangle of the mesh
+//     shares it (nor holds it at a T-junction), contour otherwise;
+//   - both sides of one source triangle: no line;
 //   - on an edge both sources share in their mesh (matched by position): contour when one faces
-//     the eye and the other away, crease when their normals differ by more than the crease
-//     angle, else no line;
-//   - otherwise one surface ends in front of the other (contour, or boundary when its edge has
-//     no neighbour), or, when both are at the same depth along the edge, two meshes touch there
-//     (border) or a mesh touches itself (intersection).
+//     the eye and the other away, crease past the crease angle, else no line; border where the
+//     edge stands on a third surface (in 3D);
+//   - one side's edge lies on the other surface in 3D (a contact, the same from every view):
+//     border between meshes; within one mesh a seam (as if the edge were shared) or, inside the
+//     other's face, nothing where coplanar, else border;
+//   - on a crossing line of the two the pipeline clipped with: intersection (a contact if an
+//     edge of one lies on the other);
+//   - otherwise one surface ends in front of the other: the nearer side's edge is a contour or
+//     a boundary, unless the surface goes on across it into what shows beyond (no line);
+//   - on no edge and no crossing: counted (LineSet::unplaced), not drawn.
 #pragma once
 
 #include <array>
@@ -56,9 +61,12 @@ struct LineSet {
   std::vector<uint32_t> off{0};
   std::vector<LineKind> kind;
   std::vector<uint8_t> closed;
-  std::vector<uint8_t> hidden;               // 1: an occluded part (LineOptions::hidden)
-  std::array<uint64_t, kLineKinds> edges{};  // map edges of each kind (before simplifying)
+  std::vector<uint8_t> hidden;                      // 1: an occluded part (LineOptions::hidden)
+  std::array<uint64_t, kLineKinds> edges{};         // map edges of each kind (before simplifying)
   std::array<uint64_t, kLineKinds> hidden_edges{};  // hidden segments of each kind
+  // Map edges between two surfaces that no rule of docs/LINES.md places (on no edge of either
+  // side and on no crossing line of theirs): drawn as nothing, counted to be found.
+  uint64_t unplaced = 0;
   size_t chain_count() const { return kind.size(); }
 };
 
@@ -78,7 +86,7 @@ namespace vismap {
 // contour, boundary, intersection or border line is expected (creases are between triangles
 // that share an edge, so they are not looked at).
 struct LineCheck {
-  uint64_t change_pixels = 0;  // both pixels of each such pair
+  uint64_t change_pixels = 0;     // both pixels of each such pair
   uint64_t change_near_line = 0;  // of those, with a drawn line within `radius` px of the centre
   double line_px = 0;             // length of the drawn contour/boundary/intersection/border lines
   double line_near_change = 0;    // of it, within `radius` px of a change pixel's centre
@@ -94,9 +102,12 @@ struct LineCheck {
   double changes_covered_apart() const {
     return change_pixels_apart ? double(change_near_line_apart) / change_pixels_apart : 1;
   }
-  double changes_covered() const { return change_pixels ? double(change_near_line) / change_pixels : 1; }
+  double changes_covered() const {
+    return change_pixels ? double(change_near_line) / change_pixels : 1;
+  }
   double changes_covered_no_vertex() const {
-    return change_pixels_no_vertex ? double(change_near_line_no_vertex) / change_pixels_no_vertex : 1;
+    return change_pixels_no_vertex ? double(change_near_line_no_vertex) / change_pixels_no_vertex
+                                   : 1;
   }
   double lines_supported() const { return line_px > 0 ? line_near_change / line_px : 1; }
 };
