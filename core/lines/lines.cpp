@@ -8,6 +8,7 @@
 #include <tuple>
 
 #include "core/error.h"
+#include "core/lines/topology.h"
 #include "core/util/conform.h"
 #include "core/util/flat_map.h"
 #include "core/util/weld.h"
@@ -31,6 +32,9 @@ const char* line_kind_name(LineKind k) {
 }
 
 namespace {
+
+using lines_detail::pair_key;
+using lines_detail::Topology;
 
 // A map vertex that is exactly on a screen triangle's edge is within ~1e-9 px of it (the map's
 // vertices are exact points rounded once to a 2^-20 grid-unit lattice, core/stages/map_build.h; the
@@ -64,51 +68,6 @@ double scene_extent(const Scene& scene) {
 [[noreturn]] void bad(const std::string& what) {
   throw InputError(InputErrorKind::ParseError, "lines", "", "map", -1, what);
 }
-
-uint64_t pair_key(uint32_t a, uint32_t b) {
-  return uint64_t(a) << 32 | b;
-}
-
-// Per mesh: vertices matched by position (so soup and split-vertex meshes have edges), and
-// how many triangles use each undirected edge.
-struct Topology {
-  bool built = false;
-  std::vector<uint32_t> canon;  // per vertex: the first vertex at its position
-  std::vector<uint32_t> uses;   // per edge id: triangles using it
-  std::vector<uint32_t> tris;   // per edge id: the first two triangles using it (~0u: none)
-  std::vector<uint8_t> side;    // per edge id: the first triangle's corner k where the edge starts
-  FlatMap edge{0};              // (lo, hi) canonical vertex pair -> edge id
-
-  void build(const Mesh& m) {
-    built = true;
-    const size_t nv = m.vertex_count(), nt = m.triangle_count();
-    canon = weld_first(m.positions.data(), nv);
-    edge = FlatMap(3 * nt);
-    uses.clear();
-    for (size_t t = 0; t < nt; ++t)
-      for (int k = 0; k < 3; ++k) {
-        const uint64_t key = undirected(m, t, k);
-        auto [id, fresh] = edge.emplace(key, uint32_t(uses.size()));
-        if (fresh) {
-          uses.push_back(1);
-          tris.push_back(uint32_t(t));
-          tris.push_back(~0u);
-          side.push_back(uint8_t(k));
-        } else if (++uses[id] == 2) {
-          tris[2 * size_t(id) + 1] = uint32_t(t);
-        }
-      }
-  }
-  uint32_t vertex(const Mesh& m, size_t t, int k) const { return canon[m.indices[3 * t + k]]; }
-  uint64_t undirected(const Mesh& m, size_t t, int k) const {
-    const uint32_t a = vertex(m, t, k), b = vertex(m, t, (k + 1) % 3);
-    return a < b ? pair_key(a, b) : pair_key(b, a);
-  }
-  uint32_t edge_uses(const Mesh& m, size_t t, int k) const {
-    const uint32_t* id = edge.find(undirected(m, t, k));
-    return id ? uses[*id] : 0;
-  }
-};
 
 struct Vec {
   double x, y, z;
@@ -147,6 +106,10 @@ class Classifier {
         screen.triangle.size() != screen.size())
       bad("screen triangle arrays of different lengths");
     cos_crease_ = std::cos(opts.crease_angle_deg * M_PI / 180.0);
+    cos_half_crease_ = std::cos(opts.crease_angle_deg * M_PI / 360.0);
+    crease_smooth_ = opts.crease_smooth;
+    vertex_normals_.resize(scene.meshes.size());
+    self_folds_ = opts.self_folds;
     vp_ = camera.view_projection();
     for (uint32_t s = 0; s < screen.size(); ++s) {
       const uint32_t m = screen.mesh[s], t = screen.triangle[s];
@@ -251,6 +214,11 @@ class Classifier {
     if (!ends_at(n) && continues_into(n, side[first ? 1 : 0], a, b)) return false;
     own(n.mesh, n.tri, n.edge);
     if (has_neighbour(n.mesh, n.tri, n.edge)) {
+      // Selection (LineOptions::self_folds): a contour where what shows beyond is its own
+      // surface within two rings separates nothing but the two sides of a fold smaller than
+      // its triangles.
+      const Side& o = side[first ? 1 : 0];
+      if (!self_folds_ && o.mesh == n.mesh && near_on_mesh(n, o.tri)) return false;
       kind = LineKind::Contour;
       return true;
     }
@@ -480,15 +448,47 @@ class Classifier {
   }
   // Rule 4's kinds for an edge x and y meet along: contour at a fold, crease past the crease
   // angle, else false (no line).
-  bool edge_kind(const Side& x, const Side& y, LineKind& kind) const {
+  // With LineOptions::crease_smooth, a crease also needs the smoothed normals of the two faces
+  // to differ by more than half the crease angle.
+  bool edge_kind(const Side& x, const Side& y, LineKind& kind) {
     double cosang;
     if (facing_differs(x, y, &cosang))
       kind = LineKind::Contour;
-    else if (cosang < cos_crease_)
+    else if (cosang < cos_crease_ && (!crease_smooth_ || smoothed_cos(x, y) < cos_half_crease_))
       kind = LineKind::Crease;
     else
       return false;
     return true;
+  }
+  // The cosine of the angle between x's and y's smoothed normals (orientations made consistent
+  // across their edge as facing_differs does): each the sum of its corners' vertex normals, a
+  // vertex normal the sum of the area-weighted normals of the triangles around it.
+  double smoothed_cos(const Side& x, const Side& y) {
+    const Mesh& mesh = scene_.meshes[x.mesh];
+    const Topology& T = topo(x.mesh);
+    std::vector<Vec>& vn = vertex_normals_[x.mesh];
+    if (vn.empty()) {
+      vn.assign(mesh.vertex_count(), Vec{0, 0, 0});
+      for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+        const Vec n = normal(mesh, uint32_t(t));
+        for (int k = 0; k < 3; ++k) {
+          Vec& v = vn[T.vertex(mesh, t, k)];
+          v = {v.x + n.x, v.y + n.y, v.z + n.z};
+        }
+      }
+    }
+    auto smooth = [&](uint32_t t) {
+      Vec s{0, 0, 0};
+      for (int k = 0; k < 3; ++k) {
+        const Vec& v = vn[T.vertex(mesh, t, k)];
+        s = {s.x + v.x, s.y + v.y, s.z + v.z};
+      }
+      return s;
+    };
+    const double flip = dot(edge_dir(x), edge_dir(y)) > 0 ? -1 : 1;
+    const Vec a = smooth(x.tri), b = smooth(y.tri);
+    const double l = std::sqrt(dot(a, a) * dot(b, b));
+    return l > 0 ? flip * dot(a, b) / l : 1.0;
   }
 
   // --- Contacts: where one surface's edge lies on another surface in 3D. ---
@@ -513,10 +513,30 @@ class Classifier {
   // Does x's edge, along the map edge a-b, lie on y's surface (its plane, within the scene's
   // tolerance)? Within one mesh, not where y is within two rings of the edge (a vertex of y at
   // or next to one of the edge's): there the surface folds, it does not meet itself.
-  // (A seam, where y's edge lies on the map edge too, is a contact however near.)
+  // (A seam, where y's edge holds x's edge in 3D, is a contact however near.)
   bool touches(const Side& x, const Side& y, const double* a, const double* b) {
-    if (x.mesh == y.mesh && y.edge < 0 && near_on_mesh(x, y.tri)) return false;
+    if (x.mesh == y.mesh && near_on_mesh(x, y.tri)) return y.edge >= 0 && on_edge_line(x, y, a, b);
     return on_plane(x, y, a, b);
+  }
+  // Do the points of x's edge at a quarter and three quarters of the map edge a-b lie on y's
+  // edge (the segment, in 3D)?
+  // (A degenerate y, its corners in a line, holds every edge along it and is no partner.) The
+  // two edges must run along one line, not merely pass near each other where they meet.
+  bool on_edge_line(const Side& x, const Side& y, const double* a, const double* b) const {
+    const Vec p0 = position(scene_.meshes[y.mesh], y.tri, y.edge), d = edge_dir(y);
+    const double l2 = dot(d, d);
+    if (!(l2 > 0) || degenerate(y)) return false;
+    // Parallel within 1e-5 radians (float corners: ~1e-7).
+    const Vec dx = edge_dir(x), c = cross(dx, d);
+    if (dot(c, c) > 1e-10 * dot(dx, dx) * l2) return false;
+    for (double u : {0.25, 0.75}) {
+      const double p[2] = {a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1])};
+      const Vec q = sub(on_edge(x, p), p0);
+      const double t = std::clamp(dot(q, d) / l2, 0.0, 1.0);
+      const Vec r = sub(q, {t * d.x, t * d.y, t * d.z});
+      if (dot(r, r) > eps_ * eps_) return false;
+    }
+    return true;
   }
   // Do the points of x's edge at a quarter and three quarters of the map edge a-b lie on y's
   // plane?
@@ -550,6 +570,17 @@ class Classifier {
   bool continues_into(const Side& x, const Side& y, const double* a, const double* b) {
     return x.mesh == y.mesh && near_on_mesh(x, y.tri) && on_plane(x, y, a, b);
   }
+  // Is x's triangle (nearly) a segment: its area under 1e-9 of its longest edge squared?
+  bool degenerate(const Side& x) const {
+    const Mesh& mesh = scene_.meshes[x.mesh];
+    const Vec n = normal(mesh, x.tri);
+    double l2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const Vec d = edge_dir({x.mesh, x.tri, k});
+      l2 = std::max(l2, dot(d, d));
+    }
+    return std::sqrt(dot(n, n)) <= 1e-9 * l2;
+  }
   // Do x's and y's triangles lie in one plane (y's corners on x's plane)?
   bool coplanar(const Side& x, const Side& y) const {
     const Mesh& mx = scene_.meshes[x.mesh];
@@ -578,12 +609,8 @@ class Classifier {
     const Mesh& mesh = scene_.meshes[x.mesh];
     const Topology& T = topo(x.mesh);
     const uint32_t u = T.vertex(mesh, x.tri, x.edge), v = T.vertex(mesh, x.tri, (x.edge + 1) % 3);
-    for (int k = 0; k < 3; ++k) {
-      const uint32_t w = T.vertex(mesh, t, k);
-      if (w == u || w == v) return true;
-      for (uint32_t z : {u, v})
-        if (T.edge.find(w < z ? pair_key(w, z) : pair_key(z, w))) return true;
-    }
+    for (int k = 0; k < 3; ++k)
+      if (T.adjacent(T.vertex(mesh, t, k), u) || T.adjacent(T.vertex(mesh, t, k), v)) return true;
     return false;
   }
   // Does x's edge (shared with y) lie on a third surface that the map edge a-b passes over on
@@ -605,27 +632,15 @@ class Classifier {
   bool seam_partner(const Side& x, const double* a, const double* b, Side& y) {
     const Mesh& mesh = scene_.meshes[x.mesh];
     bool found = false;
-    for_each_covering(
-        (a[0] + b[0]) / 2, (a[1] + b[1]) / 2,
-        [&](uint32_t s) {
-          if (found || st_.mesh[s] != x.mesh || st_.triangle[s] == x.tri) return;
-          for (int k = 0; k < 3 && !found; ++k) {
-            const Side c{x.mesh, st_.triangle[s], k};
-            const Vec p0 = position(mesh, c.tri, k), d = edge_dir(c);
-            const double l2 = dot(d, d);
-            if (!(l2 > 0)) continue;
-            bool on = true;
-            for (double u : {0.25, 0.75}) {
-              const double p[2] = {a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1])};
-              const Vec q = sub(on_edge(x, p), p0);
-              const double t = std::clamp(dot(q, d) / l2, 0.0, 1.0);
-              const Vec r = sub(q, {t * d.x, t * d.y, t * d.z});
-              on = on && dot(r, r) <= eps_ * eps_;
-            }
-            if (on) y = c, found = true;
-          }
-        },
-        kSeamPx);
+    for_each_covering((a[0] + b[0]) / 2, (a[1] + b[1]) / 2,
+                      [&](uint32_t s) {
+                        if (found || st_.mesh[s] != x.mesh || st_.triangle[s] == x.tri) return;
+                        for (int k = 0; k < 3 && !found; ++k) {
+                          const Side c{x.mesh, st_.triangle[s], k};
+                          if (on_edge_line(x, c, a, b)) y = c, found = true;
+                        }
+                      },
+                      kSeamPx);
     return found;
   }
   // The kind of an edge with no neighbour in its mesh (by position): a boundary, unless it is
@@ -642,7 +657,7 @@ class Classifier {
   // mesh: along y's edge too (a seam, the pieces not welded), as if they shared the edge (a
   // fold, a crease or nothing); inside y's face, nothing where they are coplanar (within the
   // crease angle), else border.
-  bool contact_kind(const Side& x, const Side& y, LineKind& kind) const {
+  bool contact_kind(const Side& x, const Side& y, LineKind& kind) {
     if (x.mesh != y.mesh) {
       kind = LineKind::Border;
       return true;
@@ -780,6 +795,10 @@ class Classifier {
   std::vector<std::array<int8_t, 3>> edge_of_;
   Mat4 vp_{};
   double cos_crease_ = 0;
+  bool self_folds_ = false;
+  bool crease_smooth_ = false;
+  double cos_half_crease_ = 1;
+  std::vector<std::vector<Vec>> vertex_normals_;  // per mesh, by canonical vertex (smoothed_cos)
   double eps_ = 0;       // a point within this of a plane is on it (world units)
   FlatMap crossing_{0};  // (first screen triangle of each source, lower first) -> a crossing
   std::vector<uint32_t> crossing_next_;
@@ -816,7 +835,7 @@ struct Seg {
 // Chains: maximal paths of segs (over points xy) through points where exactly two of them
 // meet, appended to out as chains of this kind.
 void chain(const std::vector<double>& xy, const std::vector<Seg>& S, LineKind kind, bool hidden,
-           double simplify_px, LineSet& out) {
+           double simplify_px, double min_length_px, LineSet& out) {
   if (S.empty()) return;
   const size_t nv = xy.size() / 2;
   std::vector<uint32_t> start(nv + 1, 0), inc(2 * S.size()), pts, keep;
@@ -865,6 +884,17 @@ void chain(const std::vector<double>& xy, const std::vector<Seg>& S, LineKind ki
     }
   }
   auto emit = [&](bool closed) {
+    if (min_length_px > 0) {  // selection: shorter chains are dropped, counted
+      double len = 0;
+      for (size_t i = 0; i + 1 < pts.size() + closed; ++i) {
+        const uint32_t u = pts[i], v = pts[(i + 1) % pts.size()];
+        len += std::hypot(xy[2 * v] - xy[2 * u], xy[2 * v + 1] - xy[2 * u + 1]);
+      }
+      if (len < min_length_px) {
+        ++out.short_chains[size_t(kind)];
+        return;
+      }
+    }
     if (simplify_px > 0 && pts.size() > 2) {
       keep.clear();
       keep.push_back(pts.front());
@@ -979,7 +1009,7 @@ LineSet extract_lines(const PlanarMap& map, const ScreenTriangles& screen, const
   for (size_t k = 0; k < kLineKinds; ++k) {
     for (Seg& g : segs[k]) g.a = find(g.a), g.b = find(g.b);
     out.edges[k] = segs[k].size();
-    chain(P.xy, segs[k], LineKind(k), false, opts.simplify_px, out);
+    chain(P.xy, segs[k], LineKind(k), false, opts.simplify_px, opts.min_length_px[k], out);
   }
   if (!opts.hidden) return out;
 
@@ -1050,129 +1080,9 @@ LineSet extract_lines(const PlanarMap& map, const ScreenTriangles& screen, const
       if (a != b) hsegs[k].push_back({a, b});
     }
     out.hidden_edges[k] = hsegs[k].size();
-    chain(hxy, hsegs[k], LineKind(k), true, opts.simplify_px, out);
+    chain(hxy, hsegs[k], LineKind(k), true, opts.simplify_px, opts.min_length_px[k], out);
   }
   return out;
-}
-
-}  // namespace vismap
-
-namespace vismap {
-
-LineCheck check_lines(const LineSet& lines, const std::vector<uint32_t>& ids, uint32_t width,
-                      uint32_t height, const Scene& scene, double radius,
-                      std::vector<uint8_t>* image) {
-  if (ids.size() != size_t(width) * height) bad("id raster of the wrong size");
-  // Global input triangle index -> (mesh, triangle).
-  std::vector<uint64_t> first(scene.meshes.size() + 1, 0);
-  for (size_t m = 0; m < scene.meshes.size(); ++m)
-    first[m + 1] = first[m] + scene.meshes[m].triangle_count();
-  std::vector<Topology> topo(scene.meshes.size());
-  auto locate = [&](uint32_t id, uint32_t& m, uint32_t& t) {
-    if (id >= first.back())
-      bad("id raster names triangle " + std::to_string(id) + ", past the scene's");
-    m = uint32_t(std::upper_bound(first.begin(), first.end(), uint64_t(id)) - first.begin() - 1);
-    t = uint32_t(id - first[m]);
-    if (!topo[m].built) topo[m].build(scene.meshes[m]);
-  };
-  // 0: the same triangle or an edge shared; 1: only a vertex shared; 2: a vertex of one and a
-  // vertex of the other joined by a mesh edge (a sliver between them the raster missed);
-  // 3: none of these (another mesh, or background on one side).
-  auto relation = [&](uint32_t a, uint32_t b) -> int {
-    if (a == b) return 0;
-    if (a == ~0u || b == ~0u) return 3;
-    uint32_t ma, ta, mb, tb;
-    locate(a, ma, ta);
-    locate(b, mb, tb);
-    if (ma != mb) return 3;
-    const Mesh& mesh = scene.meshes[ma];
-    const Topology& T = topo[ma];
-    int shared = 0;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) shared += T.vertex(mesh, ta, i) == T.vertex(mesh, tb, j);
-    if (shared) return shared >= 2 ? 0 : 1;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) {
-        const uint32_t u = T.vertex(mesh, ta, i), v = T.vertex(mesh, tb, j);
-        if (T.edge.find(u < v ? pair_key(u, v) : pair_key(v, u))) return 2;
-      }
-    return 3;
-  };
-  const size_t W = width, H = height;
-  // Per pixel: the largest relation() to its right or lower neighbour, or to a pixel whose
-  // right or lower neighbour it is.
-  std::vector<uint8_t> change(W * H, 0);
-  for (size_t y = 0; y < H; ++y)
-    for (size_t x = 0; x < W; ++x) {
-      const uint32_t a = ids[y * W + x];
-      const auto pair = [&](size_t x2, size_t y2) {
-        const int r = relation(a, ids[y2 * W + x2]);
-        if (r == 0) return;
-        change[y * W + x] = std::max<uint8_t>(change[y * W + x], uint8_t(r));
-        change[y2 * W + x2] = std::max<uint8_t>(change[y2 * W + x2], uint8_t(r));
-      };
-      if (x + 1 < W) pair(x + 1, y);
-      if (y + 1 < H) pair(x, y + 1);
-    }
-
-  auto seg_dist = [](double px, double py, double ax, double ay, double bx, double by) {
-    const double dx = bx - ax, dy = by - ay, l2 = dx * dx + dy * dy;
-    double t = l2 > 0 ? ((px - ax) * dx + (py - ay) * dy) / l2 : 0;
-    t = std::clamp(t, 0.0, 1.0);
-    return std::hypot(px - ax - t * dx, py - ay - t * dy);
-  };
-  // Pixels whose centre is within `radius` of a drawn line that a change can explain.
-  std::vector<uint8_t> near(W * H, 0);
-  LineCheck r;
-  const int reach = int(std::ceil(radius)) + 1;
-  for (size_t c = 0; c < lines.chain_count(); ++c) {
-    if (lines.kind[c] == LineKind::Crease) continue;
-    const uint32_t n = lines.off[c + 1] - lines.off[c];
-    const uint32_t segs = lines.closed[c] ? n : n - 1;
-    for (uint32_t s = 0; s < segs; ++s) {
-      const uint32_t i = lines.off[c] + s, j = lines.off[c] + (s + 1) % n;
-      const double ax = lines.xy[2 * i], ay = lines.xy[2 * i + 1], bx = lines.xy[2 * j],
-                   by = lines.xy[2 * j + 1];
-      const int x0 = std::max(0, int(std::floor(std::min(ax, bx))) - reach);
-      const int x1 = std::min(int(W) - 1, int(std::floor(std::max(ax, bx))) + reach);
-      const int y0 = std::max(0, int(std::floor(std::min(ay, by))) - reach);
-      const int y1 = std::min(int(H) - 1, int(std::floor(std::max(ay, by))) + reach);
-      for (int y = y0; y <= y1; ++y)
-        for (int x = x0; x <= x1; ++x)
-          if (seg_dist(x + 0.5, y + 0.5, ax, ay, bx, by) <= radius) near[size_t(y) * W + x] = 1;
-      // Samples every 1/4 px along the segment, each standing for its share of the length.
-      const double len = std::hypot(bx - ax, by - ay);
-      const int k = std::max(1, int(std::ceil(len * 4)));
-      for (int q = 0; q < k; ++q) {
-        const double t = (q + 0.5) / k, sx = ax + t * (bx - ax), sy = ay + t * (by - ay);
-        bool ok = false;
-        for (int y = int(std::floor(sy)) - reach; y <= int(std::floor(sy)) + reach && !ok; ++y)
-          for (int x = int(std::floor(sx)) - reach; x <= int(std::floor(sx)) + reach && !ok; ++x)
-            ok = x >= 0 && y >= 0 && x < int(W) && y < int(H) && change[size_t(y) * W + x] &&
-                 std::hypot(x + 0.5 - sx, y + 0.5 - sy) <= radius;
-        r.line_px += len / k;
-        if (ok) r.line_near_change += len / k;
-      }
-    }
-  }
-  if (image) {
-    image->assign(W * H, 0);
-    for (size_t p = 0; p < W * H; ++p) (*image)[p] = uint8_t(change[p] | near[p] << 2);
-  }
-  for (size_t p = 0; p < W * H; ++p) {
-    if (!change[p]) continue;
-    ++r.change_pixels;
-    r.change_near_line += near[p];
-    if (change[p] >= 2) {
-      ++r.change_pixels_no_vertex;
-      r.change_near_line_no_vertex += near[p];
-    }
-    if (change[p] == 3) {
-      ++r.change_pixels_apart;
-      r.change_near_line_apart += near[p];
-    }
-  }
-  return r;
 }
 
 }  // namespace vismap
