@@ -218,7 +218,8 @@ class Classifier {
       // surface within two rings separates nothing but the two sides of a fold smaller than
       // its triangles.
       const Side& o = side[first ? 1 : 0];
-      if (!self_folds_ && o.mesh == n.mesh && near_on_mesh(n, o.tri)) return false;
+      if (!self_folds_ && o.mesh == n.mesh && (near_on_mesh(n, o.tri) || grid_fold(n, o, a, b)))
+        return false;
       kind = LineKind::Contour;
       return true;
     }
@@ -402,8 +403,11 @@ class Classifier {
     return found < 0 ? -1 : found;
   }
 
+  // A diced implicit (Mesh::normals given) is the boundary of a solid whose back faces the
+  // dicer left out where they cannot be seen (core/surfaces/implicit3d.cpp): its open edges had
+  // a neighbour, facing away.
   bool has_neighbour(uint32_t m, uint32_t t, int k) {
-    return topo(m).edge_uses(scene_.meshes[m], t, k) >= 2;
+    return !scene_.meshes[m].normals.empty() || topo(m).edge_uses(scene_.meshes[m], t, k) >= 2;
   }
 
   bool shared_edge(uint32_t m, uint32_t t1, int k1, uint32_t t2, int k2) {
@@ -604,6 +608,32 @@ class Classifier {
       if (std::abs(dot(n, sub(position(mx, x.tri, (x.edge + j) % 3), p0))) > eps_ * ln)
         return false;
     return true;
+  }
+  // On a diced implicit, is what shows beyond x's edge (y, along the view ray through the map
+  // edge's midpoint) nearer to the edge in 3D than x's longest edge? The dicer's cells are about
+  // that size and its surface is within sqrt(3) cells of f = 0 (core/surfaces/implicit3d.cpp):
+  // such a fold is the grid's, not the surface's (a sheet where f touches 0 without changing
+  // sign: the architecture model's slabs meeting at x = 0 leave a groove one cell deep).
+  bool grid_fold(const Side& x, const Side& y, const double* a, const double* b) {
+    if (scene_.meshes[x.mesh].normals.empty()) return false;
+    const double m[2] = {(a[0] + b[0]) / 2, (a[1] + b[1]) / 2};
+    const Vec p = on_edge(x, m);
+    const Mesh& my = scene_.meshes[y.mesh];
+    const Vec n = normal(my, y.tri), p0 = position(my, y.tri, 0);
+    const Vec eye{cam_.eye[0], cam_.eye[1], cam_.eye[2]};
+    const Vec dir = cam_.projection == Camera::Projection::Orthographic
+                        ? sub({cam_.target[0], cam_.target[1], cam_.target[2]}, eye)
+                        : sub(p, eye);
+    const double nd = dot(n, dir);
+    if (!(std::abs(nd) > 0)) return false;
+    const double s = dot(n, sub(p0, p)) / nd;  // p + s dir lies on y's plane
+    const double gap = std::abs(s) * std::sqrt(dot(dir, dir));
+    double l2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const Vec d = edge_dir({x.mesh, x.tri, k});
+      l2 = std::max(l2, dot(d, d));
+    }
+    return gap < std::sqrt(l2);
   }
   bool near_on_mesh(const Side& x, uint32_t t) {
     const Mesh& mesh = scene_.meshes[x.mesh];
