@@ -16,30 +16,20 @@
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "core/surfaces/tessellate.h"
+#include "support/line_drawing.h"
 
 namespace vismap {
 namespace {
 
 namespace fs = std::filesystem;
 
+using test_support::Drawn;
+using test_support::for_each_segment;
 Renderer& renderer() {
-  static Renderer r;
-  return r;
+  return test_support::line_renderer();
 }
-
-struct Drawn {
-  PlanarMap map;
-  ScreenTriangles screen;
-  LineSet lines;
-};
-
 Drawn draw(const Scene& s, const Camera& cam, const LineOptions& o = {}) {
-  Drawn d;
-  RenderOptions ro;
-  ro.keep_screen_triangles = true;
-  d.map = renderer().render(s, cam, ro, nullptr, &d.screen);
-  d.lines = extract_lines(d.map, d.screen, s, cam, o);
-  return d;
+  return test_support::draw_lines(s, cam, o);
 }
 
 using P3 = std::array<double, 3>;
@@ -170,15 +160,9 @@ size_t expect_crossings_drawn(const Scene& s, const Camera& cam, const Drawn& d,
   const std::vector<Crossing> X = scene_crossings(s, cam);
   const LineSet& L = d.lines;
   std::vector<std::array<P2, 2>> drawn;
-  for (size_t c = 0; c < L.chain_count(); ++c) {
-    if (L.kind[c] != LineKind::Intersection) continue;
-    const uint32_t n = L.off[c + 1] - L.off[c];
-    for (uint32_t i = 0; i + 1 < n + L.closed[c]; ++i) {
-      const double* a = &L.xy[2 * (L.off[c] + i)];
-      const double* b = &L.xy[2 * (L.off[c] + (i + 1) % n)];
-      drawn.push_back({P2{a[0], a[1]}, P2{b[0], b[1]}});
-    }
-  }
+  for_each_segment(L, [&](size_t c, const double* a, const double* b) {
+    if (L.kind[c] == LineKind::Intersection) drawn.push_back({P2{a[0], a[1]}, P2{b[0], b[1]}});
+  });
   for (const auto& [a, b] : drawn) {
     bool on = false;
     for (const Crossing& x : X) on |= seg_dist(a, x.a, x.b) <= tol && seg_dist(b, x.a, x.b) <= tol;
@@ -307,24 +291,19 @@ TEST(LineKinds, TheCornellBoxBottomsAreBordersFromEveryView) {
     for (const auto& e : bottoms) edges.push_back({project(cam, e[0]), project(cam, e[1])});
     double seen = 0;
     const LineSet& L = d.lines;
-    for (size_t c = 0; c < L.chain_count(); ++c) {
-      const uint32_t n = L.off[c + 1] - L.off[c];
-      for (uint32_t i = 0; i + 1 < n + L.closed[c]; ++i) {
-        const double* pa = &L.xy[2 * (L.off[c] + i)];
-        const double* pb = &L.xy[2 * (L.off[c] + (i + 1) % n)];
-        const P2 a2{pa[0], pa[1]}, b2{pb[0], pb[1]};
-        // (Pieces shorter than 0.1 px at a corner may lie on the edge's end and another's.)
-        if (std::hypot(b2[0] - a2[0], b2[1] - a2[1]) < 0.1) continue;
-        for (const auto& e : edges) {
-          if (seg_dist(a2, e[0], e[1]) > 0.01 || seg_dist(b2, e[0], e[1]) > 0.01) continue;
-          EXPECT_EQ(L.kind[c], LineKind::Border)
-              << "view " << v << ": a box's bottom edge drawn as " << line_kind_name(L.kind[c])
-              << " at (" << a2[0] << "," << a2[1] << ")-(" << b2[0] << "," << b2[1] << ")";
-          seen += std::hypot(b2[0] - a2[0], b2[1] - a2[1]);
-          break;
-        }
+    for_each_segment(L, [&](size_t c, const double* pa, const double* pb) {
+      const P2 a2{pa[0], pa[1]}, b2{pb[0], pb[1]};
+      // (Pieces shorter than 0.1 px at a corner may lie on the edge's end and another's.)
+      if (std::hypot(b2[0] - a2[0], b2[1] - a2[1]) < 0.1) return;
+      for (const auto& e : edges) {
+        if (seg_dist(a2, e[0], e[1]) > 0.01 || seg_dist(b2, e[0], e[1]) > 0.01) continue;
+        EXPECT_EQ(L.kind[c], LineKind::Border)
+            << "view " << v << ": a box's bottom edge drawn as " << line_kind_name(L.kind[c])
+            << " at (" << a2[0] << "," << a2[1] << ")-(" << b2[0] << "," << b2[1] << ")";
+        seen += std::hypot(b2[0] - a2[0], b2[1] - a2[1]);
+        break;
       }
-    }
+    });
     views_seeing += seen > 20;
   }
   EXPECT_GE(views_seeing, 6);
@@ -381,21 +360,15 @@ TEST(LineKinds, TheArchitectureSeamDrawsNoLine) {
   const Drawn d = draw(s, cam);
   const P2 a = project(cam, {0, kSeamFrom, 0}), b = project(cam, {0, kSeamTo, 0});
   double on = 0;
-  const LineSet& L = d.lines;
-  for (size_t c = 0; c < L.chain_count(); ++c) {
-    const uint32_t n = L.off[c + 1] - L.off[c];
-    for (uint32_t i = 0; i + 1 < n + L.closed[c]; ++i) {
-      const double* pa = &L.xy[2 * (L.off[c] + i)];
-      const double* pb = &L.xy[2 * (L.off[c] + (i + 1) % n)];
-      const double len = std::hypot(pb[0] - pa[0], pb[1] - pa[1]);
-      const int k = std::max(1, int(len * 4));
-      for (int q = 0; q < k; ++q) {
-        const double t = (q + 0.5) / k;
-        const P2 x{pa[0] + t * (pb[0] - pa[0]), pa[1] + t * (pb[1] - pa[1])};
-        if (seg_dist(x, a, b) <= 2.5) on += len / k;
-      }
+  for_each_segment(d.lines, [&](size_t, const double* pa, const double* pb) {
+    const double len = std::hypot(pb[0] - pa[0], pb[1] - pa[1]);
+    const int k = std::max(1, int(len * 4));
+    for (int q = 0; q < k; ++q) {
+      const double t = (q + 0.5) / k;
+      const P2 x{pa[0] + t * (pb[0] - pa[0]), pa[1] + t * (pb[1] - pa[1])};
+      if (seg_dist(x, a, b) <= 2.5) on += len / k;
     }
-  }
+  });
   const double seam = std::hypot(b[0] - a[0], b[1] - a[1]);
   EXPECT_GT(seam, 200);
   // (Lines that cross the seam put some 18 px of 232 within 2.5 px of it; the seam's line put

@@ -14,16 +14,17 @@
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "core/write/output.h"
+#include "support/line_drawing.h"
 #include "support/triangle_scene.h"
 
 namespace vismap {
 namespace {
 
+using test_support::Drawn;
 using test_support::ortho_view_256;
 
 Renderer& renderer() {
-  static Renderer r;
-  return r;
+  return test_support::line_renderer();
 }
 
 // A box [lo, hi], faces outward, as one mesh.
@@ -59,18 +60,8 @@ Mesh square(const std::string& name, double x0, double y0, double x1, double y1,
   return m;
 }
 
-struct Drawn {
-  PlanarMap map;
-  ScreenTriangles screen;
-  LineSet lines;
-};
-
 Drawn draw(const Scene& s, const Camera& cam, const LineOptions& o = {}) {
-  Drawn d;
-  RenderOptions ro;
-  ro.keep_screen_triangles = true;
-  d.map = renderer().render(s, cam, ro, nullptr, &d.screen);
-  d.lines = extract_lines(d.map, d.screen, s, cam, o);
+  Drawn d = test_support::draw_lines(s, cam, o);
   // VISMAP_LINES_SVG_DIR=DIR: each drawing as DIR/<test>-<n>.svg, to look at.
   if (const char* dir = std::getenv("VISMAP_LINES_SVG_DIR")) {
     static int n = 0;

@@ -545,15 +545,27 @@ class Classifier {
   // Do the points of x's edge at a quarter and three quarters of the map edge a-b lie on y's
   // plane?
   bool on_plane(const Side& x, const Side& y, const double* a, const double* b) const {
-    const Mesh& mesh = scene_.meshes[y.mesh];
-    const Vec n = normal(mesh, y.tri), p0 = position(mesh, y.tri, 0);
-    const double ln = std::sqrt(dot(n, n));
-    if (!(ln > 0)) return false;
     for (double u : {0.25, 0.75}) {
       const double p[2] = {a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1])};
-      if (std::abs(dot(n, sub(on_edge(x, p), p0))) > eps_ * ln) return false;
+      if (!on_plane_of(y, on_edge(x, p))) return false;
     }
     return true;
+  }
+  // Is the point p within eps_ of y's plane (never, for a triangle with no area)?
+  bool on_plane_of(const Side& y, const Vec& p) const {
+    const Mesh& mesh = scene_.meshes[y.mesh];
+    const Vec n = normal(mesh, y.tri);
+    const double ln = std::sqrt(dot(n, n));
+    return ln > 0 && std::abs(dot(n, sub(p, position(mesh, y.tri, 0)))) <= eps_ * ln;
+  }
+  // The square of x's triangle's longest edge.
+  double longest_edge2(const Side& x) const {
+    double l2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const Vec d = edge_dir({x.mesh, x.tri, k});
+      l2 = std::max(l2, dot(d, d));
+    }
+    return l2;
   }
   // Does the surface end at x's edge in 3D: no neighbour there, more than one, or one facing
   // the other way (a contour edge)?
@@ -576,38 +588,22 @@ class Classifier {
   }
   // Is x's triangle (nearly) a segment: its area under 1e-9 of its longest edge squared?
   bool degenerate(const Side& x) const {
-    const Mesh& mesh = scene_.meshes[x.mesh];
-    const Vec n = normal(mesh, x.tri);
-    double l2 = 0;
-    for (int k = 0; k < 3; ++k) {
-      const Vec d = edge_dir({x.mesh, x.tri, k});
-      l2 = std::max(l2, dot(d, d));
-    }
-    return std::sqrt(dot(n, n)) <= 1e-9 * l2;
+    const Vec n = normal(scene_.meshes[x.mesh], x.tri);
+    return std::sqrt(dot(n, n)) <= 1e-9 * longest_edge2(x);
   }
   // Do x's and y's triangles lie in one plane (y's corners on x's plane)?
   bool coplanar(const Side& x, const Side& y) const {
-    const Mesh& mx = scene_.meshes[x.mesh];
     const Mesh& my = scene_.meshes[y.mesh];
-    const Vec n = normal(mx, x.tri), p0 = position(mx, x.tri, 0);
-    const double ln = std::sqrt(dot(n, n));
-    if (!(ln > 0)) return false;
     for (int k = 0; k < 3; ++k)
-      if (std::abs(dot(n, sub(position(my, y.tri, k), p0))) > eps_ * ln) return false;
+      if (!on_plane_of(x, position(my, y.tri, k))) return false;
     return true;
   }
   // Does x's whole edge lie on y's plane (same tolerance and rings as touches())?
   bool edge_on(const Side& x, const Side& y) {
     if (x.mesh == y.mesh && near_on_mesh(x, y.tri)) return false;
     const Mesh& mx = scene_.meshes[x.mesh];
-    const Mesh& my = scene_.meshes[y.mesh];
-    const Vec n = normal(my, y.tri), p0 = position(my, y.tri, 0);
-    const double ln = std::sqrt(dot(n, n));
-    if (!(ln > 0)) return false;
-    for (int j = 0; j < 2; ++j)
-      if (std::abs(dot(n, sub(position(mx, x.tri, (x.edge + j) % 3), p0))) > eps_ * ln)
-        return false;
-    return true;
+    return on_plane_of(y, position(mx, x.tri, x.edge)) &&
+           on_plane_of(y, position(mx, x.tri, (x.edge + 1) % 3));
   }
   // On a diced implicit, is what shows beyond x's edge (y, along the view ray through the map
   // edge's midpoint) nearer to the edge in 3D than x's longest edge? The dicer's cells are about
@@ -628,12 +624,7 @@ class Classifier {
     if (!(std::abs(nd) > 0)) return false;
     const double s = dot(n, sub(p0, p)) / nd;  // p + s dir lies on y's plane
     const double gap = std::abs(s) * std::sqrt(dot(dir, dir));
-    double l2 = 0;
-    for (int k = 0; k < 3; ++k) {
-      const Vec d = edge_dir({x.mesh, x.tri, k});
-      l2 = std::max(l2, dot(d, d));
-    }
-    return gap < std::sqrt(l2);
+    return gap < std::sqrt(longest_edge2(x));
   }
   bool near_on_mesh(const Side& x, uint32_t t) {
     const Mesh& mesh = scene_.meshes[x.mesh];
