@@ -62,6 +62,43 @@ uint64_t parse_bytes(const std::string& flag, const std::string& s) {
   return static_cast<uint64_t>(v);
 }
 
+bool parse_line_flag(const std::string& f, const std::function<std::string()>& value,
+                     LineOptions& o) {
+  if (f == "--crease-angle") {
+    o.crease_angle_deg = parse_number(f, value());
+    if (!(o.crease_angle_deg >= 0 && o.crease_angle_deg <= 180))
+      throw UsageError("--crease-angle: expected 0 ... 180 degrees");
+  } else if (f == "--min-length") {
+    // PX for every kind, or KIND=PX for one (repeatable).
+    const std::string v = value();
+    const size_t eq = v.find('=');
+    const std::string kind = eq == std::string::npos ? "" : v.substr(0, eq);
+    const double px = parse_number(f, eq == std::string::npos ? v : v.substr(eq + 1));
+    if (!(px >= 0 && px <= 100000))
+      throw UsageError("--min-length: expected 0 ... 100000 pixels, got '" + v + "'");
+    bool known = kind.empty();
+    for (size_t k = 0; k < kLineKinds; ++k)
+      if (kind.empty() || kind == line_kind_name(LineKind(k))) {
+        o.min_length_px[k] = px;
+        known = true;
+      }
+    if (!known)
+      throw UsageError(
+          "--min-length: expected PX or KIND=PX (contour, boundary, crease, "
+          "intersection, border), got '" +
+          v + "'");
+  } else if (f == "--self-folds") {
+    o.self_folds = true;
+  } else if (f == "--crease-smooth") {
+    const std::string v = value();
+    if (v != "on" && v != "off") throw UsageError("--crease-smooth: expected on or off");
+    o.crease_smooth = v == "on";
+  } else {
+    return false;
+  }
+  return true;
+}
+
 bool parse_view_flag(const std::string& f, const std::function<std::string()>& value, ViewArgs& a) {
   if (f == "--width")
     a.width = parse_pixels(f, value());

@@ -10,6 +10,7 @@
 
 #include "core/camera.h"
 #include "core/error.h"
+#include "core/lines/lines.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 
@@ -44,7 +45,7 @@ struct ViewArgs {
   std::optional<Vec3> eye, target, up;
   std::optional<double> fov_y, ortho, near_plane, far_plane;
   std::string device;
-  double tolerance_px = 0.2;  // curved surfaces: TessellateOptions::tolerance_px
+  double tolerance_px = 0.2;           // curved surfaces: TessellateOptions::tolerance_px
   double implicit_tolerance_px = 4.0;  // TessellateOptions::implicit_tolerance_px
 };
 
@@ -52,6 +53,12 @@ struct ViewArgs {
 bool parse_view_flag(const std::string& flag, const std::function<std::string()>& value,
                      ViewArgs& v);
 void validate_view(const ViewArgs& v);  // throws UsageError
+
+// If `flag` is one of the line drawing flags that render and check share (--crease-angle
+// --min-length --self-folds --crease-smooth on|off), consumes its value through `value` and
+// returns true.
+bool parse_line_flag(const std::string& flag, const std::function<std::string()>& value,
+                     LineOptions& o);
 
 // The camera: the scene's own (or a framing one), then the flags on top.
 Camera make_camera(const Scene& scene, const ViewArgs& a);

@@ -8,6 +8,7 @@
 
 #include "cli/args.h"
 #include "core/check/scene_check.h"
+#include "core/lines/line_check.h"
 #include "core/lines/lines.h"
 #include "core/lines/svg_lines.h"
 
@@ -50,12 +51,9 @@ CheckArgs parse_check(int argc, char** argv) {
     else if (f == "--lines-from") {
       a.lines_from = value();
       a.lines = true;
-    }
-    else if (f == "--crease-angle") {
-      a.line_opts.crease_angle_deg = parse_number(f, value());
-      if (!(a.line_opts.crease_angle_deg >= 0 && a.line_opts.crease_angle_deg <= 180))
-        throw UsageError("--crease-angle: expected 0 ... 180 degrees");
-    } else if (f == "--reverse")
+    } else if (parse_line_flag(f, value, a.line_opts))
+      continue;
+    else if (f == "--reverse")
       a.reverse = true;
     else if (f == "--strict")
       a.tol.strict = true;
@@ -80,6 +78,28 @@ CheckArgs parse_check(int argc, char** argv) {
 
 namespace {
 int run_check(const CheckArgs& a);
+
+// --lines-image: where the drawing and the reference agree, one colour per pixel. Red: a
+// reference point with no line near (missed); magenta: a drawn line with no reference point
+// near (unsupported); black: a drawn line with one; light green: reference points, all near a
+// line; white: nothing.
+void write_line_check_image(const std::string& path, const std::vector<uint8_t>& img,
+                            uint32_t width, uint32_t height) {
+  std::string ppm = "P6\n" + std::to_string(width) + " " + std::to_string(height) + "\n255\n";
+  for (uint8_t v : img) {
+    uint8_t c[3] = {255, 255, 255};
+    if (v & kRefMissed)
+      c[0] = 230, c[1] = 0, c[2] = 0;
+    else if (v & kDrawnUnsupported)
+      c[0] = 220, c[1] = 0, c[2] = 220;
+    else if (v & kDrawn)
+      c[0] = c[1] = c[2] = 0;
+    else if (v & kRefPoint)
+      c[0] = 150, c[1] = 220, c[2] = 150;
+    ppm.append(reinterpret_cast<const char*>(c), 3);
+  }
+  write_atomically(path, ppm);
+}
 }  // namespace
 
 int cmd_check(int argc, char** argv) {
@@ -121,41 +141,29 @@ int run_check(const CheckArgs& a) {
       const PlanarMap map = renderer.render(scene, cam, ro, nullptr, &screen);
       lines = extract_lines(map, screen, scene, cam, a.line_opts);
     }
+    // The reference: the id raster at 4 x 4 samples per pixel (the same view, finer).
+    constexpr uint32_t kFactor = 4;
+    Camera fine = cam;
+    fine.width *= kFactor;
+    fine.height *= kFactor;
     std::vector<uint32_t> ids;
-    renderer.raster_ids(scene, cam, &ids);
+    renderer.raster_ids(scene, fine, &ids);
     std::vector<uint8_t> img;
-    const LineCheck lc = check_lines(lines, ids, cam.width, cam.height, scene, 1.0,
+    const LineCheck lc = check_lines(lines, ids, cam.width, cam.height, kFactor, scene, 1.5,
                                      a.lines_image.empty() ? nullptr : &img);
-    if (!a.lines_image.empty()) {
-      // White: nothing; grey: a line and no change; green: a change with a line near; red: a
-      // change between surfaces apart with no line near; orange: a lesser change without one.
-      std::string ppm = "P6\n" + std::to_string(cam.width) + " " + std::to_string(cam.height) +
-                        "\n255\n";
-      for (uint8_t v : img) {
-        const bool line = v & 4;
-        const int rel = v & 3;
-        uint8_t c[3] = {255, 255, 255};
-        if (rel && line) c[0] = 40, c[1] = 160, c[2] = 40;
-        else if (rel == 3) c[0] = 230, c[1] = 0, c[2] = 0;
-        else if (rel) c[0] = 255, c[1] = 190, c[2] = 120;
-        else if (line) c[0] = c[1] = c[2] = 150;
-        ppm.append(reinterpret_cast<const char*>(c), 3);
-      }
-      write_atomically(a.lines_image, ppm);
-    }
+    if (!a.lines_image.empty()) write_line_check_image(a.lines_image, img, cam.width, cam.height);
     nlohmann::ordered_json l;
     if (!a.lines_from.empty()) l["from"] = a.lines_from;
     l["chains"] = lines.chain_count();
     for (size_t k = 0; k < kLineKinds; ++k)
       l[std::string(line_kind_name(LineKind(k))) + "_edges"] = lines.edges[k];
-    l["change_pixels"] = lc.change_pixels;
-    l["changes_covered"] = lc.changes_covered();
-    l["change_pixels_no_vertex"] = lc.change_pixels_no_vertex;
-    l["changes_covered_no_vertex"] = lc.changes_covered_no_vertex();
-    l["change_pixels_apart"] = lc.change_pixels_apart;
-    l["changes_covered_apart"] = lc.changes_covered_apart();
+    l["unplaced_edges"] = lines.unplaced;
+    l["samples_per_pixel"] = kFactor * kFactor;
+    l["radius_px"] = lc.radius;
+    l["reference_points"] = lc.reference_points;
+    l["recall"] = lc.recall();
     l["line_px"] = lc.line_px;
-    l["lines_supported"] = lc.lines_supported();
+    l["precision"] = lc.precision();
     j["lines"] = l;
   }
   j["over_tolerance"] = bad;

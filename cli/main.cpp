@@ -41,12 +41,15 @@ const char* kRenderUsage =
     "                [--time-limit SECONDS] [--stats] [--tolerance PX] [--implicit-tolerance PX]\n"
     "                [--style fill|lines|fill+lines] [--crease-angle DEG] [--line-width PX]\n"
     "                [--line-color KIND=#RRGGBB] [--simplify PX] [--hidden] [--merge]\n"
+    "                [--min-length PX | KIND=PX]... [--self-folds] [--crease-smooth on|off]\n"
     "                [--bounds X0,Y0,X1,Y1]   (a 2D implicit .sexp: the window drawn)\n"
     "                format: --format, else OUT's extension (.svg .pdf .eps .png .bin .vmc)\n";
 const char* kCheckUsage =
     "  vismap check SCENE [camera flags as render] [--pixels N] [--tile-pixels T] [--device NAME]\n"
     "                [--memory-budget BYTES]\n"
-    "                [--lines [--crease-angle DEG] [--lines-image OUT.ppm]\n"
+    "                [--lines [--crease-angle DEG] [--min-length [KIND=]PX] [--self-folds]\n"
+    "                 [--crease-smooth on|off]\n"
+    "                 [--lines-image OUT.ppm]\n"
     "                 [--lines-from DRAWING.svg]]   (another tool's SVG drawing, scored alike)\n"
     "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 "
     "if over tolerance\n";
@@ -227,11 +230,9 @@ RenderArgs parse_render(int argc, char** argv) {
       continue;
     else if (f == "--style")
       a.style = value();
-    else if (f == "--crease-angle") {
-      a.lines.crease_angle_deg = parse_number(f, value());
-      if (!(a.lines.crease_angle_deg >= 0 && a.lines.crease_angle_deg <= 180))
-        throw UsageError("--crease-angle: expected 0 ... 180 degrees");
-    } else if (f == "--line-width") {
+    else if (parse_line_flag(f, value, a.lines))
+      continue;
+    else if (f == "--line-width") {
       a.svg.line_width = parse_number(f, value());
       if (!(a.svg.line_width > 0 && a.svg.line_width <= 1000))
         throw UsageError("--line-width: expected a positive number of pixels (at most 1000)");

@@ -335,7 +335,10 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
   tally.items(Stage::Candidates, kept, cand.total);
   tally.items(Stage::Clip, kept, frags.count);
   tally.items(Stage::Occlusion, frags.count, vis.count);
-  if (screen) keep_screen_triangles(em.tris, region, fr.use_boxes != 0, *screen);
+  if (screen) {
+    keep_screen_triangles(em.tris, region, fr.use_boxes != 0, *screen);
+    stages::keep_crossing_lines(rt, cx, em.tris, screen->crossings);
+  }
   return true;
 }
 

@@ -63,6 +63,14 @@ struct ScreenTriangles {
   // kFreePlane (docs/NUMERICS.md §2 "Depth planes").
   static constexpr int32_t kFreePlane = -0x7fffffff;  // VM_PLANE_FREE (kernels/layout.h)
   std::vector<int32_t> plane_k;
+  // The crossing lines the pipeline clipped with (pairs whose depth planes cross inside their
+  // overlap, kernels/crossings.cl VM_REL_CROSS): a*x + b*y + c = 0 in grid units, by the two
+  // source triangles. extract_lines draws intersection lines only on these.
+  struct Crossing {
+    uint32_t mesh[2], triangle[2];
+    int64_t a, b, c;
+  };
+  std::vector<Crossing> crossings;
   size_t size() const { return mesh.size(); }
 };
 

@@ -9,20 +9,22 @@
 #include <string>
 
 #include "core/error.h"
+#include "core/lines/line_check.h"
 #include "core/lines/lines.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "core/write/output.h"
+#include "support/line_drawing.h"
 #include "support/triangle_scene.h"
 
 namespace vismap {
 namespace {
 
+using test_support::Drawn;
 using test_support::ortho_view_256;
 
 Renderer& renderer() {
-  static Renderer r;
-  return r;
+  return test_support::line_renderer();
 }
 
 // A box [lo, hi], faces outward, as one mesh.
@@ -58,18 +60,8 @@ Mesh square(const std::string& name, double x0, double y0, double x1, double y1,
   return m;
 }
 
-struct Drawn {
-  PlanarMap map;
-  ScreenTriangles screen;
-  LineSet lines;
-};
-
 Drawn draw(const Scene& s, const Camera& cam, const LineOptions& o = {}) {
-  Drawn d;
-  RenderOptions ro;
-  ro.keep_screen_triangles = true;
-  d.map = renderer().render(s, cam, ro, nullptr, &d.screen);
-  d.lines = extract_lines(d.map, d.screen, s, cam, o);
+  Drawn d = test_support::draw_lines(s, cam, o);
   // VISMAP_LINES_SVG_DIR=DIR: each drawing as DIR/<test>-<n>.svg, to look at.
   if (const char* dir = std::getenv("VISMAP_LINES_SVG_DIR")) {
     static int n = 0;
@@ -183,7 +175,8 @@ TEST(Lines, BoxOnAFloorMeetsItAtABorder) {
   Scene s;
   Mesh floor = square("floor", -4, -4, 4, 4, 0);
   // The floor in y = 0 (square() builds in z): swap y and z, and keep it facing up.
-  for (size_t v = 0; v < floor.positions.size(); v += 3) std::swap(floor.positions[v + 1], floor.positions[v + 2]);
+  for (size_t v = 0; v < floor.positions.size(); v += 3)
+    std::swap(floor.positions[v + 1], floor.positions[v + 2]);
   floor.indices = {0, 2, 1, 0, 3, 2};
   s.meshes.push_back(floor);
   s.meshes.push_back(box("box", {-1, 0, -1}, {1, 2, 1}));
@@ -272,7 +265,7 @@ TEST(Lines, BinaryLineSectionRoundTrips) {
     for (size_t i = 0; i < d.lines.xy.size(); ++i)
       EXPECT_EQ(f.lines.xy[i], double(float(d.lines.xy[i])));
     EXPECT_THROW(read_bin(bytes.substr(0, bytes.size() - 4)), InputError);  // truncated
-    EXPECT_THROW(read_bin(bytes + std::string(4, '\0')), InputError);     // trailing
+    EXPECT_THROW(read_bin(bytes + std::string(4, '\0')), InputError);       // trailing
     // The first chain's info word with an unknown kind.
     const size_t info = bytes.size() - 8 * (d.lines.xy.size() / 2) - 4 * d.lines.chain_count();
     std::string bad = bytes;
@@ -323,26 +316,58 @@ TEST(Lines, MergeJoinsOneFillIntoOneRegionWithHoles) {
   EXPECT_GT(std::count(svg.begin(), svg.end(), '\n'), 5);
 }
 
-// The drawing against the z-buffer id raster: on a cube nearly every id change is on a line
-// and every line on a change.
-TEST(Lines, CheckAgainstTheIdRaster) {
+// The drawing against the 4 x 4 supersampled id raster: on two cubes, one through the other,
+// every place where surfaces meet has a line within 1.5 px and every line such a place; a
+// planted line where nothing meets (a mutation) fails the precision, a drawing without its
+// intersection lines the recall.
+TEST(Lines, CheckAgainstTheSupersampledIdRaster) {
   Scene s;
   s.meshes.push_back(box("cube", {-1, -1, -1}, {1, 1, 1}));
   s.meshes.push_back(box("cube2", {-0.5, -0.5, 0.5}, {0.5, 0.5, 2.5}));  // penetrates the first
   const Camera cam = perspective(s, {4, 3, 5}, {0, 0, 0});
   const Drawn d = draw(s, cam);
   EXPECT_GT(d.lines.edges[size_t(LineKind::Intersection)], 0u);
+  Camera fine = cam;
+  fine.width *= 4;
+  fine.height *= 4;
   std::vector<uint32_t> ids;
-  renderer().raster_ids(s, cam, &ids);
-  const LineCheck c = check_lines(d.lines, ids, cam.width, cam.height, s);
-  EXPECT_GT(c.change_pixels, 1000u);
-  EXPECT_GE(c.changes_covered(), 0.995) << c.change_near_line << " / " << c.change_pixels;
-  EXPECT_GE(c.lines_supported(), 0.995) << c.line_near_change << " / " << c.line_px;
-  // A drawing without its intersection lines fails the first fraction.
+  renderer().raster_ids(s, fine, &ids);
+  const LineCheck c = check_lines(d.lines, ids, cam.width, cam.height, 4, s);
+  EXPECT_GT(c.reference_points, 4000u);
+  EXPECT_GE(c.recall(), 0.995) << c.reference_near_line << " / " << c.reference_points;
+  EXPECT_GE(c.precision(), 0.995) << c.line_near_reference << " / " << c.line_px;
+  // A planted contour across the middle of a cube's face, 30 px long: no surfaces meet there.
+  LineSet planted = d.lines;
+  double cx = 0, cy = 0;
+  for (size_t i = 0; i < d.lines.xy.size(); i += 2) cx += d.lines.xy[i], cy += d.lines.xy[i + 1];
+  cx /= d.lines.xy.size() / 2;
+  cy /= d.lines.xy.size() / 2;
+  std::vector<uint8_t> img;
+  const LineCheck before = check_lines(d.lines, ids, cam.width, cam.height, 4, s, 1.5, &img);
+  // A spot inside a face: no drawn line and no reference point within 8 px.
+  double px = -1, py = -1;
+  for (int r = 0; r < 200 && px < 0; r += 4)
+    for (int a = 0; a < 16 && px < 0; ++a) {
+      const int x = int(cx + r * std::cos(a * M_PI / 8)), y = int(cy + r * std::sin(a * M_PI / 8));
+      bool clear = x >= 20 && y >= 20 && x < int(cam.width) - 20 && y < int(cam.height) - 20;
+      for (int v = -8; v <= 8 && clear; ++v)
+        for (int u = -8; u <= 8 && clear; ++u) clear = img[size_t(y + v) * cam.width + x + u] == 0;
+      if (clear && ids[size_t(4 * y) * fine.width + 4 * x] != ~0u) px = x, py = y;
+    }
+  ASSERT_GE(px, 0);
+  planted.xy.insert(planted.xy.end(), {px - 6, py, px + 6, py});
+  planted.off.push_back(uint32_t(planted.xy.size() / 2));
+  planted.kind.push_back(LineKind::Contour);
+  planted.closed.push_back(0);
+  planted.hidden.push_back(0);
+  const LineCheck p = check_lines(planted, ids, cam.width, cam.height, 4, s);
+  EXPECT_LT(p.precision(), 0.995) << "a planted line is not caught";
+  EXPECT_NEAR(p.line_px - before.line_px, 12, 1e-9);
+  // Without its intersection lines the drawing misses where the cubes cross.
   LineSet no_x = d.lines;
   for (auto& k : no_x.kind)
     if (k == LineKind::Intersection) k = LineKind::Crease;  // creases are not checked
-  EXPECT_LT(check_lines(no_x, ids, cam.width, cam.height, s).changes_covered(), 0.98);
+  EXPECT_LT(check_lines(no_x, ids, cam.width, cam.height, 4, s).recall(), 0.98);
 }
 
 }  // namespace

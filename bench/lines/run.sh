@@ -6,7 +6,7 @@
 #
 #   bench/lines/setup.sh                        # blender, libocct-*-dev (opt-in)
 #   cmake -S . -B build -DVISMAP_BENCH_PEERS=ON && cmake --build build --target vismap vismap_lines_prep vismap_occt_hlr
-#   bench/lines/run.sh [RESULTS_DIR]            # default bench/results/2026-12-02-lines
+#   bench/lines/run.sh [RESULTS_DIR]            # default bench/results/2026-12-05-lines
 #
 # Times: the whole process, wall clock (GNU time), the median of 3 when the first run takes
 # under 60 s, else that one run. A tool past TIME_LIMIT seconds (default 300) is DNF.
@@ -14,7 +14,7 @@ set -uo pipefail
 ROOT="$(cd "$(dirname "$0")/../.." && pwd)"
 cd "$ROOT"
 BUILD="${BUILD:-$ROOT/build}"
-RES="${1:-$ROOT/bench/results/2026-12-02-lines}"
+RES="${1:-$ROOT/bench/results/2026-12-05-lines}"
 WORK="$ROOT/bench/out/lines"
 SIZE="${SIZE:-1024}"
 LIMIT="${TIME_LIMIT:-300}"
@@ -29,7 +29,7 @@ SCENES=(
 )
 [ -n "${ONLY:-}" ] && SCENES=($(printf '%s\n' "${SCENES[@]}" | grep -E "^(${ONLY})="))
 CSV="$RES/results.csv"
-echo "scene,tool,status,wall_s,runs,svg_bytes,chains,changes_covered,changes_covered_apart,lines_supported,line_px" > "$CSV"
+echo "scene,tool,status,wall_s,runs,svg_bytes,chains,recall,precision,line_px" > "$CSV"
 
 # timed NAME CMD...: runs it (up to 3 times), sets STATUS and WALL.
 timed() {
@@ -66,10 +66,13 @@ for entry in "${SCENES[@]}"; do
   name=${entry%%=*}; scene=${entry#*=}
   CAM=$("$BUILD/bench/vismap_lines_prep" "$scene" --width "$SIZE" --height "$SIZE" --obj "$WORK/$name.obj")
   echo "$name: $CAM" >> "$RES/env.txt"
-  for tool in vismap occt_outline occt_faces freestyle; do
+  for tool in ${TOOLS:-vismap vismap_all occt_outline occt_faces freestyle}; do
     svg="$WORK/$name.$tool.svg"; rm -f "$svg"; RUNS=0
     case $tool in
       vismap) timed "$name.$tool" "$BUILD/vismap" render "$scene" -o "$svg" --style lines $CAM ;;
+      # Everything the classification places, no selection (docs/LINES.md "Selection").
+      vismap_all) timed "$name.$tool" "$BUILD/vismap" render "$scene" -o "$svg" --style lines $CAM \
+                    --self-folds --crease-smooth off ;;
       occt_outline) timed "$name.$tool" "$BUILD/bench/vismap_occt_hlr" "$scene" $CAM --form outline -o "$svg" ;;
       occt_faces) timed "$name.$tool" "$BUILD/bench/vismap_occt_hlr" "$scene" $CAM --form faces -o "$svg" ;;
       freestyle) timed "$name.$tool" blender -b --factory-startup --python bench/lines/freestyle.py -- \
@@ -81,11 +84,11 @@ for entry in "${SCENES[@]}"; do
         > "$WORK/$name.$tool.check.json" 2> "$WORK/$name.$tool.check.log"
       row="$row,$(stat -c %s "$svg"),$(/usr/bin/python3 -c '
 import json,sys; l=json.load(open(sys.argv[1]))["lines"]
-print(",".join(str(l[k]) for k in ("chains","changes_covered","changes_covered_apart","lines_supported","line_px")))' \
+print(",".join(str(l[k]) for k in ("chains","recall","precision","line_px")))' \
         "$WORK/$name.$tool.check.json")"
       rsvg-convert -b white -w 512 -h 512 "$svg" -o "$WORK/$name.$tool.png" 2>/dev/null || true
     else
-      row="$row,,,,,,"
+      row="$row,,,,,"
     fi
     echo "$row" | tee -a "$CSV"
   done

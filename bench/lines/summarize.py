@@ -10,7 +10,9 @@ import shutil
 import subprocess
 import sys
 
-TOOLS = [("vismap", "vismap --style lines"), ("occt_outline", "OCCT PolyAlgo, one triangulated face"),
+TOOLS = [("vismap", "vismap --style lines"),
+         ("vismap_all", "vismap, no selection"),
+         ("occt_outline", "OCCT PolyAlgo, one triangulated face"),
          ("occt_faces", "OCCT PolyAlgo, face per triangle"), ("freestyle", "Blender Freestyle SVG")]
 
 
@@ -24,26 +26,26 @@ def fmt(v, digits=4):
 def main():
     src, work, res = sys.argv[1:4]
     rows = list(csv.DictReader(open(src)))
-    out = ["| scene | tool | wall s | SVG bytes | chains | changes_covered | _apart | lines_supported |",
-           "|---|---|---:|---:|---:|---:|---:|---:|"]
+    out = ["| scene | tool | wall s | SVG bytes | chains | recall | precision |",
+           "|---|---|---:|---:|---:|---:|---:|"]
     for r in rows:
         label = dict(TOOLS).get(r["tool"], r["tool"])
         if r["status"] != "ok":
             wall = f"DNF (> {r['wall_s']} s)" if r["status"] == "DNF" else r["status"]
-            out.append(f"| {r['scene']} | {label} | {wall} | | | | | |")
+            out.append(f"| {r['scene']} | {label} | {wall} | | | | |")
             continue
         if r["chains"] == "0":
             out.append(f"| {r['scene']} | {label} | {float(r['wall_s']):.2f} (empty drawing) | "
-                       f"{int(r['svg_bytes']):,} | 0 | | | |")
+                       f"{int(r['svg_bytes']):,} | 0 | | |")
             continue
         runs = f" (median of {r['runs']})" if r["runs"] not in ("", "1") else ""
         out.append(f"| {r['scene']} | {label} | {float(r['wall_s']):.2f}{runs} | {int(r['svg_bytes']):,} | "
-                   f"{r['chains']} | {fmt(r['changes_covered'])} | {fmt(r['changes_covered_apart'])} | "
-                   f"{fmt(r['lines_supported'])} |")
+                   f"{r['chains']} | {fmt(r['recall'])} | {fmt(r['precision'])} |")
     with open(os.path.join(res, "results.md"), "w") as f:
         f.write("# Line drawings against other tools (bench/lines/run.sh)\n\n")
-        f.write("Whole process wall time; the check fractions from `vismap check --lines "
-                "--lines-from` (docs/LINES.md). Environment: env.txt.\n\n")
+        f.write("Whole process wall time; recall and precision from `vismap check --lines "
+                "--lines-from` (4 x 4 samples per pixel, 1.5 px; docs/LINES.md). Environment: "
+                "env.txt.\n\n")
         f.write("\n".join(out) + "\n")
     # Debian's ImageMagick by its path: another "convert" may come first on PATH.
     convert = "/usr/bin/convert" if os.path.exists("/usr/bin/convert") else shutil.which("convert")

@@ -6,17 +6,22 @@
 // Every line is a chain of planar map edges, so it starts and ends at the map's own vertices:
 // a contour that passes behind a surface stops exactly where the occluder's edge crosses it.
 // Which kind an edge is follows from the two source triangles on its sides (ScreenTriangles,
-// the pipeline's snapped input) and the scene's meshes:
-//   - a map edge with background on one side lies on an edge of its source triangle: boundary
-//     when no other triangle of the mesh shares that edge, contour otherwise;
-//   - both sides of one source triangle: no line (a fragment split by an occluder that ended);
-//   - on neither source's edge: the two surfaces cross there (a crossing line): intersection;
+// the pipeline's snapped input), the scene's meshes and the pipeline's crossing lines
+// (docs/LINES.md "How an edge of the map is classified"):
+//   - background on one side: the source's edge; boundary when no other triangle of the mesh
+//     shares it (nor holds it at a T-junction), contour otherwise;
+//   - both sides of one source triangle: no line;
 //   - on an edge both sources share in their mesh (matched by position): contour when one faces
-//     the eye and the other away, crease when their normals differ by more than the crease
-//     angle, else no line;
-//   - otherwise one surface ends in front of the other (contour, or boundary when its edge has
-//     no neighbour), or, when both are at the same depth along the edge, two meshes touch there
-//     (border) or a mesh touches itself (intersection).
+//     the eye and the other away, crease past the crease angle, else no line; border where the
+//     edge stands on a third surface (in 3D);
+//   - one side's edge lies on the other surface in 3D (a contact, the same from every view):
+//     border between meshes; within one mesh a seam (as if the edge were shared) or, inside the
+//     other's face, nothing where coplanar, else border;
+//   - on a crossing line of the two the pipeline clipped with: intersection (a contact if an
+//     edge of one lies on the other);
+//   - otherwise one surface ends in front of the other: the nearer side's edge is a contour or
+//     a boundary, unless the surface goes on across it into what shows beyond (no line);
+//   - on no edge and no crossing: counted (LineSet::unplaced), not drawn.
 #pragma once
 
 #include <array>
@@ -43,6 +48,17 @@ struct LineOptions {
   // Douglas-Peucker tolerance in pixels for each chain (0: the map's edges as they are; the
   // chain's ends are always kept).
   double simplify_px = 0.0;
+  // Selection (docs/LINES.md "Selection"), as Blender Freestyle's: chains of each kind shorter
+  // than this many pixels are not drawn (visible and hidden chains, each by its own length).
+  std::array<double, kLineKinds> min_length_px{};
+  // Also the contours where what shows beyond is the contour's own surface within two rings (a
+  // fold smaller than its triangles: on a scanned mesh, the tails of interior contours and
+  // specks; docs/LINES.md "Selection").
+  bool self_folds = false;
+  // Selection: a crease also needs the two faces' smoothed normals (each the sum of its corners'
+  // area-weighted vertex normals) to differ by more than half the crease angle: the zig-zags of
+  // a noisy scan go, a CAD model's edges stay.
+  bool crease_smooth = true;
   // Also the occluded parts of the mesh edge lines (contours, boundaries, creases: every mesh
   // edge of those kinds in the view volume, less its visible parts). Intersection lines have no
   // hidden part here (the pipeline finds crossings only where they can be seen).
@@ -56,9 +72,13 @@ struct LineSet {
   std::vector<uint32_t> off{0};
   std::vector<LineKind> kind;
   std::vector<uint8_t> closed;
-  std::vector<uint8_t> hidden;               // 1: an occluded part (LineOptions::hidden)
-  std::array<uint64_t, kLineKinds> edges{};  // map edges of each kind (before simplifying)
+  std::vector<uint8_t> hidden;                      // 1: an occluded part (LineOptions::hidden)
+  std::array<uint64_t, kLineKinds> edges{};         // map edges of each kind (before simplifying)
   std::array<uint64_t, kLineKinds> hidden_edges{};  // hidden segments of each kind
+  // Map edges between two surfaces that no rule of docs/LINES.md places (on no edge of either
+  // side and on no crossing line of theirs): drawn as nothing, counted to be found.
+  uint64_t unplaced = 0;
+  std::array<uint64_t, kLineKinds> short_chains{};  // chains dropped by min_length_px
   size_t chain_count() const { return kind.size(); }
 };
 
@@ -66,44 +86,5 @@ struct LineSet {
 // Throws InputError when the map or the screen triangles do not refer to the scene's meshes.
 LineSet extract_lines(const PlanarMap& map, const ScreenTriangles& screen, const Scene& scene,
                       const Camera& camera, const LineOptions& opts = {});
-
-}  // namespace vismap
-
-namespace vismap {
-
-// `vismap check --lines`: the drawing against a z-buffer id raster of the same view
-// (Renderer::raster_ids: per pixel centre the global input triangle index, ~0u for none). A
-// change pixel is one whose right or lower neighbour shows another triangle that shares no edge
-// with its own (or shows background where it shows a triangle, or the reverse): there a
-// contour, boundary, intersection or border line is expected (creases are between triangles
-// that share an edge, so they are not looked at).
-struct LineCheck {
-  uint64_t change_pixels = 0;  // both pixels of each such pair
-  uint64_t change_near_line = 0;  // of those, with a drawn line within `radius` px of the centre
-  double line_px = 0;             // length of the drawn contour/boundary/intersection/border lines
-  double line_near_change = 0;    // of it, within `radius` px of a change pixel's centre
-  // The same change count with pairs that share a vertex (but no edge) left out as well: at a
-  // vertex where several triangles of one smooth surface meet, the raster shows triangles that
-  // share only the vertex side by side, with no line to draw.
-  uint64_t change_pixels_no_vertex = 0, change_near_line_no_vertex = 0;
-  // And with pairs left out whose triangles have a vertex each joined by a mesh edge (a thin
-  // triangle between them that no pixel centre hit): the pixels where two surfaces, or two
-  // parts of one surface far apart on it, meet on the screen. The meaningful fraction on dense
-  // meshes (docs/LINES.md, "Checks").
-  uint64_t change_pixels_apart = 0, change_near_line_apart = 0;
-  double changes_covered_apart() const {
-    return change_pixels_apart ? double(change_near_line_apart) / change_pixels_apart : 1;
-  }
-  double changes_covered() const { return change_pixels ? double(change_near_line) / change_pixels : 1; }
-  double changes_covered_no_vertex() const {
-    return change_pixels_no_vertex ? double(change_near_line_no_vertex) / change_pixels_no_vertex : 1;
-  }
-  double lines_supported() const { return line_px > 0 ? line_near_change / line_px : 1; }
-};
-// image: if given, per pixel (row-major) relation (0 none ... 3 apart, see LineCheck) | 4 when a
-// line is within `radius`.
-LineCheck check_lines(const LineSet& lines, const std::vector<uint32_t>& ids, uint32_t width,
-                      uint32_t height, const Scene& scene, double radius = 1.0,
-                      std::vector<uint8_t>* image = nullptr);
 
 }  // namespace vismap

@@ -6,7 +6,8 @@ namespace vismap::stages {
 
 namespace {
 constexpr Stage kStage = Stage::Crossings;
-}
+constexpr uint32_t kRelCross = 3;  // VM_REL_CROSS (kernels/crossings.cl): the planes cross
+}  // namespace
 
 bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, cl::Buffer& totals,
                     const RegionBudget& budget, Crossings& cx) {
@@ -83,6 +84,23 @@ void emit_crossings(ClRuntime& rt, const ScreenSet& s, const Crossings& cx, Clip
                     cx.in_count, cx.in_offset, cx.in_list, cx.pair_t, cx.pair_o, cx.pair_rel,
                     cx.pair_line, cx.entry_offset, g.bases, g.groups, ce.silhouettes,
                     ce.edges, ce.partner);
+}
+
+void keep_crossing_lines(ClRuntime& rt, const Crossings& cx, const std::vector<VmScreenTri>& tris,
+                         std::vector<ScreenTriangles::Crossing>& out) {
+  const uint32_t P = cx.pairs;
+  if (P == 0) return;
+  std::vector<uint32_t> t(P), o(P), rel(P);
+  std::vector<VmLine> line(P);
+  rt.read_async(kStage, cx.pair_t, 0, size_t(P) * 4, t.data());
+  rt.read_async(kStage, cx.pair_o, 0, size_t(P) * 4, o.data());
+  rt.read_async(kStage, cx.pair_line, 0, size_t(P) * sizeof(VmLine), line.data());
+  rt.read(kStage, cx.pair_rel, 0, size_t(P) * 4, rel.data());  // in order: all four are read
+  for (uint32_t p = 0; p < P; ++p) {
+    if (rel[p] != kRelCross) continue;
+    const VmScreenTri &x = tris[t[p]], &y = tris[o[p]];
+    out.push_back({{x.mesh, y.mesh}, {x.tri, y.tri}, line[p].a, line[p].b, line[p].c});
+  }
 }
 
 }  // namespace vismap::stages

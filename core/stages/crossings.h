@@ -6,8 +6,10 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "core/device/cl_runtime.h"
+#include "core/planar_map.h"
 #include "core/stages/bin.h"
 #include "core/stages/budget.h"
 #include "core/stages/silhouettes.h"
@@ -31,5 +33,9 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
                     const RegionBudget& budget, Crossings& cx);
 // Writes the X entries after the silhouette edges of ce (and their partners).
 void emit_crossings(ClRuntime& rt, const ScreenSet& s, const Crossings& cx, ClipEdges& ce);
+// The pairs whose planes cross (VM_REL_CROSS) with their lines, by source triangle, appended
+// to `out` (tris: the region's screen triangles as read back; for extract_lines).
+void keep_crossing_lines(ClRuntime& rt, const Crossings& cx, const std::vector<VmScreenTri>& tris,
+                         std::vector<ScreenTriangles::Crossing>& out);
 
 }  // namespace vismap::stages
