@@ -651,7 +651,6 @@ class Classifier {
   // along the map edge a-b in 3D: the other side of a T-junction (pieces of one surface not
   // welded, whose snapped corners leave a crack a rounding wide between them).
   bool seam_partner(const Side& x, const double* a, const double* b, Side& y) {
-    const Mesh& mesh = scene_.meshes[x.mesh];
     bool found = false;
     for_each_covering((a[0] + b[0]) / 2, (a[1] + b[1]) / 2,
                       [&](uint32_t s) {
