@@ -161,23 +161,16 @@ __kernel void leaf_bin(__global const int4* bb, uint n, VmGrid g, __global const
  * (class, id), writes where classes 1, 2 and 3 begin (x, y, z) and the count (w), and leaves
  * plain ids. Lists in a fixed order keep every kernel that walks them deterministic, whatever
  * order the atomics ran in. */
-/* With `places` (the cull's, cull.cl): each leaf's rectangle (leaf_rects, grid units, closed)
- * and each entry's leaf (entry_leaf). */
+/* With `cursors` (the cull's, cull.cl cull_bin): each leaf's cursor zeroed, one launch less. */
 __kernel void leaf_sort_classes(uint ntiles, __global const uint* tile_leaf,
                                 __global const uint* leaf_offset, __global const uint* leaf_count,
-                                __global uint* list, __global uint4* class_start, VmGrid g,
-                                int places, __global int4* leaf_rects, __global uint* entry_leaf) {
+                                __global uint* list, __global uint4* class_start, int zero_cursors,
+                                __global uint* cursors) {
   uint t = get_global_id(0);
   if (t >= ntiles) return;
   uint tl = tile_leaf[t], first = leaf_first(tl), d = leaf_depth(tl), nleaves = 1u << (2 * d);
   for (uint leaf = first; leaf < first + nleaves; ++leaf) {
-    if (places) {
-      const int ls = 1 << (g.tile_shift - (int)d), li = (int)(leaf - first);
-      const int x0 = ((int)(t % (uint)g.tiles_x) << g.tile_shift) + (li & ((1 << d) - 1)) * ls;
-      const int y0 = ((int)(t / (uint)g.tiles_x) << g.tile_shift) + (li >> d) * ls;
-      leaf_rects[leaf] = (int4)(x0, y0, x0 + ls, y0 + ls);
-      for (uint k = 0; k < leaf_count[leaf]; ++k) entry_leaf[leaf_offset[leaf] + k] = leaf;
-    }
+    if (zero_cursors) cursors[leaf] = 0;
     __global uint* a = list + leaf_offset[leaf];
     int n = (int)leaf_count[leaf];
     sort_list(a, n);

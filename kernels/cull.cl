@@ -105,16 +105,15 @@ inline double4 rect_d(long4 r) {
   return (double4)((double)r.x, (double)r.y, (double)r.z, (double)r.w);
 }
 
-/* What one list entry (a triangle in a leaf) adds to its leaf's proof, one work-item an entry:
- * iv[j] its depth interval over the leaf, or lo = +inf where it does not meet the open cell;
- * cover[j] its least depth over the cell where it contains the closed cell, else -inf; both as
- * floats rounded outward (lo and cover down, hi up: the interval only grows, the bound only
- * drops, 2^-24 relative against the margin's 10^-6 a step);
- * flags[j]: VM_CULL_MEETS, VM_CULL_SIL (a silhouette edge of it meets the open cell),
- * VM_CULL_FREE (its depth plane is not snapped). */
-#define VM_CULL_MEETS 1u
-#define VM_CULL_SIL 2u
-#define VM_CULL_FREE 4u
+/* What a triangle meeting a leaf's open cell adds to the leaf's proof (cull_bin), in the leaf's
+ * slots from its list's offset on, in the order the atomics ran (the proof does not depend on
+ * it): iv its depth interval over the cell; cover its least depth over the cell where it contains
+ * the closed cell, else -inf; both as floats rounded outward (lo and cover down, hi up: the
+ * interval only grows, the bound only drops, 2^-24 relative against the step's 10^-6); flags
+ * VM_CULL_SIL (a silhouette edge of it meets the open cell), VM_CULL_FREE (its depth plane is not
+ * snapped); slot_tri its index, for the leaves that need its slope (unsnapped planes). */
+#define VM_CULL_SIL 1u
+#define VM_CULL_FREE 2u
 /* Is edge e a silhouette to the cull? From edge_classify's key_sil; for a key three or more
  * triangles share, only when its triangles do not lie on both sides of it (duplicated faces, a
  * fin: the surfaces still cover both sides near it). */
@@ -126,45 +125,50 @@ inline bool cull_edge_sil(uint e, __global const uchar* key_sil, __global const 
          (VM_SIDE_LEFT | VM_SIDE_RIGHT);
 }
 
-__kernel void cull_entries(__global const VmScreenTri* tris, __global const int4* tri_bb,
-                           __global const double2* tri_qr, __global const uchar* edge_sil,
-                           __global const uint* partners, __global const uint* slot_sides,
-                           __global const int4* leaf_rects, __global const uint* entry_leaf,
-                           __global const uint* leaf_list, uint nentries, __global float2* iv,
-                           __global float* cover, __global uchar* flags) {
-  const uint j = get_global_id(0);
-  if (j >= nentries) return;
-  const int4 lr = leaf_rects[entry_leaf[j]];
-  const long4 r = (long4)(lr.x, lr.y, lr.z, lr.w);
-  const uint t = leaf_list[j];
+/* One work-item a triangle: the leaves its box touches (the walk every binning shares), each one
+ * whose open cell it meets given a slot (an atomic cursor, leaf_sort_classes zeroed) with what it
+ * adds. The triangle is read once, not once a leaf. */
+__kernel void cull_bin(__global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
+                       __global const double2* tri_qr, __global const uchar* key_sil,
+                       __global const uint* partners, __global const uint* slot_sides, VmGrid g,
+                       __global const uint* tile_leaf, __global const uint* leaf_offset,
+                       __global uint* cursors, __global float2* iv, __global float* cover,
+                       __global uint* slot_tri, __global uchar* flags) {
+  const uint t = get_global_id(0);
+  if (t >= ntris) return;
   const VmScreenTri T = tris[t];
   const int4 b = tri_bb[t];
-  if (!tri_meets_open_rect(&T, b, r)) {
-    iv[j] = (float2)(INFINITY, -INFINITY);
-    cover[j] = -INFINITY;
-    flags[j] = 0;
-    return;
-  }
-  const double4 rd = rect_d(r);
-  uint f = VM_CULL_MEETS | (T.plane_k == VM_PLANE_FREE ? VM_CULL_FREE : 0u);
   const double2 qr = tri_qr[t];
-  const bool inside = b.x >= r.x && b.z <= r.z && b.y >= r.y && b.w <= r.w;
-  const double2 d = inside ? qr : depth_interval(&T, qr, rd); /* (inside: its vertices' range) */
-  iv[j] = (float2)(convert_float_rtn(d.x), convert_float_rtp(d.y));
-  cover[j] = tri_contains_rect(&T, b, r) ? convert_float_rtn(plane_range(&T, rd).x) : -INFINITY;
-  for (int e = 0; e < 3; ++e) {
-    if (!cull_edge_sil(3 * t + e, edge_sil, partners, slot_sides)) continue;
-    const int k = e == 2 ? 0 : e + 1;
-    if (segment_meets_open_rect(T.x[e], T.y[e], T.x[k], T.y[k], r)) f |= VM_CULL_SIL;
+  uint sil_edges = 0; /* which of its edges the cull takes for silhouettes */
+  for (int e = 0; e < 3; ++e)
+    if (cull_edge_sil(3 * t + e, key_sil, partners, slot_sides)) sil_edges |= 1u << e;
+  const uint base = T.plane_k == VM_PLANE_FREE ? VM_CULL_FREE : 0u;
+  VM_FOR_EACH_LEAF(w, b, g, tile_leaf) {
+    const long4 r = leaf_rect(g, w.tx, w.ty, leaf_depth(w.tl), w.lx, w.ly);
+    if (!tri_meets_open_rect(&T, b, r)) continue;
+    const uint leaf = leaf_walk_leaf(&w);
+    const uint j = leaf_offset[leaf] + atomic_inc(&cursors[leaf]);
+    const double4 rd = rect_d(r);
+    const bool inside = b.x >= r.x && b.z <= r.z && b.y >= r.y && b.w <= r.w;
+    const double2 d = inside ? qr : depth_interval(&T, qr, rd); /* (inside: its vertices' range) */
+    iv[j] = (float2)(convert_float_rtn(d.x), convert_float_rtp(d.y));
+    cover[j] = tri_contains_rect(&T, b, r) ? convert_float_rtn(plane_range(&T, rd).x) : -INFINITY;
+    uint f = base;
+    for (int e = 0; e < 3; ++e) {
+      if (!((sil_edges >> e) & 1u)) continue;
+      const int k = e == 2 ? 0 : e + 1;
+      if (segment_meets_open_rect(T.x[e], T.y[e], T.x[k], T.y[k], r)) f |= VM_CULL_SIL;
+    }
+    flags[j] = (uchar)f;
+    slot_tri[j] = t;
   }
-  flags[j] = (uchar)f;
 }
 
-/* Per leaf: (top, d) as proven above from its entries (cull_entries), or top = -inf where
+/* Per leaf: (top, d) as proven above from its slots (cull_bin), or top = -inf where
  * nothing is proven: a triangle whose nearness over the cell stays below top - d is hidden. */
 /* Also zeroes the `groups` words of `zero` (edge_reclassify's group counts): one launch less. */
 __kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
-                          __global const uint4* class_start, __global const uint* leaf_list,
+                          __global const uint* cursors, __global const uint* slot_tri,
                           __global const VmScreenTri* tris, __global const int4* tri_bb,
                           __global const float2* iv, __global const float* cover,
                           __global const uchar* flags, __global double2* leaf_cull,
@@ -172,14 +176,12 @@ __kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
   const uint leaf = get_global_id(0);
   if (leaf < groups) zero[leaf] = 0;
   if (leaf >= nleaves) return;
-  const uint n = class_start[leaf].w, off = leaf_offset[leaf];
-  uint meet = 0, any = 0;
+  const uint n = cursors[leaf], off = leaf_offset[leaf]; /* (the triangles meeting the cell) */
+  const uint meet = n;
+  uint any = 0;
   double qabs = 0, single = -INFINITY;
   for (uint k = off; k < off + n; ++k) {
-    const uint f = flags[k];
-    if (!(f & VM_CULL_MEETS)) continue;
-    ++meet;
-    any |= f;
+    any |= flags[k];
     const float2 v = iv[k];
     qabs = fmax(qabs, (double)fmax(fabs(v.x), fabs(v.y)));
     single = fmax(single, (double)cover[k]);
@@ -187,12 +189,11 @@ __kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
   double gmax = 0, free_span = 0;
   if (any & VM_CULL_FREE) /* (rare: a plane too steep to snap) */
     for (uint k = off; k < off + n; ++k) {
-      if (!(flags[k] & VM_CULL_MEETS)) continue;
-      const VmScreenTri T = tris[leaf_list[k]];
+      const VmScreenTri T = tris[slot_tri[k]];
       const DepthPlane p = depth_plane(&T);
       gmax = fmax(gmax, (fabs(p.gx) + fabs(p.gy)) * (1 + 0x1p-40));
       if (flags[k] & VM_CULL_FREE) {
-        const int4 b = tri_bb[leaf_list[k]];
+        const int4 b = tri_bb[slot_tri[k]];
         free_span = fmax(free_span, (double)max(b.z - b.x, b.w - b.y));
       }
     }

@@ -150,17 +150,27 @@ __kernel void edge_classify(__global const VmScreenTri* tris, uint nedges,
   if (e >= nedges) return;
   const uint s = slot_of_edge[e];
   const uint p = edge_partner(e, s, table, second, many);
-  const uint k = key_is_silhouette(tris, e, p);
-  const uint f = p == VM_EDGE_MANY ? slot_min[s] == e : p == VM_EDGE_ONE ? 1u : k && e < p;
-  flags[e] = f;
   if (p == VM_EDGE_MANY) { /* (rare) the cull asks the slot which sides its triangles cover */
     atomic_or(&many[s], key_side(tris, e) > 0 ? VM_SIDE_LEFT : VM_SIDE_RIGHT);
     partners[e] = s;
     key_sil[e] = VM_KEY_SIL_MANY;
   } else {
     partners[e] = p;
-    key_sil[e] = (uchar)k;
   }
+  /* A key two edges share is judged once, by the lower, which writes both edges' key_sil. */
+  uint f;
+  if (p == VM_EDGE_MANY) {
+    f = slot_min[s] == e;
+  } else if (p == VM_EDGE_ONE) {
+    f = 1;
+    key_sil[e] = 1;
+  } else if (e < p) {
+    f = key_is_silhouette(tris, e, p);
+    key_sil[e] = key_sil[p] = (uchar)f;
+  } else {
+    f = 0;
+  }
+  flags[e] = f;
   if (f) atomic_inc(&group_sums[e / VM_SCAN_WG]);
 }
 

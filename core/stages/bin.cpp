@@ -50,10 +50,9 @@ Leaves bin_leaves(ClRuntime& rt, cl::Buffer& bb, uint32_t n, const VmGrid& g, bo
     fill_leaves(rt, bb, n, g, lv, count, 0);
   }
   lv.class_start = rt.alloc(size_t(lv.leaves) * sizeof(cl_uint4), "leaf class starts");
-  lv.rects = rt.alloc(places ? size_t(lv.leaves) * sizeof(cl_int4) : 16, "leaf rectangles");
-  lv.entry_leaf = rt.alloc(places ? std::max<size_t>(lv.entries, 1) * 4 : 16, "entry leaves");
+  lv.cursors = rt.alloc(places ? size_t(lv.leaves) * 4 : 16, "leaf cursors (cull)");
   rt.launch(kStage, "leaf_sort_classes", ntiles, ntiles, lv.tile_leaf, lv.offset, count, lv.list,
-            lv.class_start, g, cl_int(places ? 1 : 0), lv.rects, lv.entry_leaf);
+            lv.class_start, cl_int(places ? 1 : 0), lv.cursors);
   return lv;
 }
 

@@ -15,12 +15,12 @@ namespace vismap::stages {
 
 struct Leaves {
   cl::Buffer tile_leaf, offset, class_start, list;
-  cl::Buffer rects, entry_leaf;  // with `places`: per leaf its rectangle, per entry its leaf
+  cl::Buffer cursors;  // with `places`: per leaf a cursor at 0 (the cull's, cull.cl cull_bin)
   uint32_t leaves = 0, entries = 0;
 };
 
-// Adaptive leaves over n boxes (int4, grid units) on grid g; `places` also writes where each leaf
-// is and which leaf each entry is in (the cull's, core/stages/cull.h).
+// Adaptive leaves over n boxes (int4, grid units) on grid g; `places` also gives each leaf a
+// cursor at 0 for the cull to place its entries with (core/stages/cull.h).
 Leaves bin_leaves(ClRuntime& rt, cl::Buffer& boxes, uint32_t n, const VmGrid& g,
                   bool places = false);
 

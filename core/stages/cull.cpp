@@ -62,7 +62,7 @@ bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& fine, ui
   // The cull only saves work: where its buffers would pass the region's budget, the region is
   // rendered without it (every triangle clipped), not split or refused.
   if (!budget.fits_more(
-          rt, uint64_t(lv.leaves) * 16 + E * 13 + uint64_t(S) * 4 + uint64_t(sil.edges_in) * 4))
+          rt, uint64_t(lv.leaves) * 16 + E * 17 + uint64_t(S) * 4 + uint64_t(sil.edges_in) * 4))
     return false;
   out.tile_leaf = lv.tile_leaf;
   out.grid = tb.grid;
@@ -72,12 +72,13 @@ bool cull_hidden(ClRuntime& rt, const ScreenSet& s, const TriangleBins& fine, ui
   {
     cl::Buffer iv = rt.alloc(E * sizeof(cl_float2), "cull intervals");
     cl::Buffer cover = rt.alloc(E * sizeof(cl_float), "cull covers");
+    cl::Buffer slot_tri = rt.alloc(E * sizeof(cl_uint), "cull slot triangles");
     cl::Buffer flags = rt.alloc(std::max<size_t>(E, 4), "cull entry flags");
-    rt.launch(kStage, "cull_entries", lv.entries, s.tris, tb.bb, tb.qr, sil.key_sil,
-              sil.partners, sil.slot_sides, lv.rects, lv.entry_leaf, lv.list, lv.entries, iv,
-              cover, flags);
+    rt.launch(kStage, "cull_bin", S, s.tris, S, tb.bb, tb.qr, sil.key_sil, sil.partners,
+              sil.slot_sides, tb.grid, lv.tile_leaf, lv.offset, lv.cursors, iv, cover, slot_tri,
+              flags);
     rt.launch(kStage, "cull_leaves", std::max(lv.leaves, eg.groups), lv.leaves, lv.offset,
-              lv.class_start, lv.list, s.tris, tb.bb, iv, cover, flags, out.leaf_cull, eg.sums,
+              lv.cursors, slot_tri, s.tris, tb.bb, iv, cover, flags, out.leaf_cull, eg.sums,
               eg.groups);
   }
   cl::Buffer keep = rt.alloc(std::max<size_t>(S, 1) * 4, "cull keep");
