@@ -437,7 +437,9 @@ int run_render(RenderArgs& a, std::chrono::steady_clock::time_point t0) {
     if (!implicit::uses_z(tape)) return render_implicit_2d(a, tape, t0);
   }
   if (a.bounds) throw UsageError("--bounds: the window of a 2D implicit expression (.sexp)");
-  Scene scene = load_scene(a.scene);
+  LoadOptions lo;
+  lo.time_limit_s = a.time_limit_s;  // an implicit object's bounds search, too
+  Scene scene = load_scene(a.scene, lo);
   auto t_load = Clock::now();
   Camera cam = make_camera(scene, a.view);
   Renderer renderer(a.view.device);

@@ -334,6 +334,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       try {
         LoadOptions opts;
         opts.max_triangles = L.max_triangles;
+        opts.time_limit_s = L.render_time_limit_s;  // a load answers within it, as a frame does
         if (!path.empty()) {
           // A library file: confined to the library (symlinks inside it, files a scene file
           // references) and its input bytes capped at one session's budget.
