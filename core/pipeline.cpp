@@ -91,7 +91,7 @@ struct Renderer::Impl {
   size_t key_tris = 0;
   const float* key_pos = nullptr;
   stages::SceneBuffers sb;
-  stages::LoopPlans loop_plans;  // per Loop control mesh, built on first use
+  LoopPlans loop_plans;  // per Loop control mesh, built on first use
 
   void upload(const Scene& scene, RenderStats& st);
   PlanarMap run(const Scene& scene, const Camera& cam, const RenderOptions& opts, RenderStats& st,
@@ -388,8 +388,9 @@ Scene Renderer::tessellate(const Scene& scene, const Camera& camera,
       else if (!m.patches.empty())
         out.meshes.push_back(stages::dice_patches(impl_->rt, m, camera, opts, st, check_time));
       else if (m.subdivision)
-        out.meshes.push_back(
-            stages::dice_subdivision(impl_->rt, m, camera, opts, impl_->loop_plans, st));
+        out.meshes.push_back(stages::dice_subdivision(
+            impl_->rt, m, camera, opts, opts.loop_plans ? *opts.loop_plans : impl_->loop_plans, st,
+            check_time));
       else
         out.meshes.push_back(m);
     }

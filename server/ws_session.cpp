@@ -392,6 +392,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       {
         std::lock_guard lk(cam_mu_);
         scene_ = scene;
+        plans_ = std::make_shared<LoopPlans>();  // the old scene's go with its last frame
         base_camera_ = cam;
       }
       peak_bytes_ = std::max(peak_bytes_, scene_bytes(*scene));
@@ -436,6 +437,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   // What a frame carries from the render worker to the encoder and the strand.
   struct FrameJob {
     std::shared_ptr<const Scene> scene;
+    std::shared_ptr<LoopPlans> plans;  // the scene's Loop plans, charged to this session
     Camera camera;
     uint64_t seq = 0, skipped = 0;
     double queue_ms = 0;
@@ -455,6 +457,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       req = *latest_;
       latest_.reset();
       job.scene = scene_;
+      job.plans = plans_;
       job.camera = base_camera_;
       queued = latest_at_;
       job.skipped = skipped_;
@@ -463,6 +466,9 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     job.seq = req.seq;
     job.queue_ms = ms_since(queued);
     const Hello& h = *hello_;
+    const Limits& L = srv_.cfg.limits;
+    const std::string scene_name = job.scene->source;
+    const Clock::time_point started = Clock::now();
     try {
       if (!renderer) throw DeviceError("no render device: " + srv_.queue.device_error());
       Camera& cam = job.camera;
@@ -475,20 +481,31 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
         TessellateOptions to;
         to.tolerance_px = float(h.tolerance_px);
         to.implicit_tolerance_px = float(h.implicit_tolerance_px);
-        to.memory_budget = srv_.cfg.limits.render_memory_bytes;
-        to.time_limit_s = srv_.cfg.limits.render_time_limit_s;
+        to.memory_budget = L.render_memory_bytes;
+        to.time_limit_s = L.render_time_limit_s;
+        // The session's Loop plans hold at most what max_session_bytes leaves besides the scene
+        // (issue 35, case 6: six sessions' plans took the server from 2.6 to 8.6 GB for good).
+        const uint64_t held = scene_bytes(*job.scene);
+        to.loop_plans = job.plans.get();
+        to.loop_plan_cache_bytes = to.loop_plan_max_bytes =
+            L.max_session_bytes > held ? L.max_session_bytes - held : 1;
         job.scene = std::make_shared<const Scene>(renderer->tessellate(*job.scene, cam, to));
       }
       RenderOptions opts;
       opts.attributes = h.attributes && format_spec(h.format).carries_attributes;
-      opts.memory_budget = srv_.cfg.limits.render_memory_bytes;
-      opts.time_limit_s = srv_.cfg.limits.render_time_limit_s;
+      opts.memory_budget = L.render_memory_bytes;
+      // Dicing and rendering share the frame's time limit: the render gets what is left (the
+      // message then names that remainder).
+      opts.time_limit_s = L.render_time_limit_s;
+      if (L.render_time_limit_s > 0)
+        opts.time_limit_s = std::max(1e-3, L.render_time_limit_s - ms_since(started) / 1000);
       opts.keep_screen_triangles = encoder_->needs_screen();
       if (srv_.cfg.before_render) srv_.cfg.before_render(opts);
       job.map = renderer->render(*job.scene, cam, opts, &job.stats,
                                  opts.keep_screen_triangles ? &job.screen : nullptr);
     } catch (...) {
-      return frame_failed(error_reply(std::current_exception(), "rendering"), job.seq);
+      return frame_failed(error_reply(std::current_exception(), "rendering", nullptr, scene_name),
+                          job.seq);
     }
     srv_.encodes_in_flight++;
     net::post(srv_.encode_pool, [self = shared_from_this(), job = std::move(job)]() mutable {
@@ -656,6 +673,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   // Shared with the render worker.
   std::mutex cam_mu_;
   std::shared_ptr<const Scene> scene_;
+  std::shared_ptr<LoopPlans> plans_;  // made with each scene
   Camera base_camera_;
   std::optional<CameraRequest> latest_;
   Clock::time_point latest_at_;
