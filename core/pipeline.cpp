@@ -325,8 +325,15 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
 
 void keep_freed_memory_for_reuse() {
 #if defined(__GLIBC__)
-  mallopt(M_MMAP_MAX, 0);
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);  // fixed: glibc's dynamic threshold would creep up
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
+#endif
+}
+
+void release_freed_memory() {
+  release_host_blocks();
+#if defined(__GLIBC__)
+  malloc_trim(0);
 #endif
 }
 

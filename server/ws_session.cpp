@@ -49,6 +49,12 @@ const ErrorReply kShuttingDown{code::shutting_down, "server is stopping", true};
 // kernel (Server::Impl::trim_memory): one spike must not stay resident for the process's life.
 constexpr uint64_t kTrimAfterBytes = 16ull << 20;
 
+// A request refused for its size or its time held up to its limits (a frame's render_memory_bytes,
+// a load's max_session_bytes) until it was stopped: that memory goes back to the kernel at once.
+bool spike(const ErrorReply& e) {
+  return e.code == code::too_large || e.code == to_string(InputErrorKind::TimeLimit);
+}
+
 // The read buffer keeps at most this much capacity between messages.
 constexpr size_t kKeepReadBuffer = 1 << 20;
 
@@ -363,7 +369,8 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       double ms = ms_since(t0);
       uint64_t held = bytes.size();
       std::string().swap(bytes);
-      if (held >= kTrimAfterBytes) srv.trim_memory();  // the upload's spike is over
+      if (held >= kTrimAfterBytes || (err && spike(*err)))
+        srv.trim_memory();  // the upload's or the load's spike is over
       net::post(self->ws_.get_executor(),
                 [self, scene = std::move(scene), err = std::move(err), name = req.name, ms] {
                   self->on_loaded(scene, err, name, ms);
@@ -534,13 +541,17 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     } catch (...) {
       return frame_failed(error_reply(std::current_exception(), "encoding the frame"), job.seq);
     }
+    const uint64_t held = job.stats.peak_device_bytes;
     job = {};  // the map's memory goes before the frame is queued for writing
-    net::post(ws_.get_executor(), [self = shared_from_this(), frame, header = std::move(header)] {
-      self->on_frame_ready(frame, header);
-    });
+    net::post(ws_.get_executor(),
+              [self = shared_from_this(), frame, header = std::move(header), held] {
+                self->peak_bytes_ = std::max(self->peak_bytes_, held);
+                self->on_frame_ready(frame, header);
+              });
   }
 
   void frame_failed(ErrorReply err, uint64_t seq) {
+    if (spike(err)) srv_.trim_memory();
     net::post(ws_.get_executor(), [self = shared_from_this(), err = std::move(err), seq] {
       self->frame_ = FramePhase::Idle;
       if (!self->accepting_messages()) return;
@@ -667,7 +678,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   std::deque<Out> out_;
   std::optional<uint64_t> discarded_;  // bytes of an over-limit message being dropped
   uint64_t idle_gen_ = 0;
-  uint64_t peak_bytes_ = 0;  // largest message, frame or scene of this session
+  uint64_t peak_bytes_ = 0;  // largest message, frame, scene or frame's device memory
   websocket::close_code close_code_ = websocket::close_code::normal;
 
   // Shared with the render worker.
