@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <new>
 #include <optional>
 #include <string>
 #include <vector>
@@ -566,6 +567,11 @@ int main(int argc, char** argv) {
   } catch (const DeviceError& e) {
     std::fprintf(stderr, "vismap: device error: %s\n", e.what());
     return 3;
+  } catch (const std::bad_alloc&) {  // what no count foresaw (an address-space cap): too large
+    std::fprintf(stderr,
+                 "vismap: out of memory: too large for the memory this process may use "
+                 "(see --memory-budget)\n");
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "vismap: %s\n", e.what());
     return 1;

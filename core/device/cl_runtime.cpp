@@ -406,6 +406,13 @@ cl::Buffer ClRuntime::alloc(size_t bytes, const char* what) {
     return b;
   } catch (const cl::Error& e) {
     if (block) give_host_block(block, block_bytes);
+    // A buffer larger than the device allows, or no memory for it, is the frame's size, not a
+    // device fault: too large, as the host block above (a 10 GB fragment buffer was -61).
+    if (e.err() == CL_INVALID_BUFFER_SIZE || e.err() == CL_MEM_OBJECT_ALLOCATION_FAILURE ||
+        e.err() == CL_OUT_OF_HOST_MEMORY || e.err() == CL_OUT_OF_RESOURCES)
+      throw InputError(InputErrorKind::TooLarge, "", "", what, -1,
+                       "no device memory for " + std::to_string(bytes) + " bytes (" +
+                           cl_error_name(e.err()) + ")");
     throw DeviceError(std::string("allocating ") + std::to_string(bytes) + " bytes for " + what +
                       " failed: " + e.what() + " (" + std::to_string(e.err()) + ")");
   }
