@@ -405,3 +405,25 @@ TEST_F(Cli, HeavyInputsUnderAnAddressSpaceCapFailCleanly) {
     EXPECT_FALSE(fs::exists(out)) << h.file;
   }
 }
+
+// Issue 35: a round of the implicit region queue too big for one chunk ran its launches rounded
+// up to whole work groups, and the items past a chunk (but not past the round) wrote past the
+// chunk's scratch: 3,000 small spheres spread over [-500, 500]^3 (a 0.4 MB .sexp) ended in
+// SIGSEGV inside implicit_intervals, as did 10^5 of them (the issue's 'small spheres').
+TEST_F(Cli, ImplicitRoundInChunksStaysInItsScratch) {
+  std::mt19937 rng(1);  // seed 1: SIGSEGV after 0.4 s before; 0.8 s to a picture now
+  std::uniform_real_distribution<double> u(-500, 500);
+  std::ofstream spheres(dir / "spheres.sexp");
+  spheres << "(min";
+  for (int i = 0; i < 3000; ++i)
+    spheres << " (- (+ (square (- x " << u(rng) << ")) (square (- y " << u(rng)
+            << ")) (square (- z " << u(rng) << "))) 1)";
+  spheres << ")";
+  spheres.close();
+  const fs::path out = dir / "spheres.svg";
+  CliRun r = run("render " + (dir / "spheres.sexp").string() + " -o " + out.string() +
+                     " --width 256 --height 256",
+                 dir);
+  EXPECT_EQ(r.status, 0) << r.err;  // 139 (SIGSEGV through the shell) before
+  EXPECT_TRUE(fs::exists(out));
+}

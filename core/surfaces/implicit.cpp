@@ -71,11 +71,14 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     cl::Buffer amb = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit ambiguous");
     cl::Buffer amb_off = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit ambiguous offsets");
     rt.fill_u32(totals, 0, VM_ITOTAL_SLOTS, Stage::Implicit);
+    // Each chunk's launches get its end as their bound: a launch is rounded up to whole work
+    // groups, and items past the chunk (but not past n) wrote past the chunk's scratch (issue 35:
+    // 3,000 spheres spread over [-500, 500]^3 crashed the process in implicit_intervals).
     for (uint32_t first = 0; first < n; first += chunk) {
-      const uint32_t m = std::min(chunk, n - first);
-      rt.launch(Stage::Implicit, "implicit_intervals", m, regions, n, first, pool, scratch, slots,
+      const uint32_t m = std::min(chunk, n - first), end = first + m;
+      rt.launch(Stage::Implicit, "implicit_intervals", m, regions, end, first, pool, scratch, slots,
                 tape.root_slot, choices, per_in, result, totals, plane_buf, nplanes);
-      rt.launch(Stage::Implicit, "implicit_shorten_count", m, regions, n, first, pool, choices,
+      rt.launch(Stage::Implicit, "implicit_shorten_count", m, regions, end, first, pool, choices,
                 per_in, result, live, slots, tape.root_slot, counts, amb);
       if (first) q.launches += 2;
       if (check_time && first + m < n) {  // wait for the chunk, then look at the clock
@@ -110,9 +113,10 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
                                     "implicit tape pool");
     cl::Buffer next = rt.alloc(std::max<size_t>(next_n, 1) * sizeof(VmIRegion), "implicit regions");
     for (uint32_t first = 0; first < n; first += chunk) {
-      rt.launch(Stage::Implicit, "implicit_shorten_fill", std::min(chunk, n - first), regions, n,
-                first, pool, choices, per_in, result, live, slots, tape.root_slot, counts, offsets,
-                amb_off, next_pool, next, split, dims);
+      const uint32_t m = std::min(chunk, n - first);
+      rt.launch(Stage::Implicit, "implicit_shorten_fill", m, regions, first + m, first, pool,
+                choices, per_in, result, live, slots, tape.root_slot, counts, offsets, amb_off,
+                next_pool, next, split, dims);
       if (first) ++q.launches;
     }
     regions = next;
