@@ -475,7 +475,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     const Hello& h = *hello_;
     const Limits& L = srv_.cfg.limits;
     const std::string scene_name = job.scene->source;
-    const Clock::time_point started = Clock::now();
+    double diced_s = 0;  // the frame's dicing, which shares the time limit with the render
     try {
       if (!renderer) throw DeviceError("no render device: " + srv_.queue.device_error());
       Camera& cam = job.camera;
@@ -496,7 +496,9 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
         to.loop_plans = job.plans.get();
         to.loop_plan_cache_bytes = to.loop_plan_max_bytes =
             L.max_session_bytes > held ? L.max_session_bytes - held : 1;
+        const Clock::time_point t0 = Clock::now();
         job.scene = std::make_shared<const Scene>(renderer->tessellate(*job.scene, cam, to));
+        diced_s = ms_since(t0) / 1000;
       }
       RenderOptions opts;
       opts.attributes = h.attributes && format_spec(h.format).carries_attributes;
@@ -504,8 +506,8 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       // Dicing and rendering share the frame's time limit: the render gets what is left (the
       // message then names that remainder).
       opts.time_limit_s = L.render_time_limit_s;
-      if (L.render_time_limit_s > 0)
-        opts.time_limit_s = std::max(1e-3, L.render_time_limit_s - ms_since(started) / 1000);
+      if (L.render_time_limit_s > 0 && diced_s > 0)
+        opts.time_limit_s = std::max(1e-3, L.render_time_limit_s - diced_s);
       opts.keep_screen_triangles = encoder_->needs_screen();
       if (srv_.cfg.before_render) srv_.cfg.before_render(opts);
       job.map = renderer->render(*job.scene, cam, opts, &job.stats,
