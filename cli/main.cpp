@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <new>
 #include <optional>
 #include <string>
 #include <vector>
@@ -453,7 +454,9 @@ int run_render(RenderArgs& a, std::chrono::steady_clock::time_point t0) {
     if (!implicit::uses_z(tape)) return render_implicit_2d(a, tape, t0);
   }
   if (a.bounds) throw UsageError("--bounds: the window of a 2D implicit expression (.sexp)");
-  Scene scene = load_scene(a.scene);
+  LoadOptions lo;
+  lo.time_limit_s = a.time_limit_s;  // an implicit object's bounds search, too
+  Scene scene = load_scene(a.scene, lo);
   auto t_load = Clock::now();
   Camera cam = make_camera(scene, a.view);
   Renderer renderer(a.view.device);
@@ -581,6 +584,11 @@ int main(int argc, char** argv) {
   } catch (const DeviceError& e) {
     std::fprintf(stderr, "vismap: device error: %s\n", e.what());
     return 3;
+  } catch (const std::bad_alloc&) {  // what no count foresaw (an address-space cap): too large
+    std::fprintf(stderr,
+                 "vismap: out of memory: too large for the memory this process may use "
+                 "(see --memory-budget)\n");
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "vismap: %s\n", e.what());
     return 1;

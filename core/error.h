@@ -20,7 +20,7 @@ enum class InputErrorKind {
   BadScene,
   BadCamera,
   TooLarge,
-  TimeLimit,  // a render passed RenderOptions::time_limit_s
+  TimeLimit,  // a render or load passed its time limit (RenderOptions, LoadOptions::time_limit_s)
 };
 
 const char* to_string(InputErrorKind k);

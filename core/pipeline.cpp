@@ -92,7 +92,7 @@ struct Renderer::Impl {
   size_t key_tris = 0;
   const float* key_pos = nullptr;
   stages::SceneBuffers sb;
-  stages::LoopPlans loop_plans;  // per Loop control mesh, built on first use
+  LoopPlans loop_plans;  // per Loop control mesh, built on first use
 
   void upload(const Scene& scene, RenderStats& st);
   PlanarMap run(const Scene& scene, const Camera& cam, const RenderOptions& opts, RenderStats& st,
@@ -344,8 +344,15 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
 
 void keep_freed_memory_for_reuse() {
 #if defined(__GLIBC__)
-  mallopt(M_MMAP_MAX, 0);
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);  // fixed: glibc's dynamic threshold would creep up
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
+#endif
+}
+
+void release_freed_memory() {
+  release_host_blocks();
+#if defined(__GLIBC__)
+  malloc_trim(0);
 #endif
 }
 
@@ -407,8 +414,9 @@ Scene Renderer::tessellate(const Scene& scene, const Camera& camera, const Tesse
       else if (!m.patches.empty())
         out.meshes.push_back(stages::dice_patches(impl_->rt, m, camera, opts, st, check_time));
       else if (m.subdivision)
-        out.meshes.push_back(
-            stages::dice_subdivision(impl_->rt, m, camera, opts, impl_->loop_plans, st));
+        out.meshes.push_back(stages::dice_subdivision(
+            impl_->rt, m, camera, opts, opts.loop_plans ? *opts.loop_plans : impl_->loop_plans, st,
+            check_time));
       else
         out.meshes.push_back(m);
     }

@@ -41,14 +41,26 @@ struct RenderOptions {
   bool cull = true;
 };
 
-// Tells the C allocator to keep freed memory for reuse instead of handing it back to the kernel
-// (large blocks from the heap, not fresh mmaps; the heap's top trimmed only beyond 512 MiB).
-// Every render allocates and frees its buffers, and with PoCL device buffers are host memory:
-// each fresh page costs a page fault on first touch, ~11 us per 4 KiB on the CI machine (a
-// Firecracker VM), which was a third of the bunny's pipeline time. Process-wide, so the
-// executables call it first thing in main(); a library user can do the same or set
-// GLIBC_TUNABLES=glibc.malloc.mmap_max=0. No effect where the C library is not glibc.
+// Tells the C allocator to keep freed blocks under 32 MiB for reuse instead of handing them back
+// to the kernel (from the heap, not fresh mmaps; the heap's top trimmed only beyond 512 MiB);
+// blocks of 32 MiB and more come from mmap and go back when freed. Every render allocates and
+// frees its buffers, and with PoCL device buffers are host memory: each fresh page costs a page
+// fault on first touch, ~11 us per 4 KiB on the CI machine (a Firecracker VM), which was a
+// third of the bunny's pipeline time when glibc's default (mmap from 128 KiB up) applied. The
+// big device buffers' host blocks are kept for reuse by the device runtime itself
+// (core/device/cl_runtime.cpp, release_freed_memory); what is left at 32 MiB and more is a few
+// host arrays (the bunny's frame has none; the dragon's at 1080p ~55 MB of pages a frame), and
+// they are what a heavy request would otherwise leave in the heap (issue 35: a server held
+// 52-60 MiB in thread arenas after one dense implicit frame, malloc_trim or not). Process-wide,
+// so the executables call it first thing in main(); a library user can do the same or set
+// GLIBC_TUNABLES=glibc.malloc.mmap_threshold=33554432. No effect where the C library is not
+// glibc.
 void keep_freed_memory_for_reuse();
+// Hands memory kept for reuse back to the kernel: the freed host blocks of CPU devices' buffers
+// (32 MiB and more, core/device/cl_runtime.cpp) and the C heap's free pages (malloc_trim). For a
+// process that must give back what one heavy request took once it ends (vismapd); safe from any
+// thread, while others render too.
+void release_freed_memory();
 
 class Renderer {
  public:

@@ -95,6 +95,10 @@ struct LoadOptions {
   // InputError FileNotFound naming the path as given. Non-regular files (FIFOs, devices,
   // directories) are refused in every case.
   std::string confine_to;
+  // Seconds of wall time the load may take; 0: no limit. Checked in the parts of a load whose
+  // work does not follow from its bytes (an implicit object's bounds search, per box): past it,
+  // InputError TimeLimit naming the file. vismapd passes limits.render_time_limit_s.
+  double time_limit_s = 0;
 };
 
 // Loads any supported file by extension: .gltf .glb (tinygltf), .ply .obj .off .stl (OpenMesh),

@@ -20,6 +20,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   vismap::LoadOptions opts;
   opts.max_triangles = 1u << 20;  // keeps the fuzzer's memory bounded; TooLarge is an InputError
   opts.max_bytes = 16u << 20;     // and a gzip bomb (the seed gzip_bomb) stops at 16 MiB inflated
+  opts.time_limit_s = 5;          // an implicit's bounds search ends within libFuzzer's -timeout
   try {
     vismap::Scene s = vismap::load_scene_from_memory(name, bytes, opts);
     (void)s;

@@ -1,10 +1,33 @@
 #!/usr/bin/env bash
-# Seed corpus for fuzz_load: small real files of every format, each prefixed with its format byte
-# (the index in fuzz_load.cpp's names[]). Usage: fuzz/make_seeds.sh OUT_DIR
+# Seed corpora for the fuzzers. Usage: fuzz/make_seeds.sh OUT_DIR [load|compact|delta]
+#   load (default): fuzz_load's, small real files of every format, each prefixed with its format
+#     byte (the index in fuzz_load.cpp's names[]), written here so that every reader has seeds
+#     without ../shared/data;
+#   compact: fuzz_compact's, the test vectors and the decoder's regressions;
+#   delta: fuzz_delta's, the vectors' delta frames (each applied after their keyframe).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="$1"
+kind="${2:-load}"
 mkdir -p "$out"
+vectors="$root/proto/vectors"
+if [ "$kind" = compact ]; then
+  cp "$vectors"/*.vmc "$out/"
+  # Issue 35, case 8 (stream.Compact.CountsAreCheckedAgainstTheBytesBeforeAllocating): a header
+  # that claims 2^28 triangles (the word at byte 28) or 2^24 meshes (byte 32) over small sections.
+  word() {  # word FILE OFFSET BYTES (little-endian, as printf escapes)
+    printf "$3" | dd of="$1" bs=1 seek="$2" conv=notrunc status=none
+  }
+  cp "$vectors/compact_cornell.vmc" "$out/claims_2e28_triangles.vmc"
+  word "$out/claims_2e28_triangles.vmc" 28 '\x00\x00\x00\x10'
+  cp "$vectors/compact_cornell.vmc" "$out/claims_2e24_meshes.vmc"
+  word "$out/claims_2e24_meshes.vmc" 32 '\x00\x00\x00\x01'
+  exit 0
+fi
+if [ "$kind" = delta ]; then
+  cp "$vectors/delta_cornell_1.vmd" "$vectors/delta_cornell_2.vmd" "$out/"
+  exit 0
+fi
 seed() {  # seed FORMAT_BYTE FILE
   [ -f "$2" ] || return 0
   { printf "\\x$(printf %02x "$1")"; head -c 65536 "$2"; } > "$out/$(basename "$2").$1"
@@ -36,6 +59,11 @@ printf '\x05{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes
 nodes=''
 for i in $(seq 1 64); do nodes="$nodes{\"children\":[$i,$i]},"; done
 printf '\x05{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[%s{"mesh":0}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}],"bufferViews":[{"buffer":0,"byteLength":36}],"buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]}' "$nodes" > "$out/gltf_shared_children.gltf.5"
+# Every reader without ../shared/data: a one-patch .bpt (9) and .patches (10), a pbrt scene with a
+# camera, a trianglemesh, a transform and the directives it ignores (8).
+{ printf '\x09''1\n3 3\n'; for i in 0 1 2 3; do for j in 0 1 2 3; do echo "$j $i $(( (i * j) % 3 ))"; done; done; } > "$out/one_patch.bpt.9"
+{ printf '\x0a''1\n1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16\n16\n'; for i in 0 1 2 3; do for j in 0 1 2 3; do echo "$j,$i,$(( (i + j) % 2 ))"; done; done; } > "$out/one_patch.patches.10"
+printf '\x08LookAt 0 0 5 0 0 0 0 1 0\nCamera "perspective" "float fov" [45]\nFilm "image" "integer xresolution" [64] "integer yresolution" [48]\nWorldBegin\nAttributeBegin\nMaterial "matte" "rgb Kd" [0.5 0.2 0.1]\nTranslate 0 0 1\nRotate 30 0 1 0\nShape "trianglemesh" "point P" [0 0 0 1 0 0 0 1 0 1 1 0] "integer indices" [0 1 2 2 1 3]\nAttributeEnd\nWorldEnd\n' > "$out/camera_mesh.pbrt.8"
 # Issue 35: the .sexp reader (format byte 11) and the scene-file and pbrt cases it fixed.
 printf '\x0b(- (+ (square x) (square y) (square z)) 1)' > "$out/sphere.sexp.11"
 printf '\x0b(max (- (abs x) 1) (- (abs y) 1) (- (abs z) 1) (- 0.5 (sqrt (+ (square x) (square y)))))' > "$out/box_hole.sexp.11"
@@ -44,3 +72,5 @@ printf '\x07{"meshes":[{"expression":"(- (+ (square x) (square y) (square z)) 1)
 printf '\x07{"meshes":[{"expression":"(- (square x) 1)","bounds":[0,0,0,1e-300,1,1]}]}' > "$out/thin_bounds.json.7"
 printf '\x08WorldBegin\nScale 0 0 0\nShape "trianglemesh" "point P" [0 0 0 1 0 0 0 1 0] "integer indices" [0 1 2]\nWorldEnd\n' > "$out/scale_zero.pbrt.8"
 printf '\x08LookAt 0 0 5 0 0 0 0 1 0\nCamera "perspective" "float fov" [45]\nWorldBegin\nAttributeBegin\nTranslate 0 0 1\nShape "loopsubdiv" "point P" [1 0 0 -1 0 0 0 1 0 0 -1 0 0 0 1 0 0 -1] "integer indices" [0 2 4 2 1 4 1 3 4 3 0 4 2 0 5 1 2 5 3 1 5 0 3 5]\nAttributeEnd\nWorldEnd\n' > "$out/loop_octahedron.pbrt.8"
+# Issue 35, case 1: a sphere under 2,000 nested (+ ... 0), which no box of the bounds search shortens.
+{ printf '\x0b'; for i in $(seq 2000); do printf '(+ '; done; printf '(- (+ (square x) (square y) (square z)) 1)'; for i in $(seq 2000); do printf ' 0)'; done; } > "$out/nested_sum.sexp.11"

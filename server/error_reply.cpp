@@ -8,14 +8,19 @@
 
 namespace vismap::server {
 
-ErrorReply error_reply(std::exception_ptr e, const std::string& doing, const Library* library) {
+ErrorReply error_reply(std::exception_ptr e, const std::string& doing, const Library* library,
+                       const std::string& scene) {
   ErrorReply r;
   try {
     std::rethrow_exception(e);
   } catch (const ProtoError& x) {
     r = {x.code, x.what(), x.fatal};
   } catch (const InputError& x) {
-    r = {error_code(x), x.what(), false};
+    if (x.file().empty() && !scene.empty())
+      r = {error_code(x),
+           InputError(x.kind(), scene, x.mesh(), x.element(), x.index(), x.detail()).what(), false};
+    else
+      r = {error_code(x), x.what(), false};
   } catch (const DeviceError& x) {
     r = {code::device_error, x.what(), false};
   } catch (const std::bad_alloc&) {

@@ -89,13 +89,15 @@ static double resident_mib() {
   return static_cast<double>(resident) * static_cast<double>(::sysconf(_SC_PAGESIZE)) / 1048576.0;
 }
 
-// keep_freed_memory_for_reuse() (main) keeps freed blocks in the heap so frames do not pay page
-// faults again; but then one big upload or frame stays resident for good (760 MB after one
-// spike). Sessions that saw a big message, frame or scene call this when they end (and a big
-// upload when its load is done): malloc_trim(0) returns every arena's free pages (not a thread
-// arena's top: what stays depends on where the big buffers were; see the test
-// MemoryReturnedAfterABigUpload). It runs on the load pool, one at a time, since it walks the
-// heap under the arenas' locks; requests meanwhile make it run once more.
+// keep_freed_memory_for_reuse() (main) keeps freed blocks in the heap, and CPU devices keep
+// their freed host blocks of 32 MiB and more, so frames do not pay page faults again; but then
+// one big upload or frame stays resident for good (760 MB after one spike). Sessions that saw a
+// big message, frame, scene or frame's device memory call this when they end, and so do a big
+// upload when its load is done and a request refused for its size or time (ws_session.cpp):
+// release_freed_memory() unmaps the kept host blocks and malloc_trim(0) returns every arena's free
+// pages (not a thread arena's top: see the test MemoryReturnedAfterABigUpload). It runs on the
+// load pool, one at a time, since it walks the heap under the arenas' locks; requests meanwhile
+// make it run once more.
 void Server::Impl::trim_memory() {
   if (trim_requests.fetch_add(1) > 0) return;  // a trim is queued or running: it runs again
   loads_in_flight++;
@@ -104,7 +106,7 @@ void Server::Impl::trim_memory() {
     do {  // until no request came in during the last trim
       seen = trim_requests.load();
       double before = resident_mib();
-      ::malloc_trim(0);
+      release_freed_memory();
       log.info("memory_trimmed", {{"rss_mib_before", before}, {"rss_mib_after", resident_mib()}});
     } while (!trim_requests.compare_exchange_strong(seen, 0));
     loads_in_flight--;

@@ -49,6 +49,12 @@ const ErrorReply kShuttingDown{code::shutting_down, "server is stopping", true};
 // kernel (Server::Impl::trim_memory): one spike must not stay resident for the process's life.
 constexpr uint64_t kTrimAfterBytes = 16ull << 20;
 
+// A request refused for its size or its time held up to its limits (a frame's render_memory_bytes,
+// a load's max_session_bytes) until it was stopped: that memory goes back to the kernel at once.
+bool spike(const ErrorReply& e) {
+  return e.code == code::too_large || e.code == to_string(InputErrorKind::TimeLimit);
+}
+
 // The read buffer keeps at most this much capacity between messages.
 constexpr size_t kKeepReadBuffer = 1 << 20;
 
@@ -334,6 +340,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       try {
         LoadOptions opts;
         opts.max_triangles = L.max_triangles;
+        opts.time_limit_s = L.render_time_limit_s;  // a load answers within it, as a frame does
         if (!path.empty()) {
           // A library file: confined to the library (symlinks inside it, files a scene file
           // references) and its input bytes capped at one session's budget.
@@ -362,7 +369,8 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       double ms = ms_since(t0);
       uint64_t held = bytes.size();
       std::string().swap(bytes);
-      if (held >= kTrimAfterBytes) srv.trim_memory();  // the upload's spike is over
+      if (held >= kTrimAfterBytes || (err && spike(*err)))
+        srv.trim_memory();  // the upload's or the load's spike is over
       net::post(self->ws_.get_executor(),
                 [self, scene = std::move(scene), err = std::move(err), name = req.name, ms] {
                   self->on_loaded(scene, err, name, ms);
@@ -391,6 +399,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       {
         std::lock_guard lk(cam_mu_);
         scene_ = scene;
+        plans_ = std::make_shared<LoopPlans>();  // the old scene's go with its last frame
         base_camera_ = cam;
       }
       peak_bytes_ = std::max(peak_bytes_, scene_bytes(*scene));
@@ -435,6 +444,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   // What a frame carries from the render worker to the encoder and the strand.
   struct FrameJob {
     std::shared_ptr<const Scene> scene;
+    std::shared_ptr<LoopPlans> plans;  // the scene's Loop plans, charged to this session
     Camera camera;
     uint64_t seq = 0, skipped = 0;
     double queue_ms = 0;
@@ -454,6 +464,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       req = *latest_;
       latest_.reset();
       job.scene = scene_;
+      job.plans = plans_;
       job.camera = base_camera_;
       queued = latest_at_;
       job.skipped = skipped_;
@@ -462,6 +473,9 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     job.seq = req.seq;
     job.queue_ms = ms_since(queued);
     const Hello& h = *hello_;
+    const Limits& L = srv_.cfg.limits;
+    const std::string scene_name = job.scene->source;
+    double diced_s = 0;  // the frame's dicing, which shares the time limit with the render
     try {
       if (!renderer) throw DeviceError("no render device: " + srv_.queue.device_error());
       Camera& cam = job.camera;
@@ -474,20 +488,33 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
         TessellateOptions to;
         to.tolerance_px = float(h.tolerance_px);
         to.implicit_tolerance_px = float(h.implicit_tolerance_px);
-        to.memory_budget = srv_.cfg.limits.render_memory_bytes;
-        to.time_limit_s = srv_.cfg.limits.render_time_limit_s;
+        to.memory_budget = L.render_memory_bytes;
+        to.time_limit_s = L.render_time_limit_s;
+        // The session's Loop plans hold at most what max_session_bytes leaves besides the scene
+        // (issue 35, case 6: six sessions' plans took the server from 2.6 to 8.6 GB for good).
+        const uint64_t held = scene_bytes(*job.scene);
+        to.loop_plans = job.plans.get();
+        to.loop_plan_cache_bytes = to.loop_plan_max_bytes =
+            L.max_session_bytes > held ? L.max_session_bytes - held : 1;
+        const Clock::time_point t0 = Clock::now();
         job.scene = std::make_shared<const Scene>(renderer->tessellate(*job.scene, cam, to));
+        diced_s = ms_since(t0) / 1000;
       }
       RenderOptions opts;
       opts.attributes = h.attributes && format_spec(h.format).carries_attributes;
-      opts.memory_budget = srv_.cfg.limits.render_memory_bytes;
-      opts.time_limit_s = srv_.cfg.limits.render_time_limit_s;
+      opts.memory_budget = L.render_memory_bytes;
+      // Dicing and rendering share the frame's time limit: the render gets what is left (the
+      // message then names that remainder).
+      opts.time_limit_s = L.render_time_limit_s;
+      if (L.render_time_limit_s > 0 && diced_s > 0)
+        opts.time_limit_s = std::max(1e-3, L.render_time_limit_s - diced_s);
       opts.keep_screen_triangles = encoder_->needs_screen();
       if (srv_.cfg.before_render) srv_.cfg.before_render(opts);
       job.map = renderer->render(*job.scene, cam, opts, &job.stats,
                                  opts.keep_screen_triangles ? &job.screen : nullptr);
     } catch (...) {
-      return frame_failed(error_reply(std::current_exception(), "rendering"), job.seq);
+      return frame_failed(error_reply(std::current_exception(), "rendering", nullptr, scene_name),
+                          job.seq);
     }
     srv_.encodes_in_flight++;
     net::post(srv_.encode_pool, [self = shared_from_this(), job = std::move(job)]() mutable {
@@ -516,13 +543,17 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     } catch (...) {
       return frame_failed(error_reply(std::current_exception(), "encoding the frame"), job.seq);
     }
+    const uint64_t held = job.stats.peak_device_bytes;
     job = {};  // the map's memory goes before the frame is queued for writing
-    net::post(ws_.get_executor(), [self = shared_from_this(), frame, header = std::move(header)] {
-      self->on_frame_ready(frame, header);
-    });
+    net::post(ws_.get_executor(),
+              [self = shared_from_this(), frame, header = std::move(header), held] {
+                self->peak_bytes_ = std::max(self->peak_bytes_, held);
+                self->on_frame_ready(frame, header);
+              });
   }
 
   void frame_failed(ErrorReply err, uint64_t seq) {
+    if (spike(err)) srv_.trim_memory();
     net::post(ws_.get_executor(), [self = shared_from_this(), err = std::move(err), seq] {
       self->frame_ = FramePhase::Idle;
       if (!self->accepting_messages()) return;
@@ -649,12 +680,13 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   std::deque<Out> out_;
   std::optional<uint64_t> discarded_;  // bytes of an over-limit message being dropped
   uint64_t idle_gen_ = 0;
-  uint64_t peak_bytes_ = 0;  // largest message, frame or scene of this session
+  uint64_t peak_bytes_ = 0;  // largest message, frame, scene or frame's device memory
   websocket::close_code close_code_ = websocket::close_code::normal;
 
   // Shared with the render worker.
   std::mutex cam_mu_;
   std::shared_ptr<const Scene> scene_;
+  std::shared_ptr<LoopPlans> plans_;  // made with each scene
   Camera base_camera_;
   std::optional<CameraRequest> latest_;
   Clock::time_point latest_at_;

@@ -6,6 +6,7 @@
 // frame with TimeLimit. The renderer goes on working after either.
 #include <gtest/gtest.h>
 
+#include "core/device/cl_runtime.h"
 #include "core/error.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
@@ -108,4 +109,22 @@ TEST(Budget, TooSmallBudgetSaysItsSize) {
               std::string::npos)
         << e.what();
   }
+}
+
+// Issue 35, case 2: a device buffer larger than the device allows is too large for the frame (an
+// InputError the caller reports), not a device fault: a dense implicit asked for 10 GB of
+// fragment lines and got 'device error: clCreateBuffer (-61)', exit 3.
+TEST(Budget, BufferPastTheDeviceLimitIsTooLarge) {
+  ClRuntime rt("");
+  const auto devices = rt.context().getInfo<CL_CONTEXT_DEVICES>();
+  ASSERT_FALSE(devices.empty());
+  const uint64_t max = devices[0].getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
+  try {
+    rt.alloc(size_t(max) + (size_t(64) << 20), "fragment lines");
+    FAIL() << "allocated past CL_DEVICE_MAX_MEM_ALLOC_SIZE " << max;
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.kind(), InputErrorKind::TooLarge) << e.what();
+    EXPECT_NE(std::string(e.what()).find("fragment lines"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(rt.alloc(size_t(64) << 20, "fragment lines"));  // the runtime goes on
 }

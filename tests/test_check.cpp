@@ -1,5 +1,8 @@
 // The exact checker on hand-made inputs whose answers are worked out by hand (docs/CHECKS.md).
 #include <gtest/gtest.h>
+#include <pthread.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <utility>
@@ -308,4 +311,51 @@ TEST(Reference, CoplanarOverlapLowerIdInFront) {
     // hi minus lo: the overlap is (2,0),(8,0),(2,6), area 18.
     EXPECT_EQ(ref.visible_area[ihi], 32.0 - 18.0);
   }
+}
+
+// Issue 35 (smaller): `vismap check data/bunny.ply` died of SIGSEGV after 110 s: the reference's
+// sums over ~40,000 visible sources built chains of lazy exact additions that their exact
+// evaluation walked by recursion, two stack frames a term, past the 8 MiB stack. Scaled down: 3,000
+// disjoint triangles with exact (homogeneous) fragments, whose xor area is an exact zero that
+// only exact evaluation decides, compared on a thread with a 256 KiB stack (~2,500 frames) in a
+// child process, so that an overflow fails the test instead of ending the run.
+TEST(Check, LongReferenceSumsStayShallow) {
+  const int n = 3000;
+  const uint32_t gs = 4;
+  ScreenTriangles s = screen_with_gs(gs);
+  PlanarMap m = empty_map(200, 200, gs);
+  for (int i = 0; i < n; ++i) {
+    const double x = 3.0 * (i % 60), y = 3.0 * (i / 60);
+    const Pts t{{x, y}, {x + 2, y}, {x, y + 2}};
+    add_triangle(s, 0, uint32_t(i), t, {1, 1, 1});
+    add_fragment(m, 0, uint32_t(i), t);
+  }
+  struct Job {
+    const PlanarMap* m;
+    const ScreenTriangles* s;
+    double area_error = -1, visible = 0;
+  } job{&m, &s};
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    pthread_attr_t attr;
+    pthread_attr_init(&attr);
+    pthread_attr_setstacksize(&attr, 256 << 10);
+    pthread_t th;
+    auto run = [](void* p) -> void* {
+      Job& j = *static_cast<Job*>(p);
+      const ReferenceResult ref = exact_visibility(*j.s);
+      const ReferenceReport r = compare_with_reference(*j.m, *j.s, ref);
+      j.area_error = r.area_error;
+      j.visible = r.total_visible_area;
+      return nullptr;
+    };
+    if (pthread_create(&th, &attr, run, &job) != 0) ::_exit(3);
+    pthread_join(th, nullptr);
+    ::_exit(job.area_error == 0 && job.visible == 2.0 * n ? 0 : 1);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status)) << "signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  EXPECT_EQ(WIFEXITED(status) ? WEXITSTATUS(status) : -1, 0);
 }

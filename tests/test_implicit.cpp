@@ -448,7 +448,7 @@ TEST(Implicit, BoundsSearchOfALongTapeIsBounded) {
     FAIL() << "the search should refuse";
   } catch (const InputError& e) {
     EXPECT_EQ(e.kind(), InputErrorKind::TooLarge) << e.what();
-    EXPECT_NE(std::string(e.what()).find("the bounds search would hold more than 256 MiB"),
+    EXPECT_NE(std::string(e.what()).find("the bounds search would hold more than 256.00 MiB"),
               std::string::npos)
         << e.what();
   }

@@ -629,6 +629,41 @@ TEST(LoadErrors, InstancingIsCountedBeforeCopying) {
                       {"meshes[0].file", "20000 entries name grid.obj", "more than one load may"});
 }
 
+// Issue 35, cases 1 and 5 (loads): an implicit object's parse, tape and bounds search are the
+// load's, held to LoadOptions::time_limit_s and charged to max_bytes. 10^5 small spheres held a
+// load thread 160 s; a sphere under 10^5 nested (+ ... 0) grew one past 14 GB. Here 10^4
+// spheres (the search runs seconds) under a 50 ms limit, and 10^4 nested (+ ... 0) under 4 MiB.
+TEST(LoadErrors, ImplicitLoadsKeepTheirTimeLimitAndBytes) {
+  TempDir dir;
+  std::string spheres = "(min";
+  for (int i = 0; i < 10000; ++i) {
+    const double x = (i % 37) - 18.0, y = (i / 37 % 29) - 14.0, z = (i % 11) * 0.5;
+    spheres += " (- (+ (square (- x " + std::to_string(x) + ")) (square (- y " + std::to_string(y) +
+               ")) (square (- z " + std::to_string(z) + "))) 0.01)";
+  }
+  const std::string many = dir.write("spheres.sexp", spheres + ")");
+  LoadOptions hurried;
+  hurried.time_limit_s = 0.05;
+  expect_error_within(30, many, K::TimeLimit, {"the load passed its time limit of 0.05 s"},
+                      hurried);
+  std::string nested;
+  for (int i = 0; i < 10000; ++i) nested += "(+ ";
+  nested += "(- (+ (square x) (square y) (square z)) 1)";
+  for (int i = 0; i < 10000; ++i) nested += " 0)";
+  const std::string deep = dir.write("nested.sexp", nested);
+  LoadOptions small;
+  small.max_bytes = 4 << 20;
+  expect_error_within(30, deep, K::TooLarge,
+                      {"the bounds search would hold more than", "of shortened tapes"}, small);
+  small.max_bytes = 100000;  // less than the tape itself (10^4 clauses)
+  expect_error(deep, K::TooLarge, {"the expression's tape of", "(max_bytes)"}, small);
+  // Within the limits the sphere loads as before.
+  const std::string ball = dir.write("ball.sexp", "(- (+ (square x) (square y) (square z)) 1)");
+  LoadOptions roomy;
+  roomy.time_limit_s = 60;
+  EXPECT_NO_THROW(load_scene(ball, roomy));
+}
+
 // Issue 35 (smaller): a pbrt Include of a file that is not pbrt echoed its first line in the
 // error ('unknown directive root:x:0:0:...'); the message keeps to the file, line and column.
 TEST(LoadErrors, PbrtIncludeDoesNotEchoTheIncludedText) {

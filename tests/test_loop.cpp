@@ -212,3 +212,53 @@ TEST(Loop, PlanCacheIsBoundedLeastRecentlyUsedFirst) {
   EXPECT_EQ(da2.meshes[0].positions, da.meshes[0].positions);
   EXPECT_EQ(da2.meshes[0].indices, da.meshes[0].indices);
 }
+
+// Issue 35, case 6 (the rest): a caller's own plans (TessellateOptions::loop_plans: vismapd's, one
+// set per session's scene, charged to it) are used and kept there, not in the renderer's; one
+// plan past loop_plan_max_bytes, or a dice past the memory budget, is refused from the level's
+// counts before the level is built; plans made on one Renderer dice the same on another (their
+// device copies remade); and the time limit is checked between levels.
+TEST(Loop, CallersPlansAreBoundedAndCountedBeforeEachLevel) {
+  Scene s;
+  s.meshes.push_back(octahedron());
+  const Camera cam = view(512, 4);
+  TessellateOptions o;
+  o.tolerance_px = 0.2f;
+  LoopPlans own;
+  o.loop_plans = &own;
+  TessellateStats st;
+  const Scene d = renderer().tessellate(s, cam, o, &st);
+  ASSERT_EQ(own.by_mesh.size(), 1u);
+  EXPECT_GT(st.loop_plan_bytes, 0u);
+  const uint32_t level = st.subdivision_level;
+  ASSERT_GE(level, 3u);
+  Renderer other;
+  TessellateStats st2;
+  const Scene d2 = other.tessellate(s, cam, o, &st2);  // the plan is reused, its copies remade
+  EXPECT_EQ(d2.meshes[0].positions, d.meshes[0].positions);
+  EXPECT_EQ(d2.meshes[0].indices, d.meshes[0].indices);
+  EXPECT_EQ(st2.loop_plan_bytes, st.loop_plan_bytes);
+  // "" when tessellate refuses (TooLarge or TimeLimit) with `part` in the message.
+  auto refused = [&](const TessellateOptions& opts, const std::string& part) -> std::string {
+    LoopPlans fresh;
+    TessellateOptions x = opts;
+    x.loop_plans = &fresh;
+    try {
+      renderer().tessellate(s, cam, x, &st2);
+      return "diced";
+    } catch (const InputError& e) {
+      const bool kind =
+          e.kind() == InputErrorKind::TooLarge || e.kind() == InputErrorKind::TimeLimit;
+      return kind && std::string(e.what()).find(part) != std::string::npos ? "" : e.what();
+    }
+  };
+  TessellateOptions small = o;
+  small.loop_plan_max_bytes = st.loop_plan_bytes / 2;  // the last level does not fit
+  EXPECT_EQ(refused(small, "faces would take the plan past"), "");
+  TessellateOptions tight = o;
+  tight.memory_budget = st.loop_plan_bytes;  // the plan alone, less what the dice holds besides
+  EXPECT_EQ(refused(tight, "over the memory budget of"), "");
+  TessellateOptions hurried = o;
+  hurried.time_limit_s = 1e-9;
+  EXPECT_EQ(refused(hurried, "time limit"), "");
+}

@@ -50,15 +50,49 @@ FT to_ft(detail::i128 v) {
   return neg ? -r : r;
 }
 
+// A sum of many lazy exact numbers. `s += x` over K::FT builds a chain of lazy additions that
+// the first exact evaluation walks by recursion, two stack frames a term: the sums over the
+// bunny's ~40,000 visible sources overflowed the 8 MiB stack (`vismap check data/bunny.ply`,
+// SIGSEGV after 110 s; issue 35). Asking for the exact value every 256 terms prunes the chain
+// (CGAL's update_exact drops a node's operands once its exact value is known).
+class ExactSum {
+ public:
+  ExactSum& operator+=(const FT& x) {
+    s_ += x;
+    if (++n_ % 256 == 0) CGAL::exact(s_);
+    return *this;
+  }
+  const FT& value() const { return s_; }
+
+ private:
+  FT s_ = 0;
+  uint32_t n_ = 0;
+};
+
+// Polygon_2::area, as one ExactSum over the edges (a union's boundary has thousands).
+FT polygon_area(const Poly& p) {
+  ExactSum s;
+  for (size_t i = 0, n = p.size(); i < n; ++i) {
+    const Point &a = p[i], &b = p[(i + 1) % n];
+    s += a.x() * b.y() - b.x() * a.y();
+  }
+  return s.value() / 2;
+}
+
+FT area(const std::vector<PolyH>& parts) {
+  ExactSum a;
+  for (const PolyH& p : parts) {
+    a += polygon_area(p.outer_boundary());
+    for (auto h = p.holes_begin(); h != p.holes_end(); ++h)
+      a += polygon_area(*h);  // holes are clockwise
+  }
+  return a.value();
+}
+
 FT area(const PSet& s) {
   std::vector<PolyH> parts;
   s.polygons_with_holes(std::back_inserter(parts));
-  FT a = 0;
-  for (const PolyH& p : parts) {
-    a += p.outer_boundary().area();
-    for (auto h = p.holes_begin(); h != p.holes_end(); ++h) a += h->area();  // holes are clockwise
-  }
-  return a;
+  return area(parts);
 }
 
 Poly screen_triangle(const ScreenTriangles& s, size_t t) {
@@ -142,12 +176,7 @@ mpq_class union_area2(const ScreenTriangles& screen) {
   for (auto& o : order) tris.push_back(screen_triangle(screen, o.second));
   std::vector<PolyH> parts;
   CGAL::join(tris.begin(), tris.end(), std::back_inserter(parts));
-  FT a = 0;
-  for (const PolyH& p : parts) {
-    a += p.outer_boundary().area();
-    for (auto h = p.holes_begin(); h != p.holes_end(); ++h) a += h->area();
-  }
-  return to_mpq(a) * 2;
+  return to_mpq(area(parts)) * 2;
 }
 
 }  // namespace detail
@@ -237,7 +266,7 @@ ReferenceResult exact_visibility(const ScreenTriangles& screen) {
   std::vector<Poly> bands;
   r.visible_area.resize(n);
   impl->visible.resize(n);
-  FT total = 0;
+  ExactSum total;
   for (size_t t = 0; t < n; ++t) {
     uint64_t kt = source_key(screen.mesh[t], screen.triangle[t]);
     std::vector<Poly> occluders;
@@ -302,7 +331,7 @@ ReferenceResult exact_visibility(const ScreenTriangles& screen) {
     r.visible_area[t] = CGAL::to_double(a) / (double(impl->gs) * impl->gs);
     impl->visible[t] = std::move(vis);
   }
-  r.total_visible_area = CGAL::to_double(total) / (double(impl->gs) * impl->gs);
+  r.total_visible_area = CGAL::to_double(total.value()) / (double(impl->gs) * impl->gs);
   if (!bands.empty()) impl->bands.join(bands.begin(), bands.end());
   // Tie cycles. The pairwise definition above can leave a covered point visible in no triangle:
   // only through the tie rule, when a pair ordered by one side of the band over its whole
@@ -345,7 +374,7 @@ ReferenceReport compare_with_reference(const PlanarMap& map, const ScreenTriangl
     visible[source_key(screen.mesh[t], screen.triangle[t])].join(ref.visible[t]);
 
   std::map<uint64_t, PSet> output;
-  FT total_visible = 0, xor_area = 0, xor_outside = 0;
+  ExactSum total_visible_sum, xor_area_sum, xor_outside_sum;
   // The area of a region that no snap band (and no tie cycle) explains.
   auto outside_bands = [&](PSet x) {
     if (!ref.bands.is_empty()) x.difference(ref.bands);
@@ -399,25 +428,27 @@ ReferenceReport compare_with_reference(const PlanarMap& map, const ScreenTriangl
       ++r.wrong_outside_band;
   }
   for (auto& [key, vis] : visible) {
-    total_visible += area(vis);
+    total_visible_sum += area(vis);
     auto it = output.find(key);
     if (it == output.end()) {
-      xor_area += area(vis);
-      xor_outside += outside_bands(vis);
+      xor_area_sum += area(vis);
+      xor_outside_sum += outside_bands(vis);
       continue;
     }
     PSet x = it->second;
     x.symmetric_difference(vis);
     FT xa = area(x);
-    xor_area += xa;
-    if (CGAL::is_positive(xa)) xor_outside += outside_bands(std::move(x));
+    xor_area_sum += xa;
+    if (CGAL::is_positive(xa)) xor_outside_sum += outside_bands(std::move(x));
   }
   for (auto& [key, out] : output)
     if (!visible.count(key)) {
-      xor_area += area(out);
-      xor_outside += outside_bands(out);
+      xor_area_sum += area(out);
+      xor_outside_sum += outside_bands(out);
     }
 
+  const FT total_visible = total_visible_sum.value(), xor_area = xor_area_sum.value(),
+           xor_outside = xor_outside_sum.value();
   double g2 = double(gs) * gs;
   r.total_visible_area = CGAL::to_double(total_visible) / g2;
   r.xor_area = CGAL::to_double(xor_area) / g2;

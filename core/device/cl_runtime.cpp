@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <mutex>
 #include <numeric>
 #include <sstream>
 
@@ -265,37 +267,116 @@ void ClRuntime::enqueue(Stage stage, const char* name, cl::Kernel& k, size_t n, 
 
 namespace {
 // Host memory behind the large device buffers of a CPU device (PoCL runs kernels on host
-// memory; the buffers are created with CL_MEM_USE_HOST_PTR): from the C allocator, aligned to
-// 2 MiB huge pages and advised to use them (madvise). A fresh 4 KiB page costs a page fault on
-// first touch, ~11 us on the CI machine (256 MB: 740 ms); a huge page costs about as much for
-// 512 times the memory (256 MB: 23 ms), and freed blocks are reused by the allocator.
+// memory; the buffers are created with CL_MEM_USE_HOST_PTR), aligned to 2 MiB huge pages and
+// advised to use them (madvise). A fresh 4 KiB page costs a page fault on first touch, ~11 us on
+// the CI machine (256 MB: 740 ms); a huge page costs about as much for 512 times the memory
+// (256 MB: 23 ms). Blocks under 32 MiB come from the C allocator, which keeps freed ones for
+// reuse (keep_freed_memory_for_reuse). Bigger ones are mmaps kept in FreeBlocks when released, for
+// the next buffers to reuse without faults, until release_freed_memory() hands them back to the
+// kernel (vismapd: after a session or a refused request; issue 35). Taken fresh from mmap every
+// frame, the dragon's frame at 1080p took 1.1-3.2 times as long on the shared 2-core machine.
 constexpr size_t kHugePage = size_t(2) << 20;
 constexpr size_t kHostBlockMinBytes = 1 << 20;  // smaller buffers are left to the runtime
+constexpr size_t kMappedBlockBytes = size_t(32) << 20;
+
+// Freed mapped blocks by size, process-wide: released from PoCL's threads (the buffer's
+// destructor callback), taken by any Renderer. A buffer's callback may come after the release
+// that should have caught its block (PoCL frees a buffer once the commands that use it are done,
+// after a failed frame's host code has moved on): until the next take, blocks put back go
+// straight to the kernel.
+class FreeBlocks {
+ public:
+  // The smallest kept block of at least `bytes` (bytes becomes its size), or nullptr.
+  void* take(size_t& bytes) {
+    std::lock_guard lk(mu_);
+    releasing_ = false;
+    auto it = by_size_.lower_bound(bytes);
+    if (it == by_size_.end()) return nullptr;
+    bytes = it->first;
+    void* p = it->second;
+    by_size_.erase(it);
+    return p;
+  }
+  void put(void* p, size_t bytes) {
+    {
+      std::lock_guard lk(mu_);
+      if (!releasing_) {
+        by_size_.emplace(bytes, p);
+        return;
+      }
+    }
+    ::munmap(p, bytes);
+  }
+  uint64_t release() {
+    std::multimap<size_t, void*> all;
+    {
+      std::lock_guard lk(mu_);
+      all.swap(by_size_);
+      releasing_ = true;
+    }
+    uint64_t n = 0;
+    for (auto [bytes, p] : all) {
+      ::munmap(p, bytes);
+      n += bytes;
+    }
+    return n;
+  }
+
+ private:
+  std::mutex mu_;
+  std::multimap<size_t, void*> by_size_;
+  bool releasing_ = false;
+};
+FreeBlocks& free_blocks() {
+  static FreeBlocks* b = new FreeBlocks;  // never destroyed: callbacks may run at exit
+  return *b;
+}
 
 // Rounds bytes up to whole huge pages; nullptr on failure.
 void* take_host_block(size_t& bytes) {
   bytes = (bytes + kHugePage - 1) / kHugePage * kHugePage;
+  if (bytes >= kMappedBlockBytes) {
+    if (void* p = free_blocks().take(bytes)) return p;
+    // Mapped with a huge page of slack, then cut to an aligned block of `bytes`.
+    void* m = ::mmap(nullptr, bytes + kHugePage, PROT_READ | PROT_WRITE,
+                     MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+    if (m == MAP_FAILED) return nullptr;
+    const uintptr_t a = (reinterpret_cast<uintptr_t>(m) + kHugePage - 1) & ~(kHugePage - 1);
+    const size_t head = a - reinterpret_cast<uintptr_t>(m);
+    if (head) ::munmap(m, head);
+    if (kHugePage - head) ::munmap(reinterpret_cast<char*>(a) + bytes, kHugePage - head);
+    ::madvise(reinterpret_cast<void*>(a), bytes, MADV_HUGEPAGE);
+    return reinterpret_cast<void*>(a);
+  }
   void* p = std::aligned_alloc(kHugePage, bytes);
   if (p) ::madvise(p, bytes, MADV_HUGEPAGE);  // advice only: fine if the kernel says no
   return p;
 }
 
-void give_host_block(void* p) {
-  std::free(p);
+void give_host_block(void* p, size_t bytes) {
+  if (bytes >= kMappedBlockBytes)
+    free_blocks().put(p, bytes);
+  else
+    std::free(p);
 }
 
 struct LiveRecord {
   std::shared_ptr<std::atomic<uint64_t>> live;
   uint64_t bytes;
   void* block = nullptr;  // the host block behind the buffer, if any
+  size_t block_bytes = 0;
 };
 void CL_CALLBACK on_release(cl_mem, void* user) {
   auto* r = static_cast<LiveRecord*>(user);
   r->live->fetch_sub(r->bytes);
-  if (r->block) give_host_block(r->block);
+  if (r->block) give_host_block(r->block, r->block_bytes);
   delete r;
 }
 }  // namespace
+
+uint64_t release_host_blocks() {
+  return free_blocks().release();
+}
 
 cl::Buffer ClRuntime::alloc(size_t bytes, const char* what) {
   bytes = std::max<size_t>(bytes, 16);
@@ -314,7 +395,7 @@ cl::Buffer ClRuntime::alloc(size_t bytes, const char* what) {
     cl::Buffer b = block ? cl::Buffer(ctx_, CL_MEM_READ_WRITE | CL_MEM_USE_HOST_PTR, bytes, block)
                          : cl::Buffer(ctx_, CL_MEM_READ_WRITE, bytes);
     allocated_ += bytes;
-    auto* rec = new LiveRecord{live_, bytes, block};
+    auto* rec = new LiveRecord{live_, bytes, block, block_bytes};
     if (clSetMemObjectDestructorCallback(b(), on_release, rec) == CL_SUCCESS) {
       peak_ = std::max<uint64_t>(peak_, live_->fetch_add(bytes) + bytes);
     } else {
@@ -324,7 +405,14 @@ cl::Buffer ClRuntime::alloc(size_t bytes, const char* what) {
     }
     return b;
   } catch (const cl::Error& e) {
-    if (block) give_host_block(block);
+    if (block) give_host_block(block, block_bytes);
+    // A buffer larger than the device allows, or no memory for it, is the frame's size, not a
+    // device fault: too large, as the host block above (a 10 GB fragment buffer was -61).
+    if (e.err() == CL_INVALID_BUFFER_SIZE || e.err() == CL_MEM_OBJECT_ALLOCATION_FAILURE ||
+        e.err() == CL_OUT_OF_HOST_MEMORY || e.err() == CL_OUT_OF_RESOURCES)
+      throw InputError(InputErrorKind::TooLarge, "", "", what, -1,
+                       "no device memory for " + std::to_string(bytes) + " bytes (" +
+                           cl_error_name(e.err()) + ")");
     throw DeviceError(std::string("allocating ") + std::to_string(bytes) + " bytes for " + what +
                       " failed: " + e.what() + " (" + std::to_string(e.err()) + ")");
   }

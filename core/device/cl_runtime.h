@@ -204,4 +204,8 @@ class ClRuntime {
   cl::Buffer scratch_total_;
 };
 
+// Hands the freed host blocks of 32 MiB and more that CPU devices keep for reuse back to the
+// kernel (every Renderer's); returns their bytes. Safe from any thread.
+uint64_t release_host_blocks();
+
 }  // namespace vismap

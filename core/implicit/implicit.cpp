@@ -11,6 +11,7 @@
 #include <unordered_map>
 
 #include "core/error.h"
+#include "core/util/format.h"
 
 namespace vismap::implicit {
 
@@ -273,7 +274,8 @@ size_t Tape::choice_count() const {
   return n;
 }
 
-Tape parse(const std::string& text, const std::string& file) {
+Tape parse(const std::string& text, const std::string& file,
+           const std::function<void()>& check_time) {
   struct Frame {
     const OpInfo* op;
     int line, col;
@@ -284,7 +286,7 @@ Tape parse(const std::string& text, const std::string& file) {
   bool have_root = false;
   uint32_t root = 0, tree_ops = 0;
   int line = 1, col = 1;
-  size_t i = 0;
+  size_t i = 0, tokens = 0;
   auto put = [&](uint32_t v, int l, int c) {
     if (stack.empty()) {
       if (have_root) parse_error(file, l, c, "a second expression after the first one ends");
@@ -309,6 +311,7 @@ Tape parse(const std::string& text, const std::string& file) {
       continue;
     }
     const int tl = line, tc = col;
+    if (check_time && ++tokens % 4096 == 0) check_time();
     if (ch == '(') {
       ++i, ++col;
       while (i < text.size() && (text[i] == ' ' || text[i] == '\t')) ++i, ++col;
@@ -624,10 +627,13 @@ Tape clipped_to_box(const Tape& t, const double lo[3], const double hi[3], int d
 }
 
 namespace {
-// What one level of the bounds search may hold in shortened tapes.
+// What one level of the bounds search may hold in shortened tapes, at most.
 constexpr uint64_t kMaxBoundsSearchBytes = uint64_t(256) << 20;
 
-std::array<double, 6> bounds_in_cube(const Tape& t, const std::string& file, double search) {
+std::array<double, 6> bounds_in_cube(const Tape& t, const std::string& file, double search,
+                                     const SearchLimits& limits) {
+  const uint64_t max_bytes =
+      limits.max_bytes ? std::min(limits.max_bytes, kMaxBoundsSearchBytes) : kMaxBoundsSearchBytes;
   struct Box {
     double lo[3];
     std::shared_ptr<const Tape> tape;
@@ -656,6 +662,7 @@ std::array<double, 6> bounds_in_cube(const Tape& t, const std::string& file, dou
     // it; 10^5 of them grew an upload's load thread past 14 GB).
     uint64_t tape_bytes = 0;
     for (const Box& b : cur) {
+      if (limits.check_time) limits.check_time();
       const Interval iv = eval_interval(*b.tape, {b.lo[0], b.lo[0] + size},
                                         {b.lo[1], b.lo[1] + size}, {b.lo[2], b.lo[2] + size},
                                         &choices);
@@ -681,12 +688,12 @@ std::array<double, 6> bounds_in_cube(const Tape& t, const std::string& file, dou
       edge = edge || touches;
       auto shortened = std::make_shared<const Tape>(shorten(*b.tape, choices));
       tape_bytes += shortened->clauses.size() * sizeof(Clause);
-      if (tape_bytes > kMaxBoundsSearchBytes)
-        fail(InputErrorKind::TooLarge,
-             "the bounds search would hold more than " +
-                 std::to_string(kMaxBoundsSearchBytes >> 20) + " MiB of shortened tapes at level " +
-                 std::to_string(level + 1) + " (" + std::to_string(shortened->clauses.size()) +
-                 " clauses a box); give the object bounds");
+      if (tape_bytes > max_bytes)
+        fail(InputErrorKind::TooLarge, "the bounds search would hold more than " + mib(max_bytes) +
+                                           " of shortened tapes at level " +
+                                           std::to_string(level + 1) + " (" +
+                                           std::to_string(shortened->clauses.size()) +
+                                           " clauses a box); give the object bounds");
       for (int c = 0; c < 8; ++c)
         next.push_back({{b.lo[0] + (c & 1 ? size / 2 : 0), b.lo[1] + (c & 2 ? size / 2 : 0),
                          b.lo[2] + (c & 4 ? size / 2 : 0)},
@@ -715,19 +722,20 @@ std::array<double, 6> bounds_in_cube(const Tape& t, const std::string& file, dou
 }
 }  // namespace
 
-std::array<double, 6> find_bounds(const Tape& t, const std::string& file, double search) {
+std::array<double, 6> find_bounds(const Tape& t, const std::string& file, double search,
+                                  const SearchLimits& limits) {
   // Cubes of side 32, 64, ... up to 2 search: the first that holds some of the solid and whose
   // faces the solid does not reach. Interval arithmetic is loose over large boxes far from the
   // origin (products of coordinates), so a small cube that holds the object proves that far
   // sooner than the largest one. A smaller cube found empty or reached only says: look wider.
   for (double s = 16; s < search; s *= 2) {
     try {
-      return bounds_in_cube(t, file, s);
+      return bounds_in_cube(t, file, s, limits);
     } catch (const InputError& e) {
       if (e.kind() != InputErrorKind::BadScene && e.kind() != InputErrorKind::EmptyMesh) throw;
     }
   }
-  return bounds_in_cube(t, file, search);
+  return bounds_in_cube(t, file, search, limits);
 }
 
 }  // namespace vismap::implicit

@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -53,7 +54,10 @@ struct Tape {
 // cos tan asin acos atan a), (pow a b), (- a) negates. n-ary + * min max fold into balanced trees
 // of binary clauses; (- a b c) is a - b - c. Shared subexpressions are merged (commutative
 // operands ordered). Errors: InputError ParseError naming `file`, line and column.
-Tape parse(const std::string& text, const std::string& file);
+// check_time (optional) is called every 4,096 tokens and throws to stop the parse (a load's
+// time limit: a 64 MiB upload parses for seconds).
+Tape parse(const std::string& text, const std::string& file,
+           const std::function<void()>& check_time = {});
 Tape load(const std::string& path);  // reads the file, then parse(); FileNotFound if it cannot
 
 // Plain evaluation (doubles). sqrt of a negative argument is 0 (rounding in sqrt(a^2 + b^2 - r^2)
@@ -106,11 +110,20 @@ Tape clipped_to_box(const Tape& t, const double lo[3], const double hi[3], int d
 // host interval arithmetic over a cube [-s, s]^3, every box not shown empty (f >= 0) split in
 // eight with its tape shortened, level by level, until a box's side is at most 1/64 of the
 // extent found; the boxes not shown empty, grown by one box. s = 16, 32, ... up to `search`:
-// the first cube that holds some of the solid and whose faces the solid does not reach (interval bounds are loose over large far
-// boxes, so a cube near the object's size proves it bounded where the largest cannot); a part of
-// the solid outside that cube is not in the box (give bounds to choose it). Errors name `file`:
-// InputError BadScene when the solid reaches the faces of [-search, search]^3 (unbounded, or
-// larger: give bounds), EmptyMesh when f >= 0 over the whole cube, TooLarge past 2^20 boxes.
-std::array<double, 6> find_bounds(const Tape& t, const std::string& file, double search = 1024);
+// the first cube that holds some of the solid and whose faces the solid does not reach (interval
+// bounds are loose over large far boxes, so a cube near the object's size proves it bounded where
+// the largest cannot); a part of the solid outside that cube is not in the box (give bounds to
+// choose it). Errors name `file`: InputError BadScene when the solid reaches the faces of [-search,
+// search]^3 (unbounded, or larger: give bounds), EmptyMesh when f >= 0 over the whole cube,
+// TooLarge past 2^20 boxes or past `limits.max_bytes`.
+struct SearchLimits {
+  // Bytes of shortened tapes one level of the search may hold (the level before it holds at most
+  // as many): 0 or above 256 MiB: 256 MiB. A load passes what its byte budget has left.
+  uint64_t max_bytes = 0;
+  // Called for every box; throws to stop the search (a load's time limit). May be empty.
+  std::function<void()> check_time;
+};
+std::array<double, 6> find_bounds(const Tape& t, const std::string& file, double search = 1024,
+                                  const SearchLimits& limits = {});
 
 }  // namespace vismap::implicit

@@ -6,8 +6,9 @@
 
 #include <algorithm>
 #include <array>
-#include <optional>
+#include <chrono>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -35,20 +36,30 @@ constexpr uint64_t checked_add(uint64_t a, uint64_t b) {
 inline constexpr uint64_t kMaxInputBytes = uint64_t(1) << 32;
 
 // The input bytes one load holds, charged as they are read: each file opened (the scene, what a
-// scene file, a .gltf or an .obj's mtllib references) by its size before reading it, and a .gz
-// file's inflated bytes as they grow. Past the cap: TooLarge, before anything is allocated.
+// scene file, a .gltf or an .obj's mtllib references) by its size before reading it, a .gz
+// file's inflated bytes as they grow, an implicit object's tape. Past the cap: TooLarge, before
+// anything is allocated. It also keeps the load's time limit (LoadOptions::time_limit_s).
 class ByteBudget {
  public:
   explicit ByteBudget(const LoadOptions& opts)
-      : limit_(opts.max_bytes == 0 ? kMaxInputBytes : std::min(opts.max_bytes, kMaxInputBytes)) {}
+      : limit_(opts.max_bytes == 0 ? kMaxInputBytes : std::min(opts.max_bytes, kMaxInputBytes)),
+        seconds_(opts.time_limit_s > 0 ? opts.time_limit_s : 0),
+        until_(std::chrono::steady_clock::now() +
+               std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                   std::chrono::duration<double>(seconds_))) {}
   uint64_t limit() const { return limit_; }
   uint64_t left() const { return limit_ - used_; }
   // Throws TooLarge naming `file` when `n` more bytes do not fit.
   void charge(uint64_t n, const std::string& file, const std::string& what);
+  // Throws TimeLimit naming `file` once the load has run past its time limit; `doing` says in
+  // what ("the bounds search").
+  void check_time(const std::string& file, const char* doing) const;
 
  private:
   uint64_t limit_;
   uint64_t used_ = 0;
+  double seconds_;  // 0: no time limit
+  std::chrono::steady_clock::time_point until_;
 };
 
 // Where a load happens: the name used in messages and the folder relative references resolve

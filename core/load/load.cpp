@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -68,6 +69,15 @@ void ByteBudget::charge(uint64_t n, const std::string& file, const std::string& 
                      what + ": the load would hold more than " + std::to_string(limit_) +
                          " input bytes" + (limit_ == kMaxInputBytes ? "" : " (max_bytes)"));
   used_ += n;
+}
+
+void ByteBudget::check_time(const std::string& file, const char* doing) const {
+  if (seconds_ == 0 || std::chrono::steady_clock::now() <= until_) return;
+  char limit[32];
+  std::snprintf(limit, sizeof limit, "%g", seconds_);
+  throw InputError(
+      InputErrorKind::TimeLimit, file, "", "", -1,
+      std::string("the load passed its time limit of ") + limit + " s (in " + doing + ")");
 }
 
 namespace {

@@ -18,6 +18,10 @@ void check_bytes(uint64_t bytes, uint64_t max_bytes, size_t round) {
 }  // namespace
 
 constexpr uint64_t kChunkBytes = uint64_t(256) << 20;
+// Clauses a chunk may evaluate (its regions times their mean tape length), so that the time
+// limit, checked after each chunk, is passed by at most a chunk's work: ~0.3 s on PoCL's CPU
+// device (issue 35: one round of a dense 3D object ran 20 s past a 5 s limit).
+constexpr uint64_t kChunkClauses = uint64_t(1) << 24;
 
 ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, const float lo[3],
                                  float size, uint32_t dims, const std::vector<uint32_t>& splits,
@@ -53,7 +57,9 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     // Per region: the result and counts; a choice byte per clause of its own tape; slots of
     // intervals and of liveness for the regions of one chunk at a time (at most 256 MiB: a
     // round of millions of regions on a tape of hundreds of slots runs in pieces).
-    const uint32_t chunk = uint32_t(std::clamp<uint64_t>(kChunkBytes / (slots * 9ull), 1, n));
+    const uint64_t mean_len = std::max<uint64_t>(1, clauses / n);
+    const uint32_t chunk = uint32_t(std::clamp<uint64_t>(
+        std::min<uint64_t>(kChunkBytes / (slots * 9ull), kChunkClauses / mean_len), 1, n));
     const uint64_t working = uint64_t(n) * (8 + 16) + clauses + uint64_t(chunk) * slots * 9;
     check_bytes(held + working, max_bytes, round);
     cl::Buffer scratch = rt.alloc(size_t(chunk) * slots * sizeof(cl_float2), "implicit slots");
@@ -65,13 +71,21 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     cl::Buffer amb = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit ambiguous");
     cl::Buffer amb_off = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit ambiguous offsets");
     rt.fill_u32(totals, 0, VM_ITOTAL_SLOTS, Stage::Implicit);
+    // Each chunk's launches get its end as their bound: a launch is rounded up to whole work
+    // groups, and items past the chunk (but not past n) wrote past the chunk's scratch (issue 35:
+    // 3,000 spheres spread over [-500, 500]^3 crashed the process in implicit_intervals).
     for (uint32_t first = 0; first < n; first += chunk) {
-      const uint32_t m = std::min(chunk, n - first);
-      rt.launch(Stage::Implicit, "implicit_intervals", m, regions, n, first, pool, scratch, slots,
+      const uint32_t m = std::min(chunk, n - first), end = first + m;
+      rt.launch(Stage::Implicit, "implicit_intervals", m, regions, end, first, pool, scratch, slots,
                 tape.root_slot, choices, per_in, result, totals, plane_buf, nplanes);
-      rt.launch(Stage::Implicit, "implicit_shorten_count", m, regions, n, first, pool, choices,
+      rt.launch(Stage::Implicit, "implicit_shorten_count", m, regions, end, first, pool, choices,
                 per_in, result, live, slots, tape.root_slot, counts, amb);
       if (first) q.launches += 2;
+      if (check_time && first + m < n) {  // wait for the chunk, then look at the clock
+        cl_uint done = 0;
+        rt.read(Stage::Implicit, totals, 0, sizeof done, &done);
+        check_time();
+      }
     }
     const uint32_t pool_next = rt.scan(Stage::Implicit, counts, offsets, n);
     const uint32_t namb = rt.scan(Stage::Implicit, amb, amb_off, n);
@@ -99,9 +113,10 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
                                     "implicit tape pool");
     cl::Buffer next = rt.alloc(std::max<size_t>(next_n, 1) * sizeof(VmIRegion), "implicit regions");
     for (uint32_t first = 0; first < n; first += chunk) {
-      rt.launch(Stage::Implicit, "implicit_shorten_fill", std::min(chunk, n - first), regions, n,
-                first, pool, choices, per_in, result, live, slots, tape.root_slot, counts, offsets,
-                amb_off, next_pool, next, split, dims);
+      const uint32_t m = std::min(chunk, n - first);
+      rt.launch(Stage::Implicit, "implicit_shorten_fill", m, regions, first + m, first, pool,
+                choices, per_in, result, live, slots, tape.root_slot, counts, offsets, amb_off,
+                next_pool, next, split, dims);
       if (first) ++q.launches;
     }
     regions = next;

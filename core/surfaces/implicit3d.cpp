@@ -546,6 +546,7 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   out.name = mesh.name;
   out.color = mesh.color;
   NetVertices nv = net_vertices(cells, val, g, mesh);
+  check_time();
   net_quads(cells, val, g, nv, out.indices);
   check_time();
   const std::array<double, 9> inv = inverse3(xf);  // for the eye's place and the normals
@@ -554,10 +555,12 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
                      xf[8] * (xf[1] * xf[6] - xf[5] * xf[2]);
   std::vector<uint32_t> remap, src;
   weld_world(nv, xf, out, remap, src);
+  check_time();
   const bool cull_back =
       !o.implicit_back_faces && back_faces_hidden(q, clipped, v.cam, xf, inv);
   const size_t ntri = keep_triangles(out, remap, det, cull_back, v, st);
   if (cull_back) drop_unused_vertices(out, src);
+  check_time();
   vertex_normals(out, src, nv, q, code, inv);
   if (ntri > kMaxDicedTriangles)
     throw InputError(InputErrorKind::TooLarge, "", mesh.name, "", -1,

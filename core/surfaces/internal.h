@@ -72,16 +72,11 @@ Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam, const Tess
 Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam, const TessellateOptions& o,
                    TessellateStats& st, const TimeCheck& check_time);
 
-// What a Loop control mesh needs every frame (topology, stencils), built once per mesh and kept
-// for the next frame; the meshes not being diced keep theirs up to
+// One Loop subdivision surface diced: face_ids the control triangle, uv its barycentrics. The
+// mesh's plan is kept in `plans`; the meshes not being diced keep theirs up to
 // TessellateOptions::loop_plan_cache_bytes in all, least recently used evicted first.
-struct LoopPlan;
-struct LoopPlans {
-  std::map<const Mesh*, std::shared_ptr<LoopPlan>> by_mesh;
-  uint64_t clock = 0;  // uses so far: each plan's last one orders the eviction
-};
-// One Loop subdivision surface diced: face_ids the control triangle, uv its barycentrics.
 Mesh dice_subdivision(ClRuntime& rt, const Mesh& mesh, const Camera& cam,
-                      const TessellateOptions& o, LoopPlans& plans, TessellateStats& st);
+                      const TessellateOptions& o, LoopPlans& plans, TessellateStats& st,
+                      const TimeCheck& check_time);
 
 }  // namespace vismap::stages

@@ -12,15 +12,11 @@
 
 #include "core/error.h"
 #include "core/surfaces/internal.h"
+#include "core/util/format.h"
 
 namespace vismap::stages {
 
 namespace {
-
-// The host memory a plan may hold (topology, stencils, faces over all its levels): 2 GiB. The
-// Killeroo (8,316 control triangles) holds ~0.3 GB at level 4 (2.1M faces); a level past the cap
-// is TooLarge naming it.
-constexpr uint64_t kMaxPlanBytes = uint64_t(2) << 30;
 
 struct Csr {
   std::vector<uint32_t> start{0}, col;
@@ -52,6 +48,12 @@ struct LoopLevel {
   Csr limit;                         // rows: nv limit positions
   cl::Buffer d_refine[3], d_limit[3], d_edges, d_pos, d_lim;
   bool on_device = false;
+  void drop_device() {
+    for (cl::Buffer* b : {&d_refine[0], &d_refine[1], &d_refine[2], &d_limit[0], &d_limit[1],
+                          &d_limit[2], &d_edges, &d_pos, &d_lim})
+      *b = cl::Buffer();
+    on_device = false;
+  }
   uint64_t bytes() const {
     return 4 * (faces.size() + face_src.size() + uv.size() + edge_v.size() + face_edges.size()) +
            refine.bytes() + limit.bytes();
@@ -64,6 +66,7 @@ struct LoopPlan {
   std::vector<LoopLevel> levels;
   uint64_t bytes = 0;
   uint64_t last_use = 0;  // LoopPlans::clock when it was last diced
+  const ClRuntime* device = nullptr;  // whose context the device copies are in
   cl::Buffer d_control;
 };
 
@@ -183,8 +186,13 @@ LoopLevel refine_faces(const LoopLevel& P) {
   return L;
 }
 
-// Makes levels 0..l exist with topology (so level l's refine and limit stencils exist).
-void ensure_level(LoopPlan& plan, const Mesh& mesh, uint32_t l) {
+// Makes levels 0..l exist with topology (so level l's refine and limit stencils exist). Each
+// level is counted before it is built (issue 35, case 6): against o.loop_plan_max_bytes, the host
+// plan (the Killeroo, 8,316 control triangles, holds ~0.3 GB at level 4: 2.1M faces), and
+// against o.memory_budget, what the frame holds for the dice: the plan's device copies (at most
+// the plan's bytes), positions and limit positions per level (24 bytes a vertex) and the diced
+// mesh on the host (40 bytes a face, 12 a vertex).
+void ensure_level(LoopPlan& plan, const Mesh& mesh, uint32_t l, const TessellateOptions& o) {
   while (plan.levels.size() <= l) {
     if (!plan.levels.empty()) {
       const LoopLevel& P = plan.levels.back();
@@ -193,12 +201,18 @@ void ensure_level(LoopPlan& plan, const Mesh& mesh, uint32_t l) {
       // Sized from the counts before building: faces (indices, source, uv, edges), edges, and
       // the stencils (~7 entries per vertex row, 4 per edge row, 8 bytes each), both tables.
       uint64_t need = nf * 4 * (3 + 1 + 6 + 3) + ne * 4 * (2 + 4) + (nv * 7 * 2 + ne * 4) * 8;
-      if (nf > UINT32_MAX || nv + ne > UINT32_MAX || plan.bytes + need > kMaxPlanBytes)
+      uint64_t vertices = nv;
+      for (const LoopLevel& L : plan.levels) vertices += L.nv;
+      const uint64_t frame = plan.bytes + need + 24 * vertices + 40 * nf + 12 * nv;
+      const auto refuse = [&](const std::string& why) {
         throw InputError(InputErrorKind::TooLarge, "", mesh.name, "subdivision level",
                          int64_t(plan.levels.size()),
-                         std::to_string(nf) + " faces would take the plan past " +
-                             std::to_string(kMaxPlanBytes >> 20) +
-                             " MiB; raise the tolerance");
+                         std::to_string(nf) + " faces would take " + why + "; raise the tolerance");
+      };
+      if (nf > UINT32_MAX || nv + ne > UINT32_MAX || plan.bytes + need > o.loop_plan_max_bytes)
+        refuse("the plan past " + mib(o.loop_plan_max_bytes));
+      if (o.memory_budget && frame > o.memory_budget)
+        refuse("the dice to " + mib(frame) + ", over the memory budget of " + mib(o.memory_budget));
       plan.levels.push_back(refine_faces(P));
     } else {
       LoopLevel L;
@@ -256,7 +270,8 @@ void to_device(ClRuntime& rt, LoopLevel& L) {
 }  // namespace
 
 Mesh dice_subdivision(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
-                      const TessellateOptions& o, LoopPlans& plans, TessellateStats& st) {
+                      const TessellateOptions& o, LoopPlans& plans, TessellateStats& st,
+                      const TimeCheck& check_time) {
   if (mesh.triangle_count() == 0 || mesh.vertex_count() == 0)
     throw InputError(InputErrorKind::EmptyMesh, "", mesh.name, "", -1,
                      "a subdivision surface needs a control mesh");
@@ -270,7 +285,12 @@ Mesh dice_subdivision(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   plan.last_use = ++plans.clock;
   // Room for this plan first, then what it built (issue 35, case 6).
   evict_plans(plans, &plan, o.loop_plan_cache_bytes, st);
-  ensure_level(plan, mesh, 0);
+  if (plan.device != &rt) {  // another Renderer's context: its device copies are remade here
+    for (LoopLevel& L : plan.levels) L.drop_device();
+    plan.d_control = cl::Buffer();
+    plan.device = &rt;
+  }
+  ensure_level(plan, mesh, 0, o);
   if (plan.control_positions != mesh.positions || !plan.d_control()) {
     plan.control_positions = mesh.positions;
     plan.d_control = rt.upload(mesh.positions, "loop control positions");
@@ -289,7 +309,8 @@ Mesh dice_subdivision(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   cl::Buffer dmax = rt.alloc(4, "loop flatness");
   uint32_t l = 0;
   for (;; ++l) {
-    ensure_level(plan, mesh, l + 1);
+    check_time();  // a level's topology and stencils take seconds on large control meshes
+    ensure_level(plan, mesh, l + 1, o);
     LoopLevel& P = plan.levels[l];
     LoopLevel& N = plan.levels[l + 1];
     to_device(rt, P);

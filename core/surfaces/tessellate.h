@@ -7,10 +7,27 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <map>
+#include <memory>
 
 namespace vismap {
 
 struct Mesh;
+
+namespace stages {
+struct LoopPlan;  // core/surfaces/loop.cpp
+}
+
+// What a Loop control mesh needs every frame (topology, stencils, and their device copies),
+// built once per mesh and kept for the next frame. A Renderer keeps one set for its callers; a
+// caller that must charge the plans to someone keeps its own (TessellateOptions::loop_plans:
+// vismapd, one per session's scene, which go with the scene and count against the session's
+// max_session_bytes). Used by one tessellate() at a time; the device copies are remade when
+// another Renderer dices the mesh.
+struct LoopPlans {
+  std::map<const Mesh*, std::shared_ptr<stages::LoopPlan>> by_mesh;
+  uint64_t clock = 0;  // uses so far: each plan's last one orders the eviction
+};
 
 struct TessellateOptions {
   // The largest screen distance (pixels) between a diced triangle and its surface, bounded per
@@ -33,6 +50,11 @@ struct TessellateOptions {
   // next frame, in bytes of host plan: past it, the least recently used plans of other meshes
   // are dropped (issue 35, case 6: six sessions' plans held 6 GB in the server for good).
   uint64_t loop_plan_cache_bytes = uint64_t(1) << 30;
+  // One plan past this many bytes is TooLarge naming its level (vismapd: what the session has
+  // left of max_session_bytes besides its scene).
+  uint64_t loop_plan_max_bytes = uint64_t(2) << 30;
+  // The plans to use and keep; null: the Renderer's own.
+  LoopPlans* loop_plans = nullptr;
 };
 
 struct TessellateStats {
