@@ -8,10 +8,11 @@
 //   compact  protocol version 2, compact frames (proto/COMPACT.md) with raw deflate, decoded by
 //            compact.js (decodeCompact, the browser inflates with DecompressionStream) and
 //            drawn on a 2D canvas;
-//   delta    protocol version 2, delta frames (proto/DELTA.md) with raw deflate, decoded in
-//            sequence by delta.js (DeltaDecoder: the page holds the source triangles and the
-//            previous frame; a frame that does not apply asks the server for a keyframe), drawn
-//            as compact frames are.
+//   delta    protocol version 3, delta frames (proto/DELTA.md version 2) with raw deflate,
+//            decoded in sequence by delta.js (DeltaDecoder: the page holds the scene, sent once
+//            after scene_ready as the sources message (hold_scene), and the previous frame; a
+//            frame may be the view's compact frame when that is smaller; a frame that does not
+//            apply asks the server for a keyframe), drawn as compact frames are.
 // Drag orbits the camera, the wheel zooms. ?scene=NAME opens a library scene, ?format=svg|compact|delta
 // picks the mode (the selector switches it live: a new session, the same scene and camera),
 // ?viewport=WxH the frame size (default: the view's size). The style controls (?style=fill|lines|
@@ -51,6 +52,7 @@
   let compact = null;  // the module compact.js (decodeCompact, triangleColor), imported on first use
   let bin = null;  // bin.js (decodeBin), imported on first use
   let deltaModule = null, delta = null;  // delta.js, and this session's DeltaDecoder
+  let pendingSources = false;  // the next binary message is the held scene's sources
   let frameNo = 0, shownNo = 0;  // a decode that ends after a newer frame's is not drawn
   const timingFinish = params.get('timing') === '1';
   const vp = /^(\d+)x(\d+)$/.exec(params.get('viewport') || '');
@@ -67,6 +69,7 @@
   function connect() {
     if (ws) { ws.onclose = null; ws.close(); }
     pendingHeader = null;
+    pendingSources = false;
     delta = null;  // a new session starts from a keyframe
     ws = new WebSocket((location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/');
     ws.binaryType = 'arraybuffer';
@@ -74,8 +77,9 @@
       const viewport = vp ? { width: +vp[1], height: +vp[2] }
         : { width: view.clientWidth | 0 || 800, height: view.clientHeight | 0 || 600 };
       const lines = style() !== 'fill';
-      const hello = { type: 'hello', version: format === 'svg' && !lines ? 1 : 2, format, viewport };
+      const hello = { type: 'hello', version: format === 'delta' ? 3 : format === 'svg' && !lines ? 1 : 2, format, viewport };
       if (format === 'compact' || format === 'delta') hello.compression = 'deflate';  // browsers inflate it natively
+      if (format === 'delta') hello.hold_scene = true;  // the scene's sources once, then frames without
       if (lines) {
         hello.style = style();
         hello.hidden = hiddenBox.checked;
@@ -91,6 +95,13 @@
   setInterval(() => send({ type: 'ping' }), 20000);  // keeps the idle timeout away
 
   function onMessage(e) {
+    if (pendingSources) {  // the held scene (DeltaDecoder orders it before the frames after it)
+      pendingSources = false;
+      deltaDecoder().then((d) => d.holdScene(e.data)).catch((err) => {
+        stats.textContent = `sources: ${err.message || err}`;
+      });
+      return;
+    }
     if (pendingHeader) {  // the payload that follows a frame header
       const h = pendingHeader; pendingHeader = null;
       if (h.format === 'compact') return showCompact(h, e.data);
@@ -118,6 +129,8 @@
       sendCamera();
     } else if (m.type === 'frame') {
       pendingHeader = m;
+    } else if (m.type === 'sources') {
+      pendingSources = true;
     } else if (m.type === 'error') {
       stats.textContent = `error ${m.code}: ${m.message}`;
     }
@@ -169,15 +182,22 @@
     }
   }
 
+  // This session's DeltaDecoder (made once, synchronously after the module loads, so that the
+  // sources message and the frames after it reach the same decoder in order).
+  async function deltaDecoder() {
+    if (!compact) compact = await import('./compact.js');
+    if (!deltaModule) deltaModule = await import('./delta.js');
+    if (!delta) delta = new deltaModule.DeltaDecoder();
+    return delta;
+  }
+
   // Delta frames decode in order (DeltaDecoder queues them): each is drawn when it is the newest.
   async function showDelta(h, bytes) {
     const no = ++frameNo;
     try {
-      if (!compact) compact = await import('./compact.js');
-      if (!deltaModule) deltaModule = await import('./delta.js');
-      if (!delta) delta = new deltaModule.DeltaDecoder();
+      const decoder = await deltaDecoder();
       const t0 = performance.now();
-      const f = await delta.decode(bytes);
+      const f = await decoder.decode(bytes);
       if (no < shownNo) return;
       shownNo = no;
       drawTimed(h, f, t0);  // the same arrays as a compact frame's, shades included
