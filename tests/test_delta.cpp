@@ -245,14 +245,16 @@ TEST(Delta, NeverWorseThanCompactArmadilloBox) {
   never_worse_than_compact(box, {}, 640, 360, {0, 1, 2, 17, 18, 3});
 }
 
-// The cut bunny's planes are split into thousands of polygons along the bunny's silhouettes
-// (hidden ones too): compact codes them in fewer bytes than delta's corners, so every frame
-// goes out as compact here. (Small and few frames: this scene renders slowly.)
+// The cut bunny's planes are split into thousands of polygons along the bunny's silhouettes,
+// hidden ones too; merged again (core/stream/simplify.h), delta wins here. (Small and few
+// frames: this scene renders slowly.)
 TEST(Delta, NeverWorseThanCompactCutBunny) {
-  never_worse_than_compact(src("data/scenes/bunny_cut.json"), held(), 320, 180, {0, 1, 17});
+  EXPECT_GE(
+      never_worse_than_compact(src("data/scenes/bunny_cut.json"), held(), 320, 180, {0, 1, 17}), 1);
 }
 
-TEST(Delta, NeverWorseThanCompactCornellBox) {  // compact wins every frame here
+// 36 triangles: a delta frame's camera (148 bytes) is a large part of it; either may win.
+TEST(Delta, NeverWorseThanCompactCornellBox) {
   never_worse_than_compact(src("data/cornell_box/CornellBox-Original.obj"), held(), 640, 360,
                            {0, 1, 2, 17, 18, 3});
 }

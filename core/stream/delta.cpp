@@ -15,6 +15,7 @@
 
 #include "core/error.h"
 #include "core/stream/frame_io.h"
+#include "core/stream/simplify.h"
 #include "core/util/conform.h"
 #include "core/util/flat_map.h"
 #include "core/write/shared.h"
@@ -1437,7 +1438,13 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
 
   // Which sources are drawn whole, which own polygons.
   const Numbering num{scene_, base_, vertex_base_};
-  const ConformedPolygons P = conform_polygons(map, options_.quantum);
+  ConformedPolygons P = conform_polygons(map, options_.quantum);
+  if (options_.version >= 2) {  // the pieces of a source that hidden silhouettes cut, as one
+    std::vector<uint64_t> source(P.size());
+    for (size_t p = 0; p < P.size(); ++p)
+      source[p] = uint64_t(map.mesh[P.fragment[p]]) << 32 | map.triangle[P.fragment[p]];
+    merge_source_polygons(P, source);
+  }
   FrameGeometry geometry(num, P, screen, camera, vp, view.rows, options_.quantum,
                          client_.known_vertex.size());
   std::vector<uint32_t> whole;

@@ -1,0 +1,149 @@
+// Fewer, larger polygons for the delta frame: merge_source_polygons (core/stream/simplify.h).
+#include "core/stream/simplify.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/util/flat_map.h"
+
+namespace vismap {
+
+namespace {
+
+constexpr double kFlat = 1e-6;  // px: as core/util/conform.cpp's on-edge distance
+
+using Ring = std::vector<uint32_t>;
+
+// Where corner b turns from a to c: > 0 convex, 0 straight, < 0 reflex (positive orientation, as
+// the map's polygons), against the tolerance of kFlat px off the chord a-c.
+int turn(const std::vector<double>& xy, uint32_t a, uint32_t b, uint32_t c) {
+  const double* p = &xy[2 * size_t(a)];
+  const double* q = &xy[2 * size_t(b)];
+  const double* r = &xy[2 * size_t(c)];
+  const double o = (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]);
+  const double tol = kFlat * std::hypot(r[0] - p[0], r[1] - p[1]);
+  return o > tol ? 1 : o < -tol ? -1 : 0;
+}
+
+size_t index_of(const Ring& r, uint32_t v) {
+  return size_t(std::find(r.begin(), r.end(), v) - r.begin());
+}
+
+// A and B (of one source) share the edge u -> v of A (v -> u in B). The union along the whole
+// path they share, when it is one convex polygon without a repeated vertex: into A.
+bool try_merge(Ring& A, const Ring& B, uint32_t u, uint32_t v, const std::vector<double>& xy) {
+  const size_t na = A.size(), nb = B.size();
+  size_t sa = index_of(A, u), sb = index_of(B, u);  // a_0 = u
+  size_t ea = (sa + 1) % na, eb = index_of(B, v);   // a_m = v
+  if (sa == na || sb == nb || eb == nb || A[ea] != v || (eb + 1) % nb != sb) return false;
+  size_t m = 1;
+  while (m + 1 < std::min(na, nb) && A[(ea + 1) % na] == B[(eb + nb - 1) % nb])
+    ea = (ea + 1) % na, eb = (eb + nb - 1) % nb, ++m;
+  while (m + 1 < std::min(na, nb) && A[(sa + na - 1) % na] == B[(sb + 1) % nb])
+    sa = (sa + na - 1) % na, sb = (sb + 1) % nb, ++m;
+  if (m + 1 >= std::min(na, nb)) return false;
+  Ring merged;
+  for (size_t k = ea;; k = (k + 1) % na) {  // a_m ... a_0 along A
+    merged.push_back(A[k]);
+    if (k == sa) break;
+  }
+  for (size_t k = (sb + 1) % nb; k != eb; k = (k + 1) % nb) merged.push_back(B[k]);
+  Ring sorted = merged;
+  std::sort(sorted.begin(), sorted.end());
+  if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) return false;
+  const size_t n = merged.size(), at0 = na - m;  // a_m at 0, a_0 at na - m
+  if (turn(xy, merged[n - 1], merged[0], merged[1]) < 0 ||
+      turn(xy, merged[at0 - 1], merged[at0], merged[(at0 + 1) % n]) < 0)
+    return false;
+  A = std::move(merged);
+  return true;
+}
+
+// Rounds of merges: each round finds the shared edges from a fresh edge map and merges every
+// polygon at most once (a merged polygon waits for the next round).
+uint64_t merge_rounds(std::vector<Ring>& rings, std::vector<uint8_t>& alive,
+                      const std::vector<uint64_t>& source, const std::vector<double>& xy) {
+  uint64_t merged = 0;
+  for (bool any = true; any;) {
+    any = false;
+    size_t edges = 0;
+    for (size_t p = 0; p < rings.size(); ++p) edges += alive[p] ? rings[p].size() : 0;
+    FlatMap edge_of(edges);
+    for (size_t p = 0; p < rings.size(); ++p)
+      for (size_t k = 0; alive[p] && k < rings[p].size(); ++k)
+        edge_of.emplace(uint64_t(rings[p][k]) << 32 | rings[p][(k + 1) % rings[p].size()],
+                        uint32_t(p));
+    std::vector<uint8_t> touched(rings.size(), 0);
+    for (size_t p = 0; p < rings.size(); ++p) {
+      for (size_t k = 0; alive[p] && !touched[p] && k < rings[p].size(); ++k) {
+        const uint32_t u = rings[p][k], v = rings[p][(k + 1) % rings[p].size()];
+        const uint32_t* q = edge_of.find(uint64_t(v) << 32 | u);
+        if (!q || *q == p || !alive[*q] || touched[*q] || source[*q] != source[p]) continue;
+        if (!try_merge(rings[p], rings[*q], u, v, xy)) continue;
+        alive[*q] = 0;
+        touched[p] = touched[*q] = 1;
+        any = true;
+        ++merged;
+      }
+    }
+  }
+  return merged;
+}
+
+// Drops every vertex that at most two polygons have and that is flat in each of them.
+uint64_t drop_flat_vertices(std::vector<Ring>& rings, const std::vector<uint8_t>& alive,
+                            size_t vertex_count, const std::vector<double>& xy,
+                            std::vector<uint8_t>& changed) {
+  std::vector<uint8_t> uses(vertex_count, 0), bent(vertex_count, 0);
+  for (size_t p = 0; p < rings.size(); ++p) {
+    const Ring& r = rings[p];
+    for (size_t k = 0; alive[p] && k < r.size(); ++k) {
+      const uint32_t w = r[k];
+      uses[w] = uint8_t(std::min(3, uses[w] + 1));
+      if (turn(xy, r[(k + r.size() - 1) % r.size()], w, r[(k + 1) % r.size()]) != 0) bent[w] = 1;
+    }
+  }
+  uint64_t dropped = 0;
+  for (size_t p = 0; p < rings.size(); ++p) {
+    if (!alive[p]) continue;
+    Ring kept;
+    for (uint32_t w : rings[p])
+      if (bent[w] || uses[w] > 2) kept.push_back(w);
+    if (kept.size() < 3 || kept.size() == rings[p].size()) continue;
+    dropped += rings[p].size() - kept.size();
+    rings[p] = std::move(kept);
+    changed[p] = 1;
+  }
+  return dropped;
+}
+
+}  // namespace
+
+SimplifyStats merge_source_polygons(ConformedPolygons& P, const std::vector<uint64_t>& source) {
+  std::vector<Ring> rings(P.size());
+  for (size_t p = 0; p < P.size(); ++p)
+    rings[p].assign(P.v.begin() + P.off[p], P.v.begin() + P.off[p + 1]);
+  std::vector<uint8_t> alive(P.size(), 1);
+  SimplifyStats st;
+  std::vector<Ring> before = rings;
+  st.merged = merge_rounds(rings, alive, source, P.xy);
+  std::vector<uint8_t> changed(P.size(), 0);
+  for (size_t p = 0; p < P.size(); ++p) changed[p] = alive[p] && rings[p] != before[p];
+  st.dropped = drop_flat_vertices(rings, alive, P.xy.size() / 2, P.xy, changed);
+  if (!st.merged && !st.dropped) return st;
+
+  ConformedPolygons out;
+  out.xy = std::move(P.xy);
+  out.t_junctions = P.t_junctions;
+  for (size_t p = 0; p < P.size(); ++p) {
+    if (!alive[p]) continue;
+    out.v.insert(out.v.end(), rings[p].begin(), rings[p].end());
+    out.off.push_back(uint32_t(out.v.size()));
+    out.fragment.push_back(P.fragment[p]);
+    out.original.push_back(changed[p] ? uint32_t(rings[p].size()) : P.original[p]);
+  }
+  P = std::move(out);
+  return st;
+}
+
+}  // namespace vismap
