@@ -41,6 +41,26 @@ static const char* kUsage =
     "                                                         a container HEALTHCHECK without "
     "curl)\n";
 
+// A decoded frame's fingerprint, the same in the Python and JS clients (bench/stream/clients.py
+// compares them frame by frame): per array (xy, indices, source, shade, each value as uint32),
+// "length:h" with h = sum of value_i * (2i + 1) mod 2^32, joined by '/'.
+template <class Frame>
+static std::string digest(const Frame& f) {
+  std::string out;
+  auto one = [&](const auto& v) {
+    uint32_t h = 0;
+    for (size_t i = 0; i < v.size(); ++i) h += uint32_t(v[i]) * uint32_t(2 * i + 1);
+    char b[40];
+    std::snprintf(b, sizeof b, "%s%zu:%08x", out.empty() ? "" : "/", v.size(), h);
+    out += b;
+  };
+  one(f.xy);
+  one(f.indices);
+  one(f.source);
+  one(f.shade);
+  return out;
+}
+
 // GET /health: 0 when the server answers 200 with status ok, 1 otherwise (stopping, refused,
 // timeout).
 static int health(const std::string& url_text, double timeout) {
@@ -226,6 +246,10 @@ int main(int argc, char** argv) {
       Message m = c.read(timeout);
       delta.hold_scene(m.data);
       sources_bytes = m.data.size();
+      if (!out.empty()) {
+        std::filesystem::create_directories(out);
+        std::ofstream(std::filesystem::path(out) / "sources.vmd", std::ios::binary) << m.data;
+      }
     }
 
     // Orbit: rotate the framing camera's eye about the target around its up axis (y here).
@@ -240,6 +264,7 @@ int main(int argc, char** argv) {
     json triangles = json::array();  // per frame (bin, compact, delta; null where not decoded)
     json decode_ms = json::array(), frame_bytes = json::array();  // per frame
     json server_ms = json::array(), coding = json::array();       // per frame: render, encode
+    json digests = json::array();  // compact, delta: per frame, digest() of the decoded arrays
     const uint64_t wire0 = c.wire_bytes_received();
     auto t0 = std::chrono::steady_clock::now();
     for (int i = 0; i < frames; ++i) {
@@ -266,12 +291,15 @@ int main(int argc, char** argv) {
       json count = nullptr;
       if (format == "bin")
         count = vismap::read_bin(payload.data).triangle_count();
-      else if (format == "compact")
-        count = vismap::read_compact(payload.data).triangle_count();
-      else if (format == "delta") {
+      else if (format == "compact") {
+        const vismap::CompactFrame f = vismap::read_compact(payload.data);
+        count = f.triangle_count();
+        digests.push_back(digest(f));
+      } else if (format == "delta") {
         try {
           const vismap::DeltaFrame d = delta.decode(payload.data);
           count = d.triangle_count();
+          digests.push_back(digest(d));
           keyframes += d.keyframe;
         } catch (const vismap::DeltaOutOfSync&) {  // lost state: the next frame stands alone
           ++resyncs;
@@ -325,6 +353,7 @@ int main(int argc, char** argv) {
       per["decode_ms"] = decode_ms;
     }
     per["server_ms"] = server_ms;  // per frame: [render_ms, encode_ms] from the headers
+    if (!digests.empty()) per["digests"] = digests;
     if (format == "delta") {
       per["keyframes"] = keyframes;
       per["resyncs"] = resyncs;  // frames that did not apply (then a keyframe was asked for)

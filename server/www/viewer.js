@@ -35,7 +35,8 @@
 // keyframe, triangles, decode_ms, draw_ms, paths_ms: of a 2D draw, building the Path2Ds; the rest
 // is the canvas's fill, stroke and raster; worker frames also build_ms (the worker's buffers),
 // wait_ms (posting the bytes to having the buffers back, the decode and build in it), upload_ms
-// (WebGL: bufferData), script_ms (this thread's time for the frame), renderer: 'webgl2' | '2d'},
+// (WebGL: bufferData), script_ms (this thread's time for the frame, without the pixel read back:
+// what it costs the page when not timing), renderer: 'webgl2' | '2d'},
 // or {seq, format, error} for a frame that did not decode);
 // window.vismapViewer.camera(fields) sends a camera with these fields (a bench drives the
 // viewer with it: bench/stream/clients.py) and returns its seq.
@@ -223,14 +224,15 @@
     if (!times) {  // no WebGL 2 (or ?draw=2d): the 2D canvas, with the frame's arrays
       const s0 = performance.now();
       drawCompact(f, f.colors);
+      const s1 = performance.now();
       if (timingFinish) view.querySelector('canvas').getContext('2d').getImageData(0, 0, 1, 1);
-      times = { uploadMs: null, drawMs: performance.now() - s0 };
+      times = { uploadMs: null, callsMs: s1 - s0, finishMs: performance.now() - s1 };
     }
     const t2 = performance.now();
     timings.push({ seq: h.seq, format: h.format, bytes: h.bytes, keyframe: f.keyframe, triangles: f.triangles,
                    decode_ms: r.decodeMs, build_ms: r.buildMs, wait_ms: t1 - t0, upload_ms: times.uploadMs,
-                   draw_ms: times.drawMs, script_ms: t2 - t1, paths_ms: f.gl ? null : pathsMs,
-                   renderer: f.gl ? 'webgl2' : '2d' });
+                   draw_ms: times.callsMs + times.finishMs, script_ms: t2 - t1 - times.finishMs,
+                   paths_ms: f.gl ? null : pathsMs, renderer: f.gl ? 'webgl2' : '2d' });
     if (timings.length > 1000) timings.shift();
     shown(h);
   }
