@@ -319,10 +319,38 @@ TEST(Delta, MalformedVersion2FramesAreRefusedAndLeaveTheStateAlone) {
     EXPECT_THROW(DeltaDecoder().hold_scene(sources.substr(0, n)), InputError) << n;
 }
 
-// proto/vectors/delta_cornell_K.vmd (K = 0, 1, 2: a keyframe and two deltas of the Cornell box)
-// decode in sequence to what delta_cornell_K.json says (`vismap decode` of frames 0 ... K with
-// --json): every client's delta decoder is tested against these files. VISMAP_WRITE_VECTORS=1
+// proto/vectors/delta_cornell_K.vmd (K = 0, 1, 2: a keyframe and two deltas of the Cornell box,
+// version 1) decode in sequence to what delta_cornell_K.json says (`vismap decode` of frames
+// 0 ... K with --json): every client's delta decoder is tested against these files. Version 2:
+// delta2_torus_sources.vmd (the held scene) and delta2_torus_K.vmd, K = 0 ... 4, the tilted torus
+// (proto/vectors/torus.json) turned 0, 6 and 12 degrees (a held keyframe, then deltas with facing
+// flips and source-edge point references), then looking away (an empty view: the compact frame
+// goes out), then turned 18 degrees (a delta frame based on frame 2). VISMAP_WRITE_VECTORS=1
 // writes the frames anew (then run the CLI for the JSON: proto/vectors/README.md).
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  EXPECT_TRUE(in) << "missing " << path;
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The decoded arrays against a vector's JSON (`vismap decode --json`).
+void same_as_json(const DeltaFrame& d, const std::string& json, const std::string& what) {
+  auto join = [](const auto& v) {
+    std::string s;
+    for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + std::to_string(v[i]);
+    return "[" + s + "]";
+  };
+  for (auto [key, got] : {std::pair{"xy", join(d.xy)}, std::pair{"indices", join(d.indices)},
+                          std::pair{"source", join(d.source)}, std::pair{"shade", join(d.shade)}}) {
+    const size_t at = json.find(std::string("\"") + key + "\"");
+    ASSERT_NE(at, std::string::npos) << key;
+    EXPECT_NE(json.substr(at, json.find('\n', at) - at).find(got), std::string::npos)
+        << what << " " << key;
+  }
+}
+
 TEST(Delta, TestVectors) {
   const std::string dir = src("proto/vectors/");
   if (std::getenv("VISMAP_WRITE_VECTORS")) {
@@ -334,32 +362,52 @@ TEST(Delta, TestVectors) {
           << enc.encode(r.map, r.screen, r.camera);
     }
   }
-  auto slurp = [](const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    EXPECT_TRUE(in) << "missing " << path;
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  };
-  auto join = [](const auto& v) {
-    std::string s;
-    for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + std::to_string(v[i]);
-    return "[" + s + "]";
-  };
   DeltaDecoder dec;
   for (int i = 0; i < 3; ++i) {
     const DeltaFrame d = dec.decode(slurp(dir + "delta_cornell_" + std::to_string(i) + ".vmd"));
     EXPECT_EQ(d.keyframe, i == 0);
     EXPECT_GT(d.triangle_count(), 50u);
-    const std::string want = slurp(dir + "delta_cornell_" + std::to_string(i) + ".json");
-    for (auto [key, got] :
-         {std::pair{"xy", join(d.xy)}, std::pair{"indices", join(d.indices)},
-          std::pair{"source", join(d.source)}, std::pair{"shade", join(d.shade)}}) {
-      const size_t at = want.find(std::string("\"") + key + "\"");
-      ASSERT_NE(at, std::string::npos) << key;
-      EXPECT_NE(want.substr(at, want.find('\n', at) - at).find(got), std::string::npos)
-          << "frame " << i << " " << key;
+    same_as_json(d, slurp(dir + "delta_cornell_" + std::to_string(i) + ".json"),
+                 "frame " + std::to_string(i));
+  }
+}
+
+TEST(Delta, Version2TestVectors) {
+  const std::string dir = src("proto/vectors/");
+  const DeltaCoding want[5] = {DeltaCoding::Keyframe, DeltaCoding::Delta, DeltaCoding::Delta,
+                               DeltaCoding::Compact, DeltaCoding::Delta};
+  const auto name = [&](int i) { return dir + "delta2_torus_" + std::to_string(i); };
+  if (std::getenv("VISMAP_WRITE_VECTORS")) {
+    const Scene s = load_scene(dir + "torus.json");
+    DeltaEncoder enc(s, held());
+    std::ofstream(dir + "delta2_torus_sources.vmd", std::ios::binary)
+        << encode_delta_sources(s, Compression::Zstd);
+    for (int i = 0; i < 5; ++i) {
+      Camera c = orbit(s, 160, 120, i < 3 ? i : 3);
+      if (i == 3) {  // looking away: an empty frame, which compact codes in fewer bytes
+        for (int k = 0; k < 3; ++k) c.target[k] = 2 * c.eye[k] - c.target[k];
+        c.near_plane = c.far_plane = 0;
+        fit_near_far(c, s);
+      }
+      const Rendered r = render(s, c);
+      DeltaStats st;
+      std::ofstream(name(i) + ".vmd", std::ios::binary)
+          << enc.encode(r.map, r.screen, r.camera, &st);
+      EXPECT_EQ(st.coding, want[i]) << i;
+      if (i == 1 || i == 2) {
+        EXPECT_GT(st.flips, 0u);
+        EXPECT_GT(st.edge_refs, 0u);
+      }
     }
+  }
+  DeltaDecoder dec;
+  dec.hold_scene(slurp(dir + "delta2_torus_sources.vmd"));
+  for (int i = 0; i < 5; ++i) {
+    const DeltaFrame d = dec.decode(slurp(name(i) + ".vmd"));
+    EXPECT_EQ(d.keyframe, want[i] == DeltaCoding::Keyframe) << i;
+    EXPECT_EQ(d.compact, want[i] == DeltaCoding::Compact) << i;
+    EXPECT_EQ(d.triangle_count() > 0, i != 3) << i;
+    same_as_json(d, slurp(name(i) + ".json"), "frame " + std::to_string(i));
   }
 }
 

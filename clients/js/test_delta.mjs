@@ -249,6 +249,20 @@ const tests = {
         assert(f.rows.length === 12 && f.eye.length === 3 && f.projection === 'perspective', 'camera', k);
       }
     }
+    // Version 2 (proto/vectors/README.md): the held torus, a compact frame at 3, frame 4 based on 2.
+    if (haveZstd) {
+      const d = new DeltaDecoder({ zstd: zstdCli });
+      const v2 = (name) => read(path.join(VECTORS, `delta2_torus_${name}.vmd`));
+      assert((await decode(d, v2(0), 'held keyframe without the scene')) === null, 'held keyframe accepted');
+      await d.holdScene(v2('sources'));
+      assert(d.holdsScene, 'holdsScene');
+      for (let k = 0; k < 5; ++k) {
+        const f = await d.decode(v2(k));
+        same(f, JSON.parse(fs.readFileSync(path.join(VECTORS, `delta2_torus_${k}.json`), 'utf8')), `version 2 vector ${k}`);
+        valid(f, `version 2 vector ${k}`);
+        assert(f.keyframe === (k === 0) && !!f.compact === (k === 3) && d.lastIndex === (k === 3 ? 2 : k), 'v2 fields', k);
+      }
+    }
     assert(llround(-2.5) === -3 && llround(2.5) === 3 && llround(-0.5) === -1 && llround(0.49999999999999994) === 0 &&
       llround(-1.5) === -2 && Math.round(-2.5) === -2, 'llround');
   },

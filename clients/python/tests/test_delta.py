@@ -161,6 +161,22 @@ def test_vectors():
         raise AssertionError("read_frame decoded a delta frame without its stream")
     except ValueError:
         pass
+    # Version 2 (proto/vectors/README.md): the held torus, a compact frame at 3, frame 4 based on 2.
+    dec = vc.DeltaDecoder()
+    try:
+        dec.decode(read(os.path.join(VECTORS, "delta2_torus_0.vmd")))
+        raise AssertionError("a held keyframe decoded without the held scene")
+    except vc.DeltaOutOfSync:
+        pass
+    dec.hold_scene(read(os.path.join(VECTORS, "delta2_torus_sources.vmd")))
+    assert dec.holds_scene
+    for k in range(5):
+        f = dec.decode(read(os.path.join(VECTORS, f"delta2_torus_{k}.vmd")))
+        what = f"version 2 vector {k}"
+        same(f, json.loads(read(os.path.join(VECTORS, f"delta2_torus_{k}.json"))), what)
+        valid(f, what)
+        assert f.keyframe == (k == 0) and f.compact == (k == 3), what
+        assert dec.last_index == (2 if k == 3 else k), what  # a compact frame leaves the state alone
 
 
 def test_rounding():
