@@ -12,37 +12,12 @@
 // session's DeltaDecoder lives here (the held scene's sources too); 'reset' drops it.
 import { decodeCompact, triangleColors } from './compact.js';
 import { DeltaDecoder, DeltaOutOfSync } from './delta.js';
+import { sharedEdges } from './mesh_edges.js';
 
 export const STROKE_BYTES = 20;
 export const FILL_BYTES = 28;
 
 let delta = new DeltaDecoder();
-
-// Per triangle a 3-bit mask of its shared edges: edge k (corner k to k + 1) used by another
-// triangle too, in either direction (counted on each vertex's list of next corners).
-export function sharedEdges(indices, nv) {
-  const n = indices.length / 3;
-  const first = new Int32Array(nv + 1);
-  const next = new Int32Array(indices.length);
-  for (let i = 0; i < indices.length; ++i) ++first[indices[i] + 1];
-  for (let a = 0; a < nv; ++a) first[a + 1] += first[a];
-  const fill = first.slice(0, nv);
-  for (let i = 0; i < indices.length; i += 3) {
-    for (let k = 0; k < 3; ++k) next[fill[indices[i + k]]++] = indices[i + (k + 1) % 3];
-  }
-  const uses = (a, b) => {
-    let u = 0;
-    for (let j = first[a], e = first[a + 1]; j < e; ++j) u += next[j] === b;
-    for (let j = first[b], e = first[b + 1]; j < e; ++j) u += next[j] === a;
-    return u;
-  };
-  const mask = new Uint8Array(n);
-  for (let t = 0; t < n; ++t) {
-    const a = indices[3 * t], b = indices[3 * t + 1], c = indices[3 * t + 2];
-    mask[t] = (uses(a, b) >= 2 ? 1 : 0) | (uses(b, c) >= 2 ? 2 : 0) | (uses(c, a) >= 2 ? 4 : 0);
-  }
-  return mask;
-}
 
 // The buffer described above, from a frame's grid triangles and sRGB colours: {buffer, strokes,
 // fills} (instance counts; the fills start at strokes * STROKE_BYTES).

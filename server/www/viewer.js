@@ -60,6 +60,7 @@
   let seq = 0, sentAt = new Map(), lastFps = [];
   let lastScene = null;  // {message, bytes}: sent again when the mode changes
   let bin = null;  // bin.js (decodeBin), imported on first use
+  let meshEdges = null;  // mesh_edges.js (sharedEdges), imported before the first 2D canvas draw
   let pendingSources = false;  // the next binary message is the held scene's sources
   // WebGL 2 where the browser has it (a probe canvas says), unless ?draw=2d.
   const useGl = params.get('draw') !== '2d' && !!document.createElement('canvas').getContext('webgl2');
@@ -222,6 +223,7 @@
       }
     }
     if (!times) {  // no WebGL 2 (or ?draw=2d): the 2D canvas, with the frame's arrays
+      if (!meshEdges) meshEdges = await import('./mesh_edges.js');
       const s0 = performance.now();
       drawCompact(f, f.colors);
       const s1 = performance.now();
@@ -244,6 +246,7 @@
     const no = ++frameNo;
     try {
       if (!bin) bin = await import('./bin.js');
+      if (!meshEdges) meshEdges = await import('./mesh_edges.js');
       const t0 = performance.now();
       const f = bin.decodeBin(bytes);
       const t1 = performance.now();
@@ -355,20 +358,8 @@
     if (canvas.width !== f.width || canvas.height !== f.height) { canvas.width = f.width; canvas.height = f.height; }
     const ctx = canvas.getContext('2d');
     ctx.clearRect(0, 0, f.width, f.height);
-    const q = f.quantum, xy = f.xy, ix = f.indices, n = ix.length / 3, nv = xy.length / 2;
-    // next[first[a] ... first[a + 1] - 1]: the vertices b of the edges a -> b, one per use.
-    const first = new Int32Array(nv + 1), next = new Int32Array(ix.length);
-    for (let i = 0; i < ix.length; ++i) ++first[ix[i] + 1];
-    for (let a = 0; a < nv; ++a) first[a + 1] += first[a];
-    const fill = first.slice(0, nv);
-    for (let i = 0; i < ix.length; i += 3)
-      for (let k = 0; k < 3; ++k) next[fill[ix[i + k]]++] = ix[i + (k + 1) % 3];
-    const uses = (a, b) => {
-      let u = 0;
-      for (let j = first[a], e = first[a + 1]; j < e; ++j) u += next[j] === b;
-      for (let j = first[b], e = first[b + 1]; j < e; ++j) u += next[j] === a;
-      return u;
-    };
+    const q = f.quantum, xy = f.xy, ix = f.indices, n = ix.length / 3;
+    const shared = meshEdges.sharedEdges(ix, xy.length / 2);  // loaded before any 2D draw
     // colors: 3 sRGB bytes per triangle
     const groups = new Map();  // packed colour -> {fill: Path2D, stroke: Path2D, style}
     let g = -1, p = null;
@@ -390,9 +381,9 @@
       p.fill.lineTo(x1, y1);
       p.fill.lineTo(x2, y2);
       p.fill.closePath();
-      if (uses(v0, v1) >= 2) { p.stroke.moveTo(x0, y0); p.stroke.lineTo(x1, y1); }
-      if (uses(v1, v2) >= 2) { p.stroke.moveTo(x1, y1); p.stroke.lineTo(x2, y2); }
-      if (uses(v2, v0) >= 2) { p.stroke.moveTo(x2, y2); p.stroke.lineTo(x0, y0); }
+      if (shared[t] & 1) { p.stroke.moveTo(x0, y0); p.stroke.lineTo(x1, y1); }
+      if (shared[t] & 2) { p.stroke.moveTo(x1, y1); p.stroke.lineTo(x2, y2); }
+      if (shared[t] & 4) { p.stroke.moveTo(x2, y2); p.stroke.lineTo(x0, y0); }
     }
     pathsMs = performance.now() - t0;
     ctx.lineWidth = 1;

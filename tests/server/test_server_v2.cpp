@@ -35,8 +35,10 @@ class ServerV2Test : public ServerTest {
   }
   // The frame the server renders for frame(c, seq, angle) on `scene` at 128x96, built the way
   // the session builds it: the framing camera, the request's eye and target, near/far fitted.
+  // (screen: the render's screen triangles too, as a delta session keeps them.)
   vismap::PlanarMap render_like_the_server(const vismap::Scene& scene, double angle,
-                                           vismap::Camera& cam) {
+                                           vismap::Camera& cam,
+                                           vismap::ScreenTriangles* screen = nullptr) {
     cam = vismap::frame_scene(scene, 128, 96);
     cam.eye = {3 * std::sin(angle), 1.5, 3 * std::cos(angle)};
     cam.target = {0.25, 0.25, 0.25};
@@ -45,8 +47,9 @@ class ServerV2Test : public ServerTest {
     cam.validate();
     vismap::RenderOptions opts;
     opts.memory_budget = cfg_.limits.render_memory_bytes;
+    opts.keep_screen_triangles = screen != nullptr;
     if (!renderer_) renderer_ = std::make_unique<vismap::Renderer>(cfg_.device);
-    return renderer_->render(scene, cam, opts);
+    return renderer_->render(scene, cam, opts, nullptr, screen);
   }
   // Polls /metrics until it holds `line` (a frame is counted when the server's write completes,
   // which may be just after the client has its bytes).
@@ -440,17 +443,8 @@ TEST_F(ServerV2Test, Version3DeltaSessionsHoldTheSceneAndNeverExceedCompact) {
     EXPECT_EQ(f.compact, h["coding"] == "compact");
     EXPECT_GT(f.triangle_count(), 0u);
     vismap::Camera cam;
-    vismap::RenderOptions opts;
-    opts.keep_screen_triangles = true;
-    opts.memory_budget = cfg_.limits.render_memory_bytes;
-    cam = vismap::frame_scene(scene, 128, 96);
-    cam.eye = {3 * std::sin(0.3 * i), 1.5, 3 * std::cos(0.3 * i)};
-    cam.target = {0.25, 0.25, 0.25};
-    cam.near_plane = cam.far_plane = 0;
-    vismap::fit_near_far(cam, scene);
-    if (!renderer_) renderer_ = std::make_unique<vismap::Renderer>(cfg_.device);
     vismap::ScreenTriangles st;
-    const vismap::PlanarMap map = renderer_->render(scene, cam, opts, nullptr, &st);
+    const vismap::PlanarMap map = render_like_the_server(scene, 0.3 * i, cam, &st);
     EXPECT_TRUE(mine.encode(map, st, cam) == p.data) << "frame " << i;
   }
 }
