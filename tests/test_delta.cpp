@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <random>
 #include <sstream>
 
@@ -15,6 +16,8 @@
 #include "core/scene.h"
 #include "core/stream/compact.h"
 #include "core/stream/delta.h"
+#include "core/stream/simplify.h"
+#include "core/util/conform.h"
 #include "tests/support/grid_raster.h"
 
 namespace vismap {
@@ -259,6 +262,55 @@ TEST(Delta, NeverWorseThanCompactCornellBox) {
                            {0, 1, 2, 17, 18, 3});
 }
 
+// merge_source_polygons (core/stream/simplify.h): the same area per source, every polygon convex
+// (within its tolerance) and conforming: each interior edge used once in each direction.
+void merged_polygons_tile_the_same(const Scene& s, const Camera& c) {
+  const Rendered r = render(s, c);
+  ConformedPolygons P = conform_polygons(r.map, 16);
+  std::vector<uint64_t> source(P.size());
+  for (size_t p = 0; p < P.size(); ++p)
+    source[p] = uint64_t(r.map.mesh[P.fragment[p]]) << 32 | r.map.triangle[P.fragment[p]];
+  auto areas = [](const ConformedPolygons& Q, const PlanarMap& map) {
+    std::map<uint64_t, double> a;
+    for (size_t p = 0; p < Q.size(); ++p) {
+      double s2 = 0;
+      for (uint32_t i = Q.off[p]; i < Q.off[p + 1]; ++i) {
+        const uint32_t u = Q.v[i], w = Q.v[i + 1 < Q.off[p + 1] ? i + 1 : Q.off[p]];
+        s2 += Q.xy[2 * u] * Q.xy[2 * w + 1] - Q.xy[2 * w] * Q.xy[2 * u + 1];
+      }
+      a[uint64_t(map.mesh[Q.fragment[p]]) << 32 | map.triangle[Q.fragment[p]]] += s2 / 2;
+    }
+    return a;
+  };
+  const std::map<uint64_t, double> before = areas(P, r.map);
+  const SimplifyStats st = merge_source_polygons(P, source);
+  EXPECT_GT(st.merged, 0u);
+  const std::map<uint64_t, double> after = areas(P, r.map);
+  ASSERT_EQ(before.size(), after.size());
+  for (const auto& [k, a] : before) EXPECT_NEAR(after.at(k), a, 1e-6 + 1e-9 * a) << k;
+  std::map<std::pair<uint32_t, uint32_t>, int> edges;
+  for (size_t p = 0; p < P.size(); ++p) {
+    const uint32_t n = P.off[p + 1] - P.off[p];
+    for (uint32_t k = 0; k < n; ++k) {
+      const uint32_t a = P.v[P.off[p] + k], b = P.v[P.off[p] + (k + 1) % n],
+                     c2 = P.v[P.off[p] + (k + 2) % n];
+      const double* x = &P.xy[0];
+      const double o = (x[2 * b] - x[2 * a]) * (x[2 * c2 + 1] - x[2 * a + 1]) -
+                       (x[2 * b + 1] - x[2 * a + 1]) * (x[2 * c2] - x[2 * a]);
+      EXPECT_GE(o, -1e-6 * std::hypot(x[2 * c2] - x[2 * a], x[2 * c2 + 1] - x[2 * a + 1]))
+          << "polygon " << p << " corner " << k;
+      EXPECT_EQ(++edges[std::make_pair(a, b)], 1) << "edge used twice in one direction";
+    }
+  }
+}
+
+TEST(Delta, MergedPolygonsTileTheSameArea) {
+  const Scene box = load_scene(src("data/cornell_box/CornellBox-Original.obj"));
+  merged_polygons_tile_the_same(box, orbit(box, 1920, 1080, 0));
+  const Scene bunny = load_scene(src("data/bunny.ply"));
+  merged_polygons_tile_the_same(bunny, orbit(bunny, 1920, 1080, 1));
+}
+
 // Every truncation of `frame` is refused; `trials` copies with a byte after the header flipped
 // are refused with InputError or decoded, each by a copy of `dec`. Returns the refusals.
 int mutations_refused(DeltaDecoder& dec, const std::string& frame, uint32_t seed, int trials) {
@@ -307,7 +359,7 @@ TEST(Delta, MalformedVersion2FramesAreRefusedAndLeaveTheStateAlone) {
   DeltaDecoder dec = decoder(s, held());
   dec.decode(k);
   EXPECT_GT(mutations_refused(dec, next, 34, 200), 150);  // most: the damage reaches a check
-  const DeltaFrame d = dec.decode(next);  // the state survived every refusal
+  const DeltaFrame d = dec.decode(next);                  // the state survived every refusal
   EXPECT_EQ(compare(s, r1.map, d).holes, 0u);
   const std::string sources = encode_delta_sources(s, Compression::Zstd);
   for (size_t n = 0; n < sources.size(); n += 1 + n / 4)

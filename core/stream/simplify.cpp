@@ -30,7 +30,10 @@ size_t index_of(const Ring& r, uint32_t v) {
 }
 
 // A and B (of one source) share the edge u -> v of A (v -> u in B). The union along the whole
-// path they share, when it is one convex polygon without a repeated vertex: into A.
+// path they share, when it is one convex polygon without a repeated point: into A. (Checked at
+// every corner, not only where the two meet: with the zero-length edges a map can have, a
+// union convex at those two corners was not convex; tests/test_delta.cpp,
+// MergedPolygonsTileTheSameArea, the Cornell box.)
 bool try_merge(Ring& A, const Ring& B, uint32_t u, uint32_t v, const std::vector<double>& xy) {
   const size_t na = A.size(), nb = B.size();
   size_t sa = index_of(A, u), sb = index_of(B, u);  // a_0 = u
@@ -48,13 +51,15 @@ bool try_merge(Ring& A, const Ring& B, uint32_t u, uint32_t v, const std::vector
     if (k == sa) break;
   }
   for (size_t k = (sb + 1) % nb; k != eb; k = (k + 1) % nb) merged.push_back(B[k]);
-  Ring sorted = merged;
-  std::sort(sorted.begin(), sorted.end());
-  if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) return false;
-  const size_t n = merged.size(), at0 = na - m;  // a_m at 0, a_0 at na - m
-  if (turn(xy, merged[n - 1], merged[0], merged[1]) < 0 ||
-      turn(xy, merged[at0 - 1], merged[at0], merged[(at0 + 1) % n]) < 0)
-    return false;
+  // No point twice (by position: the map has distinct vertices at one place, the ends of
+  // zero-length edges, and polygons of no area around them), and convex at every corner.
+  std::vector<std::pair<double, double>> at;
+  for (uint32_t w : merged) at.emplace_back(xy[2 * size_t(w)], xy[2 * size_t(w) + 1]);
+  std::sort(at.begin(), at.end());
+  if (std::adjacent_find(at.begin(), at.end()) != at.end()) return false;
+  const size_t n = merged.size();
+  for (size_t k = 0; k < n; ++k)
+    if (turn(xy, merged[(k + n - 1) % n], merged[k], merged[(k + 1) % n]) < 0) return false;
   A = std::move(merged);
   return true;
 }
@@ -90,26 +95,62 @@ uint64_t merge_rounds(std::vector<Ring>& rings, std::vector<uint8_t>& alive,
   return merged;
 }
 
-// Drops every vertex that at most two polygons have and that is flat in each of them.
+// w lies within kFlat px of the segment from p to q, strictly between its ends.
+bool on_segment(const std::vector<double>& xy, uint32_t p, uint32_t q, uint32_t w) {
+  const double* a = &xy[2 * size_t(p)];
+  const double* b = &xy[2 * size_t(q)];
+  const double* c = &xy[2 * size_t(w)];
+  const double ex = b[0] - a[0], ey = b[1] - a[1], len = std::hypot(ex, ey);
+  if (!(len > 0)) return false;
+  const double o = ex * (c[1] - a[1]) - ey * (c[0] - a[0]);
+  const double t = ex * (c[0] - a[0]) + ey * (c[1] - a[1]);
+  return std::abs(o) <= kFlat * len && t > 0 && t < len * len;
+}
+
+// Drops the vertices that at most two polygons have and that lie, in each of them, on the
+// segment between the nearest corners kept on either side. Decided for a vertex in every polygon
+// that has it (so both sides of an edge drop the same ones), by rounds: a run of candidates
+// that does not lie on its ends' segment is kept, which changes the runs around it. (Judged by
+// each vertex's own neighbours instead, a cluster of points a thousandth of a pixel apart at a
+// corner looked flat point by point, and dropping them all cut the corner off: the Cornell box.)
 uint64_t drop_flat_vertices(std::vector<Ring>& rings, const std::vector<uint8_t>& alive,
                             size_t vertex_count, const std::vector<double>& xy,
                             std::vector<uint8_t>& changed) {
-  std::vector<uint8_t> uses(vertex_count, 0), bent(vertex_count, 0);
-  for (size_t p = 0; p < rings.size(); ++p) {
-    const Ring& r = rings[p];
-    for (size_t k = 0; alive[p] && k < r.size(); ++k) {
-      const uint32_t w = r[k];
-      uses[w] = uint8_t(std::min(3, uses[w] + 1));
-      if (turn(xy, r[(k + r.size() - 1) % r.size()], w, r[(k + 1) % r.size()]) != 0) bent[w] = 1;
+  std::vector<uint8_t> uses(vertex_count, 0), drop(vertex_count, 0);
+  for (size_t p = 0; p < rings.size(); ++p)
+    for (uint32_t w : alive[p] ? rings[p] : Ring{}) uses[w] = uint8_t(std::min(3, uses[w] + 1));
+  for (size_t w = 0; w < vertex_count; ++w) drop[w] = uses[w] >= 1 && uses[w] <= 2;
+  for (bool again = true; again;) {
+    again = false;
+    for (size_t p = 0; p < rings.size(); ++p) {
+      const Ring& r = rings[p];
+      const size_t n = r.size();
+      size_t kept = 0, first = n;
+      for (size_t k = 0; k < n; ++k)
+        if (!drop[r[k]]) ++kept, first = first == n ? k : first;
+      if (!alive[p] || kept == n) continue;
+      if (kept < 3) {  // it would collapse: it keeps its vertices
+        for (uint32_t w : r) again |= drop[w], drop[w] = 0;
+        continue;
+      }
+      for (size_t k = 1, from = first; k <= n; ++k) {  // r[from], r[i]: kept, candidates between
+        const size_t i = (first + k) % n;
+        if (drop[r[i]]) continue;
+        bool on = true;
+        for (size_t j = (from + 1) % n; j != i; j = (j + 1) % n)
+          on = on && on_segment(xy, r[from], r[i], r[j]);
+        for (size_t j = (from + 1) % n; !on && j != i; j = (j + 1) % n)
+          drop[r[j]] = 0, again = true;
+        from = i;
+      }
     }
   }
   uint64_t dropped = 0;
   for (size_t p = 0; p < rings.size(); ++p) {
-    if (!alive[p]) continue;
     Ring kept;
-    for (uint32_t w : rings[p])
-      if (bent[w] || uses[w] > 2) kept.push_back(w);
-    if (kept.size() < 3 || kept.size() == rings[p].size()) continue;
+    for (uint32_t w : alive[p] ? rings[p] : Ring{})
+      if (!drop[w]) kept.push_back(w);
+    if (!alive[p] || kept.size() == rings[p].size()) continue;
     dropped += rings[p].size() - kept.size();
     rings[p] = std::move(kept);
     changed[p] = 1;

@@ -18,9 +18,9 @@ struct SimplifyStats {
 };
 
 // Merges neighbouring polygons of one source (source[p]: any key, equal for polygons of the same
-// source triangle) whose union is convex, and drops from every polygon a vertex that is flat
-// (collinear with its neighbours, within 1e-6 px of their chord) in each of the at most two
-// polygons that have it. The polygons still conform (both sides of every edge have the same
+// source triangle) whose union is convex, and drops the vertices that at most two polygons have
+// and that lie, in each, within 1e-6 px of the segment between the nearest corners kept on
+// either side. The polygons still conform (both sides of every edge have the same
 // vertices, no T-junction) and stay convex (corners at most 1e-6 px reflex); off, v, fragment and
 // original are rewritten (original: the corner count of a polygon that changed).
 SimplifyStats merge_source_polygons(ConformedPolygons& polygons,
