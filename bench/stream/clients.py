@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The five streaming scenes through all three clients, in every encoding each decodes (issue 16).
+"""The streaming scenes through all three clients, in every encoding each decodes (issues 16, 34).
 
 Starts vismapd on a free port with a scene library (a temporary folder holding copies of the
 stream bench's scene files, bench/stream/stream.py's SCENES) and, per scene, sends the same
@@ -90,7 +90,14 @@ def make_library(lib, names):
     out = {}
     for n in names:
         src = known[n]
-        if n == "cornell_armadillo":
+        if n == "bunny_cut":  # data/scenes/bunny_cut.json: ../bunny.ply and quad.obj beside it
+            data = os.path.dirname(os.path.dirname(src))
+            os.makedirs(os.path.join(lib, "data", "scenes"), exist_ok=True)
+            shutil.copy(src, os.path.join(lib, "data", "scenes"))
+            shutil.copy(os.path.join(data, "scenes", "quad.obj"), os.path.join(lib, "data", "scenes"))
+            shutil.copy(os.path.join(data, "bunny.ply"), os.path.join(lib, "data"))
+            out[n] = "data/scenes/" + os.path.basename(src)
+        elif n == "cornell_armadillo":
             data = os.path.dirname(os.path.dirname(src))
             os.makedirs(os.path.join(lib, "data", "scenes"), exist_ok=True)
             shutil.copy(src, os.path.join(lib, "data", "scenes"))
