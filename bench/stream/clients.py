@@ -8,7 +8,8 @@ cameras through
   - the Python client, vismap_client (clients/python): svg, bin, compact, delta (zstd);
   - the web viewer, server/www in headless Chromium (bench/stream/browser.mjs): svg, compact,
     delta (raw deflate, the only codec a browser inflates natively; decoded in its worker and
-    drawn with WebGL 2 (SwiftShader here), or the 2D canvas with --viewer-query draw=2d);
+    drawn as the viewer chooses: WebGL 2 on a GPU, the 2D canvas over a software rasterizer such
+    as SwiftShader here; --viewer-query draw=webgl or draw=2d decides);
   - the JavaScript decoders (compact.js, delta.js) in node on the frames the C++ client received
     (bench/stream/js_digests.mjs).
 Delta is protocol version 3 with the scene held (hello hold_scene: the sources message once after

@@ -90,8 +90,8 @@ void main() {
   float c = n / 16.0;
   outColor = vec4(vColor.rgb * c, c);
 }`;
-// A stroke (instance: the edge a -> b): the rectangle 1 px wide along it, butt ends (as the 2D
-// canvas's and the SVG's strokes of separate segments), grown by 1 px.
+// A stroke (instance: the edge a -> b): the band 1 px wide along it, butt ends (as the 2D
+// canvas's and the SVG's strokes of separate segments), drawn over the pixels it touches.
 const STROKE_VERTEX = `${COMMON}
 in vec2 a;
 in vec2 b;
@@ -106,7 +106,7 @@ void main() {
   vec2 n = vec2(-u.y, u.x);
   int k = gl_VertexID;  // two triangles: (0, 1, 2), (2, 1, 3) of the corners below
   int q = k < 3 ? k : k == 3 ? 2 : k == 4 ? 1 : 3;
-  vec2 p = (q == 0 || q == 2 ? a - u : b + u) + (q < 2 ? -1.5 : 1.5) * n;
+  vec2 p = (q == 0 || q == 2 ? a - 0.75 * u : b + 0.75 * u) + (q < 2 ? -1.25 : 1.25) * n;
   gl_Position = clip(p);
 }`;
 const STROKE_FRAGMENT = `${SAMPLES}
@@ -114,21 +114,19 @@ flat in vec2 va;
 flat in vec2 vb;
 flat in vec4 vColor;
 out vec4 outColor;
+// Its coverage in closed form: a box filter across the band 1 px wide (1 - |h|) and across each
+// butt end (0.5 + the distance past it), where the SVG's and the 2D canvas's come from samples;
+// a stroke lies under the fills, so only its part outside them shows, and that is within a
+// grid step of the straight line.
 void main() {
   vec2 e = vb - va;
   float len = length(e);
   if (len == 0.0) discard;
   vec2 u = e / len;
-  float n = 0.0;
-  for (int i = 0; i < 4; ++i) {
-    for (int j = 0; j < 4; ++j) {
-      vec2 d = sample_at(i, j) - va;
-      float t = dot(d, u), h = d.x * u.y - d.y * u.x;
-      n += (t >= 0.0 && t <= len && abs(h) <= 0.5) ? 1.0 : 0.0;
-    }
-  }
-  if (n == 0.0) discard;
-  float c = n / 16.0;
+  vec2 d = vec2(gl_FragCoord.x, size.y - gl_FragCoord.y) - va;
+  float t = dot(d, u), h = d.x * u.y - d.y * u.x;
+  float c = clamp(1.0 - abs(h), 0.0, 1.0) * clamp(0.5 + t, 0.0, 1.0) * clamp(0.5 + len - t, 0.0, 1.0);
+  if (c <= 0.0) discard;
   outColor = vec4(vColor.rgb * c, c);
 }`;
 const STROKE_BYTES = 20; // decode_worker.js: ax, ay, bx, by (float32), r, g, b, a (uint8)

@@ -21,9 +21,9 @@
 // formats carry no lines.
 // Compact and delta frames are decoded in a Worker (decode_worker.js: the frame's bytes go in
 // and the draw's buffers come back, transferred, not copied), so the page never waits on a
-// decode, and drawn with WebGL 2 (gl_draw.js: one buffer upload, one draw call, antialiased as
-// the SVG's coverage) where the browser has it, else (or with ?draw=2d) on a 2D canvas
-// (drawCompact: a path per colour). bin frames are decoded and drawn here on a 2D canvas (their
+// decode, and drawn with WebGL 2 (gl_draw.js: one buffer upload, two instanced draws,
+// antialiased as the SVG's coverage) where the browser has it on a GPU, else on a 2D canvas
+// (drawCompact: a path per colour); ?draw=webgl or ?draw=2d chooses. bin frames are decoded and drawn here on a 2D canvas (their
 // lines are strokes, dashed for hidden parts).
 // Every frame shown is timed in the page (performance.now()): decode (compact, delta: the
 // worker's decode, inflate included; bin: bin.js; svg: the innerHTML assignment, which parses the
@@ -62,8 +62,18 @@
   let bin = null;  // bin.js (decodeBin), imported on first use
   let meshEdges = null;  // mesh_edges.js (sharedEdges), imported before the first 2D canvas draw
   let pendingSources = false;  // the next binary message is the held scene's sources
-  // WebGL 2 where the browser has it (a probe canvas says), unless ?draw=2d.
-  const useGl = params.get('draw') !== '2d' && !!document.createElement('canvas').getContext('webgl2');
+  // WebGL 2 where the browser has it on a GPU (a probe canvas says); a software rasterizer
+  // (SwiftShader, llvmpipe) draws a 1920x1080 bunny frame in ~3 s where the 2D canvas takes
+  // ~0.1 s (docs/STREAMING.md), so there the 2D canvas; ?draw=webgl or ?draw=2d decides.
+  const useGl = (() => {
+    if (params.get('draw') === '2d') return false;
+    const gl = document.createElement('canvas').getContext('webgl2');
+    if (!gl) return false;
+    if (params.get('draw') === 'webgl') return true;
+    const info = gl.getExtension('WEBGL_debug_renderer_info');
+    const name = info ? String(gl.getParameter(info.UNMASKED_RENDERER_WEBGL)) : '';
+    return !/swiftshader|llvmpipe|software/i.test(name);
+  })();
   let glModule = null, glDraw = null;  // gl_draw.js, and the canvas's GlDraw (null: 2D canvas)
   // The decoding worker: requests by id, answered in order of completion.
   const worker = new Worker('decode_worker.js', { type: 'module' });

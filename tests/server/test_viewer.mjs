@@ -3,7 +3,8 @@
 //     mouse drag;
 //  2. the bunny in svg mode, then switched to compact mode (protocol version 2, raw deflate,
 //     compact.js in the viewer's worker, drawn with WebGL 2: SwiftShader here) with the same
-//     camera, and in a page of its own on the 2D canvas (?draw=2d); the screenshots must agree: at most
+//     camera (?draw=webgl), and in a page of its own on the 2D canvas (which the viewer picks
+//     over SwiftShader's software WebGL); the screenshots must agree: at most
 //     MAX_DIFFERING of the pixels that either shows as object may differ by more than
 //     PIXEL_TOLERANCE in a channel (anti-aliased outlines and the 1/16 px grid differ a little,
 //     a missing, turned or wrongly coloured bunny over much of it). Measured at 800x546 (a two-row bar since the line controls): 0.03% of
@@ -122,7 +123,7 @@ try {
   const bunny = await browser.newPage({ viewport: { width: 800, height: 600 } });
   const errors = [];
   bunny.on('pageerror', (e) => errors.push(String(e)));
-  await bunny.goto(`http://127.0.0.1:${port}/?scene=bunny.ply`);
+  await bunny.goto(`http://127.0.0.1:${port}/?scene=bunny.ply&draw=webgl`);  // (SwiftShader here: the viewer would pick the 2D canvas)
   await bunny.waitForSelector('#view svg path', { timeout: 90000 });
   await bunny.waitForFunction(() => /fps/.test(document.querySelector('#stats').textContent), null, { timeout: 30000 });
   const svgShot = await bunny.locator('#view svg').screenshot();
@@ -149,10 +150,13 @@ try {
     if (d.objectA < 1000 || d.objectB < 1000) throw new Error('an image shows almost no bunny');
     if (d.fraction > MAX_DIFFERING) throw new Error('svg and compact screenshots differ too much');
     console.log('ok: bunny in compact mode (WebGL 2) matches svg mode');
-    // The 2D canvas fallback, the same first camera in a page of its own.
+    // The 2D canvas, the same first camera in a page of its own: without ?draw the viewer
+    // picks it here, WebGL 2 being SwiftShader's (software).
     const flat = await browser.newPage({ viewport: { width: 800, height: 600 } });
-    await flat.goto(`http://127.0.0.1:${port}/?scene=bunny.ply&format=compact&draw=2d`);
+    await flat.goto(`http://127.0.0.1:${port}/?scene=bunny.ply&format=compact`);
     await flat.waitForSelector('#view canvas[data-frames]', { timeout: 90000 });
+    const flatRenderer = await flat.evaluate(() => window.vismapViewer.timings.filter((t) => t.renderer).pop().renderer);
+    if (flatRenderer !== '2d') throw new Error(`a software WebGL 2 was used (${flatRenderer}), not the 2D canvas`);
     const flatShot = await flat.locator('#view canvas').screenshot();
     keep('compact_2d.png', flatShot);
     const d2 = await compare(flat, svgShot, flatShot);
