@@ -94,7 +94,7 @@ int cmd_decode(int argc, char** argv) {
   // Long on purpose (~150 lines): the options, then per frame file its format by magic, its reader
   // and the JSON or SVG written, one block per format (bin, compact, delta) in the order of the
   // usage text; each block is short and uses the options above.
-  std::string out;
+  std::string out, sources;
   std::vector<std::string> paths;
   bool json = false;
   for (int i = 2; i < argc; ++i) {
@@ -104,6 +104,9 @@ int cmd_decode(int argc, char** argv) {
       out = argv[++i];
     } else if (f == "--json") {
       json = true;
+    } else if (f == "--sources") {
+      if (i + 1 >= argc) throw UsageError(f + " needs a value");
+      sources = argv[++i];
     } else if (!f.empty() && f[0] == '-') {
       throw UsageError("unknown option " + f);
     } else {
@@ -120,9 +123,9 @@ int cmd_decode(int argc, char** argv) {
   };
   std::string bytes = read(paths[0]);
   std::string path = paths[0];
-  const bool delta = bytes.size() >= 4 && std::memcmp(bytes.data(), "VMDF", 4) == 0;
-  if (!delta && paths.size() > 1)
-    throw UsageError("decode: several frames only for a delta sequence");
+  // A delta sequence (version 2's may hold compact frames, and start from the held scene).
+  const bool delta = (bytes.size() >= 4 && std::memcmp(bytes.data(), "VMDF", 4) == 0) ||
+                     paths.size() > 1 || !sources.empty();
 
   const auto t0 = std::chrono::steady_clock::now();
   Triangles t;
@@ -131,6 +134,7 @@ int cmd_decode(int argc, char** argv) {
     if (delta) {
       // A sequence: each frame applies to the one before; the last is drawn.
       DeltaDecoder decoder;
+      if (!sources.empty()) decoder.hold_scene(read(sources));
       DeltaFrame d;
       for (size_t i = 0; i < paths.size(); ++i) {
         path = paths[i];

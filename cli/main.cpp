@@ -55,9 +55,10 @@ const char* kCheckUsage =
     "                [--reverse] [--no-reference] [--strict]   one JSON object on stdout; exit 4 "
     "if over tolerance\n";
 const char* kDecodeUsage =
-    "  vismap decode FRAME... [-o OUT.svg] [--json]   a bin or compact frame, or a delta "
-    "sequence:\n"
-    "                a summary line on stdout\n";
+    "  vismap decode FRAME... [-o OUT.svg] [--json] [--sources SOURCES]   a bin or compact "
+    "frame,\n"
+    "                or a delta sequence (--sources: the held scene's message): a summary line on "
+    "stdout\n";
 const char* kDevicesUsage = "  vismap devices\n";
 const char* kNotes =
     "SCENE: .ply .ply.gz .obj .off .stl .gltf .glb, pbrt .pbrt (trianglemesh, loopsubdiv),\n"

@@ -28,15 +28,38 @@ static const char* kUsage =
     "                     [--attributes] [--fill shade|id] [--quantum Q]\n"
     "                     [--compression zstd|deflate] [--permessage-deflate]\n"
     "                     [--token-file FILE] [--timeout S] [--retries N] [--cameras FILE]\n"
+    "                     [--hold-scene]\n"
     "  compact, delta (and --quantum, --compression) negotiate protocol version 2; bin,\n"
     "  compact and delta frames are decoded (read_bin, read_compact, DeltaDecoder: a delta\n"
     "  frame that does not apply asks the server for a keyframe) and their triangles counted.\n"
+    "  --hold-scene (delta): protocol version 3, DELTA.md version 2; the client holds the scene\n"
+    "  (the sources message after scene_ready) and frames are never larger than compact.\n"
     "  --cameras FILE: a JSON array of camera messages' fields (eye, target, up, fov_y_deg, ...),\n"
     "  one frame each, instead of the orbit (--frames is then the array's length).\n"
     "       vismap-client --health http://HOST:PORT/health   (exit 0 when the server answers 200 "
     "ok;\n"
     "                                                         a container HEALTHCHECK without "
     "curl)\n";
+
+// A decoded frame's fingerprint, the same in the Python and JS clients (bench/stream/clients.py
+// compares them frame by frame): per array (xy, indices, source, shade, each value as uint32),
+// "length:h" with h = sum of value_i * (2i + 1) mod 2^32, joined by '/'.
+template <class Frame>
+static std::string digest(const Frame& f) {
+  std::string out;
+  auto one = [&](const auto& v) {
+    uint32_t h = 0;
+    for (size_t i = 0; i < v.size(); ++i) h += uint32_t(v[i]) * uint32_t(2 * i + 1);
+    char b[40];
+    std::snprintf(b, sizeof b, "%s%zu:%08x", out.empty() ? "" : "/", v.size(), h);
+    out += b;
+  };
+  one(f.xy);
+  one(f.indices);
+  one(f.source);
+  one(f.shade);
+  return out;
+}
 
 // GET /health: 0 when the server answers 200 with status ok, 1 otherwise (stopping, refused,
 // timeout).
@@ -104,7 +127,7 @@ int main(int argc, char** argv) {
       cameras_file;
   int frames = 36, retries = 0;
   uint32_t width = 1024, height = 1024, quantum = 0;
-  bool attributes = false, deflate = false;
+  bool attributes = false, deflate = false, hold_scene = false;
   double timeout = 60;
   json cameras;  // --cameras: one camera message's fields per frame
   try {
@@ -150,6 +173,8 @@ int main(int argc, char** argv) {
         cameras_file = val();
       else if (a == "--permessage-deflate")
         deflate = true;
+      else if (a == "--hold-scene")
+        hold_scene = true;
       else if (a == "--help" || a == "-h") {
         std::fputs(kUsage, stdout);
         return 0;
@@ -180,13 +205,14 @@ int main(int argc, char** argv) {
     // Version 2 only where it is needed, so svg and bin keep working with a version 1 server.
     bool v2 = format == "compact" || format == "delta" || quantum || !compression.empty();
     json hello = {{"type", "hello"},
-                  {"version", v2 ? 2 : 1},
+                  {"version", hold_scene ? 3 : v2 ? 2 : 1},
                   {"format", format},
                   {"attributes", attributes},
                   {"viewport", {{"width", width}, {"height", height}}}};
     if (!fill.empty()) hello["fill"] = fill;
     if (quantum) hello["quantum"] = quantum;
     if (!compression.empty()) hello["compression"] = compression;
+    if (hold_scene) hello["hold_scene"] = true;
     if (!token_file.empty()) {
       std::string t = slurp(token_file);
       while (!t.empty() && (t.back() == '\n' || t.back() == '\r')) t.pop_back();
@@ -212,6 +238,19 @@ int main(int argc, char** argv) {
     std::printf("scene: %s, %llu triangles, uploaded and loaded in %.1f ms\n",
                 ready.value("name", "").c_str(),
                 static_cast<unsigned long long>(ready.value("triangles", 0ull)), upload_ms);
+    vismap::DeltaDecoder delta;
+    uint64_t sources_bytes = 0;
+    if (hold_scene) {  // the scene's sources, once (proto/DELTA.md, "The held scene")
+      json sh = next_json(c, timeout);
+      if (sh.value("type", "") != "sources") throw std::runtime_error("expected sources");
+      Message m = c.read(timeout);
+      delta.hold_scene(m.data);
+      sources_bytes = m.data.size();
+      if (!out.empty()) {
+        std::filesystem::create_directories(out);
+        std::ofstream(std::filesystem::path(out) / "sources.vmd", std::ios::binary) << m.data;
+      }
+    }
 
     // Orbit: rotate the framing camera's eye about the target around its up axis (y here).
     auto cam = ready["camera"];
@@ -219,12 +258,13 @@ int main(int argc, char** argv) {
     double dx = eye[0] - target[0], dz = eye[2] - target[2];
     if (!out.empty()) std::filesystem::create_directories(out);
     std::vector<double> latency;
-    vismap::DeltaDecoder delta;
     uint64_t keyframes = 0, resyncs = 0;
     double render_ms_sum = 0, decode_ms_sum = 0;
     uint64_t bytes_sum = 0, triangles_sum = 0;
     json triangles = json::array();  // per frame (bin, compact, delta; null where not decoded)
     json decode_ms = json::array(), frame_bytes = json::array();  // per frame
+    json server_ms = json::array(), coding = json::array();       // per frame: render, encode
+    json digests = json::array();  // compact, delta: per frame, digest() of the decoded arrays
     const uint64_t wire0 = c.wire_bytes_received();
     auto t0 = std::chrono::steady_clock::now();
     for (int i = 0; i < frames; ++i) {
@@ -245,16 +285,21 @@ int main(int argc, char** argv) {
       bytes_sum += payload.data.size();
       frame_bytes.push_back(payload.data.size());
       render_ms_sum += header.value("render_ms", 0.0);
+      server_ms.push_back({header.value("render_ms", 0.0), header.value("encode_ms", 0.0)});
+      if (header.contains("coding")) coding.push_back(header["coding"]);
       auto td = std::chrono::steady_clock::now();
       json count = nullptr;
       if (format == "bin")
         count = vismap::read_bin(payload.data).triangle_count();
-      else if (format == "compact")
-        count = vismap::read_compact(payload.data).triangle_count();
-      else if (format == "delta") {
+      else if (format == "compact") {
+        const vismap::CompactFrame f = vismap::read_compact(payload.data);
+        count = f.triangle_count();
+        digests.push_back(digest(f));
+      } else if (format == "delta") {
         try {
           const vismap::DeltaFrame d = delta.decode(payload.data);
           count = d.triangle_count();
+          digests.push_back(digest(d));
           keyframes += d.keyframe;
         } catch (const vismap::DeltaOutOfSync&) {  // lost state: the next frame stands alone
           ++resyncs;
@@ -307,9 +352,13 @@ int main(int argc, char** argv) {
       per["triangles"] = triangles;
       per["decode_ms"] = decode_ms;
     }
+    per["server_ms"] = server_ms;  // per frame: [render_ms, encode_ms] from the headers
+    if (!digests.empty()) per["digests"] = digests;
     if (format == "delta") {
       per["keyframes"] = keyframes;
       per["resyncs"] = resyncs;  // frames that did not apply (then a keyframe was asked for)
+      if (!coding.empty()) per["coding"] = coding;  // protocol 3: delta, keyframe or compact
+      if (hold_scene) per["sources_bytes"] = sources_bytes;
     }
     r["by_format"] = {{format, per}};
     std::printf(

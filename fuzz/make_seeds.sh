@@ -25,7 +25,8 @@ if [ "$kind" = compact ]; then
   exit 0
 fi
 if [ "$kind" = delta ]; then
-  cp "$vectors/delta_cornell_1.vmd" "$vectors/delta_cornell_2.vmd" "$out/"
+  cp "$vectors/delta_cornell_1.vmd" "$vectors/delta_cornell_2.vmd" "$vectors/delta2_torus_3.vmd" \
+     "$vectors/delta2_torus_4.vmd" "$out/"
   exit 0
 fi
 seed() {  # seed FORMAT_BYTE FILE

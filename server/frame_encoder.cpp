@@ -102,6 +102,11 @@ class DeltaFrameEncoder : public FrameEncoder {
                 {"polygons", st.partial},
                 {"points", st.points},
                 {"new_triangles", st.new_triangles}};
+    if (options_.version >= 2) {  // protocol version 3: how it went out, and the compact size
+      static constexpr const char* kCoding[] = {"delta", "keyframe", "compact"};
+      f.header["coding"] = kCoding[int(st.coding)];
+      f.header["compact_bytes"] = st.compact_bytes;
+    }
     return f;
   }
 
@@ -133,6 +138,8 @@ std::unique_ptr<FrameEncoder> make_encoder(const Hello& h) {
       o.quantum = h.quantum;
       o.compression = h.compression;
       o.keyframe_every = h.keyframe_every;
+      o.version = h.version >= 3 ? 2 : 1;  // DELTA.md version 2 from protocol version 3
+      o.client_holds_scene = h.hold_scene;
       return std::make_unique<DeltaFrameEncoder>(o);
     }
   }

@@ -86,7 +86,11 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       json j = {{"status", srv_.stopping ? "stopping" : "ok"},
                 {"sessions", srv_.metrics.sessions_active.load()},
                 {"protocol", kMaxProtocolVersion},
-                {"protocols", json::array({kMinProtocolVersion, kMaxProtocolVersion})}};
+                {"protocols", [] {
+                   json a = json::array();
+                   for (int v = kMinProtocolVersion; v <= kMaxProtocolVersion; ++v) a.push_back(v);
+                   return a;
+                 }()}};
       return respond(srv_.stopping ? http::status::service_unavailable : http::status::ok,
                      "application/json", j.dump() + "\n");
     }

@@ -171,6 +171,14 @@ Hello parse_hello(const json& j, uint32_t max_viewport) {
       h.keyframe_every = v->get<uint32_t>();
     }
   }
+  if (h.version >= 3) {
+    if (const json* v = field(j, "hold_scene")) {
+      if (!v->is_boolean()) bad("'hold_scene' must be a boolean");
+      h.hold_scene = v->get<bool>();
+      if (h.hold_scene && h.format != Format::Delta)
+        bad("'hold_scene' is for delta frames (the client holds the scene's sources)");
+    }
+  }
   if (h.attributes && format_spec(h.format).no_attributes)
     bad(std::string("'attributes': ") + format_spec(h.format).no_attributes);
   return h;

@@ -21,7 +21,7 @@ namespace vismap::server {
 
 // The protocol versions this server speaks (proto/PROTOCOL.md); hello picks the highest offered.
 inline constexpr int kMinProtocolVersion = 1;
-inline constexpr int kMaxProtocolVersion = 2;
+inline constexpr int kMaxProtocolVersion = 3;
 
 // Protocol error codes (proto/PROTOCOL.md, "Error codes"). Scene and camera errors use the
 // vismap::InputErrorKind strings (to_string(kind)) unchanged.
@@ -99,6 +99,9 @@ struct Hello {
   // Delta frames (version 2): a keyframe every N frames besides the first and those the client
   // asks for (0: none).
   uint32_t keyframe_every = 0;
+  // Delta frames (version 3): the client holds the scene; after each scene_ready the session
+  // sends it the scene's sources once (a `sources` message), and frames carry none.
+  bool hold_scene = false;
   // Line drawings (version 2; svg and bin frames): "fill", "lines" or "fill+lines", the
   // occluded parts, the crease angle (docs/LINES.md).
   std::string style = "fill";

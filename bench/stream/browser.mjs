@@ -13,7 +13,7 @@ import fs from 'node:fs';
 import path from 'node:path';
 
 const PIXEL_TOLERANCE = 48;  // of 255, in any channel: as tests/server/test_viewer.mjs
-const BAR_PX = 34;           // server/www/index.html: #view is the window less the bar
+const BAR_PX = 54;           // server/www/index.html: #view is the window less the bar (two rows)
 
 const args = Object.fromEntries(process.argv.slice(2).reduce((a, v, i, all) =>
   (v.startsWith('--') ? a.concat([[v.slice(2), all[i + 1]]]) : a), []));

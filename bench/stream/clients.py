@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The five streaming scenes through all three clients, in every encoding each decodes (issue 16).
+"""The streaming scenes through all three clients, in every encoding each decodes (issues 16, 34).
 
 Starts vismapd on a free port with a scene library (a temporary folder holding copies of the
 stream bench's scene files, bench/stream/stream.py's SCENES) and, per scene, sends the same
@@ -7,7 +7,13 @@ cameras through
   - the C++ client, vismap-client (--cameras FILE): svg, bin, compact, delta (zstd);
   - the Python client, vismap_client (clients/python): svg, bin, compact, delta (zstd);
   - the web viewer, server/www in headless Chromium (bench/stream/browser.mjs): svg, compact,
-    delta (raw deflate, the only codec a browser inflates natively; the viewer has no bin mode).
+    delta (raw deflate, the only codec a browser inflates natively; decoded in its worker and
+    drawn as the viewer chooses: WebGL 2 on a GPU, the 2D canvas over a software rasterizer such
+    as SwiftShader here; --viewer-query draw=webgl or draw=2d decides);
+  - the JavaScript decoders (compact.js, delta.js) in node on the frames the C++ client received
+    (bench/stream/js_digests.mjs).
+Delta is protocol version 3 with the scene held (hello hold_scene: the sources message once after
+scene_ready, DELTA.md version 2 frames, each never larger than the compact frame).
 The cameras: the stream bench's orbit (6 degrees of azimuth a frame about +Y through the
 bounding-box centre from scene_ready's bounds, elevation 20 degrees, 1.7 diagonals away, 35
 degree fov), the first --frames of it, at --width x --height (1920x1080).
@@ -16,9 +22,13 @@ Per (scene, format, client): frames received and decoded, mean payload bytes per
 client's decode ms (median; delta: over the frames after the keyframe), and for the browser the
 draw ms (median) as the page measures them, and a screenshot of the last frame per mode; per
 scene, the browser's compact and delta screenshots against its svg one (fraction of object pixels
-that differ by more than 48/255, limit 1% as tests/server/test_viewer.mjs) and the C++ client's
-decoded triangles per frame against the Python client's. A combination that fails is a FAIL row
-(with its reason) and the exit status is 1.
+that differ by more than 48/255, limit 1% as tests/server/test_viewer.mjs), the C++ client's
+decoded triangles per frame against the Python client's (bin), and for compact and delta the
+decoded arrays of every frame, as a digest (vismap-client's digest(): per array xy, indices,
+source, shade the sum of v_i (2i + 1) mod 2^32), C++ against Python against JavaScript. A
+combination that fails is a FAIL row (with its reason) and the exit status is 1. Per (scene,
+format) also the latency table: the server's render and encode ms (the frame headers, C++
+client's stream), wire bytes, each client's decode and the browser's draw, p50 and p95.
 
 Writes OUT/results.md, results.csv, raw.json, env.txt (default bench/results/<date>-stream-clients);
 screenshots to SHOTS (default bench/out/stream-clients/<date>, ignored by git).
@@ -81,7 +91,14 @@ def make_library(lib, names):
     out = {}
     for n in names:
         src = known[n]
-        if n == "cornell_armadillo":
+        if n == "bunny_cut":  # data/scenes/bunny_cut.json: ../bunny.ply and quad.obj beside it
+            data = os.path.dirname(os.path.dirname(src))
+            os.makedirs(os.path.join(lib, "data", "scenes"), exist_ok=True)
+            shutil.copy(src, os.path.join(lib, "data", "scenes"))
+            shutil.copy(os.path.join(data, "scenes", "quad.obj"), os.path.join(lib, "data", "scenes"))
+            shutil.copy(os.path.join(data, "bunny.ply"), os.path.join(lib, "data"))
+            out[n] = "data/scenes/" + os.path.basename(src)
+        elif n == "cornell_armadillo":
             data = os.path.dirname(os.path.dirname(src))
             os.makedirs(os.path.join(lib, "data", "scenes"), exist_ok=True)
             shutil.copy(src, os.path.join(lib, "data", "scenes"))
@@ -166,7 +183,31 @@ def row(scene, fmt, client, frames):
     return {"scene": scene, "format": fmt, "client": client, "codec": CODEC[client] if fmt in ("compact", "delta") else "",
             "status": "FAIL", "frames": frames, "received": 0, "decoded": 0, "bytes_mean": None, "keyframe_bytes": None,
             "decode_ms_median": None, "draw_ms_median": None, "paths_ms_median": None, "keyframe_decode_ms": None,
-            "keyframe_draw_ms": None, "triangles_mean": None, "wall_s": None, "note": ""}
+            "keyframe_draw_ms": None, "triangles_mean": None, "wall_s": None, "note": "",
+            # per frame, for the latency table and the digests check (raw.json)
+            "frame_bytes": [], "render_ms": [], "encode_ms": [], "decode_ms": [], "draw_ms": [], "script_ms": [],
+            "upload_ms": [], "digests": None, "coding": None, "sources_bytes": None}
+
+
+def digest(f):
+    """vismap-client's digest() of a decoded frame: per array (xy, indices, source, shade, values as
+    uint32) "length:h", h = sum of v_i (2i + 1) mod 2^32, joined by '/'."""
+    import numpy as np
+    out = []
+    for v in (f.xy, f.indices, f.source, f.shade):
+        v = np.asarray(v).astype(np.int64).astype(np.uint32)
+        h = int((v * (2 * np.arange(len(v), dtype=np.uint32) + 1)).sum(dtype=np.uint32))
+        out.append(f"{len(v)}:{h:08x}")
+    return "/".join(out)
+
+
+def percentile(v, q):
+    v = sorted(x for x in v if x is not None)
+    if not v:
+        return None
+    k = (len(v) - 1) * q / 100
+    lo, hi = math.floor(k), math.ceil(k)
+    return v[lo] + (v[hi] - v[lo]) * (k - lo)
 
 
 def after_keyframe(fmt, values):
@@ -186,8 +227,14 @@ def run_cpp(a, url, scene, lib_name, fmt, cams, tmp):
     path = os.path.join(tmp, f"cams_{scene}.json")
     with open(path, "w") as f:
         json.dump(cams, f)
+    frames_dir = os.path.join(tmp, f"frames_{scene}_{fmt}")
+    shutil.rmtree(frames_dir, ignore_errors=True)
     cmd = [os.path.join(a.build, "clients", "vismap-client"), "--url", url, "--library", lib_name, "--format", fmt,
            "--width", str(a.width), "--height", str(a.height), "--cameras", path, "--timeout", str(a.timeout)]
+    if fmt in ("compact", "delta"):
+        cmd += ["--out", frames_dir]  # for the JavaScript decoders (js_digests.mjs)
+    if fmt == "delta":
+        cmd.append("--hold-scene")
     t0 = time.perf_counter()
     p = subprocess.run(cmd, capture_output=True, text=True)
     r["wall_s"] = time.perf_counter() - t0
@@ -197,6 +244,15 @@ def run_cpp(a, url, scene, lib_name, fmt, cams, tmp):
     j = json.loads(p.stdout.strip().splitlines()[-1])
     per = j["by_format"][fmt]
     r["received"] = j["frames"]
+    r["frame_bytes"] = per["bytes"]
+    r["render_ms"] = [m[0] for m in per.get("server_ms", [])]
+    r["encode_ms"] = [m[1] for m in per.get("server_ms", [])]
+    r["decode_ms"] = per.get("decode_ms", [])
+    r["digests"] = per.get("digests")
+    r["coding"] = per.get("coding")
+    r["sources_bytes"] = per.get("sources_bytes")
+    if fmt in ("compact", "delta"):
+        r["frames_dir"] = frames_dir
     r["bytes_mean"], r["keyframe_bytes"] = bytes_of(fmt, per["bytes"])
     tri = per.get("triangles")
     if fmt == "svg":
@@ -211,19 +267,27 @@ def run_cpp(a, url, scene, lib_name, fmt, cams, tmp):
         r["triangles_mean"] = statistics.fmean(t for t in tri if t is not None) if r["decoded"] else None
         if per.get("resyncs"):
             r["note"] = f"{per['resyncs']} frames did not apply"
+        if fmt == "delta":
+            coded = per.get("coding") or []
+            r["note"] = "; ".join(x for x in [r["note"], f"held: sources {per.get('sources_bytes', 0):,} B once",
+                                             f"coded {', '.join(f'{coded.count(k)} {k}' for k in ('keyframe', 'delta', 'compact') if coded.count(k))}"] if x)
     r["status"] = "OK" if r["received"] == r["frames"] == r["decoded"] else "FAIL"
     return r, tri
 
 
 async def python_client(a, url, lib_name, fmt, cams, r):
     tri, ms, sizes = [], [], []
-    async with vc.Session(url, fmt=fmt, width=a.width, height=a.height, timeout=a.timeout) as s:
+    async with vc.Session(url, fmt=fmt, width=a.width, height=a.height, timeout=a.timeout,
+                          hold_scene=fmt == "delta") as s:
         await s.library(lib_name)
+        r["sources_bytes"] = s.sources_bytes or None
         for cam in cams:
             await s.camera(**cam)
             header = await s.recv_json()
             if header.get("type") != "frame":
                 raise ValueError(f"expected a frame, got {header}")
+            r["render_ms"].append(header.get("render_ms"))
+            r["encode_ms"].append(header.get("encode_ms"))
             payload = await s.recv()
             sizes.append(len(payload))
             r["received"] += 1
@@ -240,6 +304,8 @@ async def python_client(a, url, lib_name, fmt, cams, r):
                 f = s.delta.decode(payload)  # raises on a frame that does not apply: a FAIL
             ms.append((time.perf_counter() - t0) * 1000)
             tri.append(f.triangle_count if f is not None else None)
+            if fmt in ("compact", "delta"):
+                r["digests"] = (r["digests"] or []) + [digest(f)]
             r["decoded"] += 1
     return tri, ms, sizes
 
@@ -255,6 +321,7 @@ def run_python(a, url, scene, lib_name, fmt, cams):
         return r, None
     r["wall_s"] = time.perf_counter() - t0
     r["bytes_mean"], r["keyframe_bytes"] = bytes_of(fmt, sizes)
+    r["frame_bytes"], r["decode_ms"] = sizes, ms
     if fmt == "svg":
         r["note"] = "svg not parsed"
     else:
@@ -299,6 +366,10 @@ def run_browser(a, port, scene, lib_name, cams, shots, tmp):
         t = run["timings"]
         good = [e for e in t if not e.get("error")]
         r["received"], r["decoded"] = len(t), len(good)
+        for k in ("decode_ms", "draw_ms", "script_ms", "upload_ms"):
+            r[k] = [e.get(k) for e in good]
+        r["frame_bytes"] = [e.get("bytes") for e in good]
+        renderers = sorted({e["renderer"] for e in good if e.get("renderer")})
         if good:
             r["bytes_mean"], r["keyframe_bytes"] = bytes_of(run["mode"], [e["bytes"] for e in good])
             key = [e for e in good if e.get("keyframe")]
@@ -311,12 +382,39 @@ def run_browser(a, port, scene, lib_name, cams, shots, tmp):
             if run["mode"] != "svg":
                 r["triangles_mean"] = statistics.fmean(e["triangles"] for e in good)
         r["note"] = "; ".join(run["errors"])[:300]
-        if run.get("draw"):
-            r["codec"] += f", {run['draw']}"
+        if renderers:
+            r["codec"] += ", " + "+".join(renderers)
         if run["mode"] == "svg":
             r["note"] = ("decode = innerHTML parse; draw = to the 2nd animation frame " + r["note"]).strip()
         r["status"] = "OK" if r["received"] == r["frames"] == r["decoded"] and not run["errors"] else "FAIL"
     return list(rows.values()), out["compare"], {"chromium": out.get("chromium")}
+
+
+def js_digests(frames_dir):
+    """The JavaScript decoders' digests of the frames the C++ client saved (js_digests.mjs)."""
+    node = shutil.which("node")
+    if not node or not frames_dir or not os.path.isdir(frames_dir):
+        return None, "no node or no frames"
+    p = subprocess.run([node, os.path.join(HERE, "js_digests.mjs"), frames_dir], capture_output=True, text=True)
+    try:
+        out = json.loads(p.stdout.strip().splitlines()[-1])
+    except (ValueError, IndexError):
+        return None, f"js_digests.mjs exit {p.returncode}: {p.stderr.strip()[-200:]}"
+    return out.get("digests"), out.get("error")
+
+
+def digest_check(n, fmt, c, p, j, why):
+    """C++, Python and JavaScript decoded the same arrays in every frame."""
+    ok = bool(c) and c == p == j
+    if ok:
+        result = f"{len(c)} frames, all equal"
+    else:
+        k = next((i for i in range(max(len(c or []), len(p or []), len(j or [])))
+                  if not (c and p and j and i < min(len(c), len(p), len(j)) and c[i] == p[i] == j[i])), 0)
+        result = (f"frame {k}: C++ {(c or [None] * (k + 1))[k] if c and k < len(c) else None}, "
+                  f"Python {p[k] if p and k < len(p) else None}, JS {j[k] if j and k < len(j) else why}")
+    return {"scene": n, "check": f"{fmt}: decoded arrays per frame, C++ = Python = JavaScript", "result": result,
+            "status": "OK" if ok else "FAIL"}
 
 
 # ---- outputs ------------------------------------------------------------------------------
@@ -336,6 +434,44 @@ def fmt_num(v, nd=1):
 
 def draw_paths(r):
     return f" (paths {r['paths_ms_median']:.2f})" if r.get("paths_ms_median") is not None else ""
+
+
+def p50_95(v, nd=1):
+    lo, hi = percentile(v, 50), percentile(v, 95)
+    return "–" if lo is None else f"{lo:,.{nd}f} / {hi:,.{nd}f}"
+
+
+def latency_table(rows):
+    """Per scene and format, from this run: the server's render and encode (frame headers of the
+    C++ client's stream; the same frames as the Python client's), bytes on the wire, each
+    client's decode and the browser's draw: p50 / p95 over the frames (delta: after the first)."""
+    md = ["", "## Latency", "",
+          "Per scene and format, p50 / p95 over the frames in ms (delta: the frames after the first, the "
+          "keyframe), from this run: server render and encode (the frame headers' render_ms and encode_ms), "
+          "wire bytes (mean payload per frame: zstd for C++ and Python, raw deflate in the browser), each "
+          "client's decode (browser: the worker's, inflate included) and the browser's draw (WebGL 2: upload "
+          "and draw calls, ended by reading one pixel back; svg: to the second animation frame) and script "
+          "(the page's own thread for the frame).", "",
+          "| scene | format | render | encode | bytes (zstd / deflate) | C++ decode | Python decode | browser decode | "
+          "browser draw | browser script |", "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    by = {(r["scene"], r["format"], r["client"]): r for r in rows}
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        for fmt in ("svg", "bin", "compact", "delta"):
+            c, p, b = (by.get((scene, fmt, k)) for k in ("cpp", "python", "browser"))
+            if not (c or p or b):
+                continue
+            cut = (lambda v: after_keyframe(fmt, v or []))
+            server = c or p
+            zb = statistics.fmean(cut(server["frame_bytes"])) if server and server["frame_bytes"] else None
+            db = statistics.fmean(cut(b["frame_bytes"])) if b and b["frame_bytes"] else None
+            md.append(f"| {scene} | {fmt} | {p50_95(cut(server['render_ms'])) if server else '–'} | "
+                      f"{p50_95(cut(server['encode_ms']), 2) if server else '–'} | "
+                      f"{fmt_num(zb, 0)} / {fmt_num(db, 0) if fmt in ('compact', 'delta') else '–'} | "
+                      f"{p50_95(cut(c['decode_ms']), 2) if c and fmt != 'svg' else '–'} | "
+                      f"{p50_95(cut(p['decode_ms']), 2) if p and fmt != 'svg' else '–'} | "
+                      f"{p50_95(cut(b['decode_ms']), 2) if b else '–'} | {p50_95(cut(b['draw_ms']), 2) if b else '–'} | "
+                      f"{p50_95(cut(b['script_ms']), 2) if b and fmt != 'svg' else '–'} |")
+    return md
 
 
 def write_outputs(out, a, rows, checks, env):
@@ -360,10 +496,12 @@ def write_outputs(out, a, rows, checks, env):
           "Bytes: mean payload per frame. Decode and draw: medians over the frames, ms, measured in the "
           "client (C++: steady_clock around read_bin/read_compact/DeltaDecoder::decode; Python: perf_counter "
           "around read_bin/read_compact/DeltaDecoder.decode; browser: performance.now() in the page around "
-          "the decoder's promise, inflate included, and around drawCompact on the 2D canvas ended by reading "
-          "one pixel back with getImageData, which makes the canvas finish rasterizing; svg mode: decode is "
-          "the innerHTML assignment, draw the time to the second requestAnimationFrame; paths: the part of the "
-          "canvas draw that builds the Path2Ds in script, the rest is Skia's fill, stroke and raster). Delta: bytes and medians over "
+          "the worker's decode, inflate included, and around the draw (WebGL 2: the buffer upload and the two "
+          "draw calls; the 2D canvas with --viewer-query draw=2d: drawCompact), ended by reading one pixel "
+          "back, which makes the browser finish rasterizing; svg mode: decode is "
+          "the innerHTML assignment, draw the time to the second requestAnimationFrame; paths: the part of a 2D "
+          "canvas draw that builds the Path2Ds in script, the rest is Skia's fill, stroke and raster). Delta: "
+          "protocol version 3 with the scene held, bytes and medians over "
           "the frames after the keyframe (frame 0), the keyframe's own in the CSV. C++ and Python take zstd, "
           "the browser raw deflate (what it inflates natively).", "",
           "| scene | format | client | codec | status | frames decoded | bytes/frame | decode ms | draw ms | triangles | note |",
@@ -372,6 +510,7 @@ def write_outputs(out, a, rows, checks, env):
         md.append(f"| {r['scene']} | {r['format']} | {r['client']} | {r['codec']} | {r['status']} | "
                   f"{r['decoded']}/{r['frames']} | {fmt_num(r['bytes_mean'], 0)} | {fmt_num(r['decode_ms_median'], 2)} | "
                   f"{fmt_num(r['draw_ms_median'], 2)}{draw_paths(r)} | {fmt_num(r['triangles_mean'], 0)} | {r['note']} |")
+    md += latency_table(rows)
     md += ["", "## Checks", "",
            "Browser screenshots of the last frame, compact and delta against svg mode: the fraction of object "
            f"pixels that differ by more than 48/255 in a channel (limit {100 * MAX_DIFFERING:g}%). C++ against "
@@ -431,7 +570,7 @@ def main():
                 sr = asyncio.run(ready())
                 cams = orbit(sr["bounds"], a.frames, a.step_deg)
                 log(f"{n}: {sr['triangles']} triangles, loaded in {sr.get('load_ms', 0):.0f} ms")
-                counts = {}
+                counts, byfmt = {}, {}
                 for client in ("cpp", "python"):
                     if client not in clients:
                         continue
@@ -441,6 +580,7 @@ def main():
                         else:
                             r, tri = run_python(a, server.url, n, lib_names[n], fmt, cams)
                         counts[(client, fmt)] = tri
+                        byfmt[(client, fmt)] = r
                         rows.append(r)
                         log(f"{n} {fmt} {client}: {r['status']} {r['decoded']}/{r['frames']}, "
                             f"{fmt_num(r['bytes_mean'], 0)} B, decode {fmt_num(r['decode_ms_median'], 2)} ms "
@@ -452,6 +592,10 @@ def main():
                         checks.append({"scene": n, "check": f"{fmt}: C++ vs Python triangles per frame",
                                        "result": f"C++ {c} / Python {p}" if not ok else f"equal ({', '.join(map(str, c))})",
                                        "status": "OK" if ok else "FAIL"})
+                    for fmt in ("compact", "delta"):
+                        rc, rp = byfmt.get(("cpp", fmt)), byfmt.get(("python", fmt))
+                        j, why = js_digests(rc.get("frames_dir") if rc else None)
+                        checks.append(digest_check(n, fmt, rc and rc["digests"], rp and rp["digests"], j, why))
                 if "browser" in clients:
                     brows, compare, benv = run_browser(a, server.port, n, lib_names[n], cams, a.shots, tmp)
                     rows += brows

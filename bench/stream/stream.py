@@ -40,6 +40,7 @@ SCENES = [
     ("cornell_armadillo", os.path.join(ROOT, "data/scenes/cornell_armadillo.json")),
     ("bunny", os.path.join(ROOT, "data/bunny.ply")),
     ("dragon", os.path.join(ROOT, "data/dragon_vrip.ply.gz")),
+    ("bunny_cut", os.path.join(ROOT, "data/scenes/bunny_cut.json")),
 ]
 QUICK_SCENES = ["cornell", "teapot", "bunny"]
 QUICK_FRAMES = 12
@@ -63,7 +64,7 @@ VIDEOS = [
                                              "-x265-params", "log-level=error"]),
 ]
 # Vector encodings in the order the tables show them; others the tool reports follow.
-VECTOR_ORDER = ["svg", "bin", "bin_attr", "compact", "delta"]
+VECTOR_ORDER = ["svg", "bin", "bin_attr", "compact", "delta", "delta_held", "delta_v1_held"]
 
 
 def log(*a):

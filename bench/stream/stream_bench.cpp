@@ -154,69 +154,89 @@ std::vector<Encoding> encodings() {
   list.push_back(compact);
 #endif
 #ifdef VISMAP_STREAM_HAVE_COMPACT
-  // delta (proto/DELTA.md): coded against the previous frame; the sources the client lacks go
-  // with the frame that first needs them (the first turn pays for them). The decoder keeps its
-  // state across frames: decode() is called once per frame, in order, before decoded_map().
-  struct DeltaState {
-    std::unique_ptr<DeltaEncoder> enc;
-    DeltaDecoder dec;
-    DeltaFrame last;
-  };
-  auto ds = std::make_shared<DeltaState>();
-  Encoding delta;
-  delta.name = "delta";
-  delta.encode = [ds](const Frame& f, Extras& x) {
-    if (!ds->enc) ds->enc = std::make_unique<DeltaEncoder>(f.scene, DeltaOptions{});
-    DeltaStats st;
-    std::string b = ds->enc->encode(f.map, f.screen, f.camera, &st);
-    x = {{"keyframe", double(st.keyframe)},
-         {"whole", double(st.whole)},
-         {"polygons", double(st.partial)},
-         {"points", double(st.points)},
-         {"new_triangles", double(st.new_triangles)},
-         {"source_bytes", double(st.source_bytes)}};
-    return b;
-  };
-  delta.decode = [ds](const std::string& b) {
-    ds->last = ds->dec.decode(b);
-    return ds->last.triangle_count();
-  };
-  delta.decoded_map = [ds](const std::string&, const Scene& scene) {
-    const DeltaFrame& d = ds->last;
-    PlanarMap m;
-    m.width = d.width, m.height = d.height;
-    const std::vector<uint64_t> base = scene.triangle_id_base();
-    for (size_t t = 0; t < d.triangle_count(); ++t) {
-      for (int c = 0; c < 3; ++c) {
-        const uint32_t v = d.indices[3 * t + c];
-        m.xy.push_back(double(d.xy[2 * v]) / d.quantum);
-        m.xy.push_back(double(d.xy[2 * v + 1]) / d.quantum);
+  // delta (proto/DELTA.md version 2, what protocol version 3 streams): each frame the smallest of
+  // the frame against the client's state, a keyframe and the compact frame; decoded in order.
+  // `delta`: a client that does not hold the scene (the sources go with the frames that need
+  // them, when that is smaller than compact); `delta_held`: one that holds it (the sources
+  // message once, not counted in the frames: `sources_bytes` in the summary line's extras of
+  // frame 0). Both are decoded, drawn and compared with the exact raster.
+  for (const bool hold : {false, true}) {
+    struct DeltaState {
+      std::unique_ptr<DeltaEncoder> enc;
+      DeltaDecoder dec;
+      DeltaFrame last;
+    };
+    auto ds = std::make_shared<DeltaState>();
+    Encoding delta;
+    delta.name = hold ? "delta_held" : "delta";
+    delta.encode = [ds, hold](const Frame& f, Extras& x) {
+      double sources = 0;
+      if (!ds->enc) {
+        DeltaOptions o;
+        o.client_holds_scene = hold;
+        ds->enc = std::make_unique<DeltaEncoder>(f.scene, o);
+        if (hold) {
+          const std::string msg = encode_delta_sources(f.scene, o.compression);
+          ds->dec.hold_scene(msg);
+          sources = double(msg.size());
+        }
       }
-      m.offsets.push_back(uint32_t(m.xy.size() / 2));
-      const uint32_t mesh = d.mesh[t];
-      const std::vector<uint32_t>& ids = scene.meshes[mesh].face_ids;
-      const auto it = std::lower_bound(ids.begin(), ids.end(), uint32_t(d.source[t] - base[mesh]));
-      m.mesh.push_back(mesh);
-      m.triangle.push_back(uint32_t(it - ids.begin()));
-    }
-    return m;
-  };
-  list.push_back(delta);
-  // delta_held: bytes only, as if the client held the scene already (it uploaded it, or had
-  // it from an earlier session): no sources in any frame. Not decoded (DeltaDecoder has no way
-  // to be given the scene yet).
+      DeltaStats st;
+      std::string b = ds->enc->encode(f.map, f.screen, f.camera, &st);
+      x = {{"coding", double(int(st.coding))},
+           {"compact_bytes", double(st.compact_bytes)},
+           {"delta_bytes", double(st.delta_bytes)},
+           {"whole", double(st.whole)},
+           {"flips", double(st.flips)},
+           {"polygons", double(st.partial)},
+           {"points", double(st.points)},
+           {"edge_refs", double(st.edge_refs)},
+           {"new_triangles", double(st.new_triangles)}};
+      if (sources > 0) x.push_back({"sources_bytes", sources});
+      return b;
+    };
+    delta.decode = [ds](const std::string& b) {
+      ds->last = ds->dec.decode(b);
+      return ds->last.triangle_count();
+    };
+    delta.decoded_map = [ds](const std::string&, const Scene& scene) {
+      const DeltaFrame& d = ds->last;
+      PlanarMap m;
+      m.width = d.width, m.height = d.height;
+      const std::vector<uint64_t> base = scene.triangle_id_base();
+      for (size_t t = 0; t < d.triangle_count(); ++t) {
+        for (int c = 0; c < 3; ++c) {
+          const uint32_t v = d.indices[3 * t + c];
+          m.xy.push_back(double(d.xy[2 * v]) / d.quantum);
+          m.xy.push_back(double(d.xy[2 * v + 1]) / d.quantum);
+        }
+        m.offsets.push_back(uint32_t(m.xy.size() / 2));
+        const uint32_t mesh = d.mesh[t];
+        const std::vector<uint32_t>& ids = scene.meshes[mesh].face_ids;
+        const auto it =
+            std::lower_bound(ids.begin(), ids.end(), uint32_t(d.source[t] - base[mesh]));
+        m.mesh.push_back(mesh);
+        m.triangle.push_back(uint32_t(it - ids.begin()));
+      }
+      return m;
+    };
+    list.push_back(delta);
+  }
+  // delta_v1_held: version 1 (what protocol version 2 streams), as if the client held the scene:
+  // bytes only, the figure the version 2 records are measured against.
   auto dh = std::make_shared<std::unique_ptr<DeltaEncoder>>();
-  Encoding held;
-  held.name = "delta_held";
-  held.encode = [dh](const Frame& f, Extras&) {
+  Encoding v1;
+  v1.name = "delta_v1_held";
+  v1.encode = [dh](const Frame& f, Extras&) {
     if (!*dh) {
       DeltaOptions o;
+      o.version = 1;
       o.client_holds_scene = true;
       *dh = std::make_unique<DeltaEncoder>(f.scene, o);
     }
     return (*dh)->encode(f.map, f.screen, f.camera);
   };
-  list.push_back(held);
+  list.push_back(v1);
 #endif
   return list;
 }

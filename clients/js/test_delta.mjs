@@ -73,7 +73,7 @@ function valid(f, what) {
 // A copy of the decoder's state (its arrays are replaced, never written, by a decode).
 function fork(dec) {
   const c = new DeltaDecoder({ zstd: dec.zstd });
-  for (const k of ['have', 'last', 'base', 'colors', 'vertex', 'tri', 'whole', 'partial']) c[k] = dec[k];
+  for (const k of ['have', 'last', 'base', 'colors', 'vertex', 'tri', 'whole', 'partial', 'view', 'held']) c[k] = dec[k];
   return c;
 }
 
@@ -88,8 +88,10 @@ async function decode(dec, bytes, what) {
 }
 
 // `vismap decode PATHS... --json`: the last frame's JSON, or null when C++ refuses one of them.
-function cliDecode(paths) {
-  const r = spawnSync(vismap, ['decode', ...paths, '--json'], { encoding: 'utf8', maxBuffer: 1 << 28 });
+// (sources: the held scene's message, a path, given first.)
+function cliDecode(paths, sources = null) {
+  const held = sources ? ['--sources', sources] : [];
+  const r = spawnSync(vismap, ['decode', ...held, ...paths, '--json'], { encoding: 'utf8', maxBuffer: 1 << 28 });
   assert(r.status !== null, 'vismap decode died', r.signal);
   return r.status === 0 ? JSON.parse(r.stdout.split('\n').slice(paths.length - 1).join('\n')) : null;
 }
@@ -145,6 +147,7 @@ function* mutations(frame, random, count) {
   const dv = new DataView(frame.buffer, frame.byteOffset, frame.byteLength);
   const key = dv.getUint32(16, true) & 1;
   const sizesAt = 148 + (key ? 24 * dv.getUint32(32, true) : 0);
+  const ns = dv.getUint32(4, true) === 1 ? 10 : 11; // sections
   const payload = unpack(frame);
   const int = (n) => Math.floor(random() * n);
   for (let i = 0; i < 11; ++i) {
@@ -167,7 +170,7 @@ function* mutations(frame, random, count) {
     let b = payload.slice();
     let what;
     if (kind === 1 || kind === 2) {
-      const lo = kind === 2 ? sizesAt + 40 : 0;
+      const lo = kind === 2 ? sizesAt + 4 * ns : 0;
       for (let n = [1, 1, 2, 3][int(4)]; n > 0; --n) {
         const at = lo + int(b.length - lo);
         b[at] ^= random() < 0.6 ? 1 << int(8) : 1 + int(255);
@@ -181,8 +184,8 @@ function* mutations(frame, random, count) {
       what = `payload cut or grown at ${at}`;
     } else {
       const pv = new DataView(b.buffer);
-      const i = int(10);
-      const j = (i + 1 + int(9)) % 10;
+      const i = int(ns);
+      const j = (i + 1 + int(ns - 1)) % ns;
       const d = 1 + int(3);
       pv.setUint32(sizesAt + 4 * i, (pv.getUint32(sizesAt + 4 * i, true) + d) >>> 0, true);
       pv.setUint32(sizesAt + 4 * j, (pv.getUint32(sizesAt + 4 * j, true) - d) >>> 0, true);
@@ -194,8 +197,9 @@ function* mutations(frame, random, count) {
 
 // Each case after `base`: refused (then `target` decodes to `ref`, on a sample and at the end)
 // or a valid frame; on the accepted ones and every `every`-th refused, C++ agrees.
-async function checkMutations(base, target, ref, cases, every) {
+async function checkMutations(base, target, ref, cases, every, sources = null) {
   let dec = new DeltaDecoder();
+  if (sources) await dec.holdScene(read(sources));
   for (const f of base) await dec.decode(f);
   const paths = base.map((f, k) => write(`base_${k}.vmd`, f));
   let accepted = 0;
@@ -212,7 +216,7 @@ async function checkMutations(base, target, ref, cases, every) {
       same(await fork(dec).decode(target), ref, `${what}: the target after it`);
     }
     if (vismap && (f || k % every === 0)) {
-      const cpp = cliDecode([...paths, write('mutated.vmd', data)]);
+      const cpp = cliDecode([...paths, write('mutated.vmd', data)], sources);
       ++checked;
       assert((cpp === null) === (f === null), what, `C++ ${cpp === null ? 'refuses' : 'accepts'}, JS not`);
       if (f) same(f, cpp, what);
@@ -243,6 +247,20 @@ const tests = {
         valid(f, `vector ${k}`);
         assert(f.keyframe === (k === 0) && f.index === k && d.lastIndex === k && f.compression === name, 'fields', k);
         assert(f.rows.length === 12 && f.eye.length === 3 && f.projection === 'perspective', 'camera', k);
+      }
+    }
+    // Version 2 (proto/vectors/README.md): the held torus, a compact frame at 3, frame 4 based on 2.
+    if (haveZstd) {
+      const d = new DeltaDecoder({ zstd: zstdCli });
+      const v2 = (name) => read(path.join(VECTORS, `delta2_torus_${name}.vmd`));
+      assert((await decode(d, v2(0), 'held keyframe without the scene')) === null, 'held keyframe accepted');
+      await d.holdScene(v2('sources'));
+      assert(d.holdsScene, 'holdsScene');
+      for (let k = 0; k < 5; ++k) {
+        const f = await d.decode(v2(k));
+        same(f, JSON.parse(fs.readFileSync(path.join(VECTORS, `delta2_torus_${k}.json`), 'utf8')), `version 2 vector ${k}`);
+        valid(f, `version 2 vector ${k}`);
+        assert(f.keyframe === (k === 0) && !!f.compact === (k === 3) && d.lastIndex === (k === 3 ? 2 : k), 'v2 fields', k);
       }
     }
     assert(llround(-2.5) === -3 && llround(2.5) === 3 && llround(-0.5) === -1 && llround(0.49999999999999994) === 0 &&
@@ -342,23 +360,36 @@ const tests = {
   },
 
   async bunny() {
+    // Version 1, and version 2: held (facing flips, edge references) and not held (every frame the
+    // compact frame: the keyframe with every source is larger).
+    const v2 = ['--version', '2'];
     const streams = {
       bunny_hd: ['--frames', '5', '--width', '1920', '--height', '1080', '--compression', 'deflate'],
       bunny_q4: ['--frames', '7', '--width', '640', '--height', '480', '--quantum', '4', '--compression', 'deflate',
         '--step', '10', '--keyframe-every', '3'],
+      bunny_v2_hd_held: ['--frames', '5', '--width', '1920', '--height', '1080', '--compression', 'deflate', ...v2,
+        '--held', '1'],
+      bunny_v2_q4_held: ['--frames', '7', '--width', '640', '--height', '480', '--quantum', '4', '--compression',
+        'deflate', '--step', '10', '--keyframe-every', '3', ...v2, '--held', '1'],
+      bunny_v2_compact: ['--frames', '2', '--width', '640', '--height', '480', '--compression', 'deflate', ...v2],
     };
     for (const [name, flags] of Object.entries(streams)) {
       const out = path.join(tmp, name);
       fs.mkdirSync(out);
       execFileSync(orbit, [path.join(ROOT, 'data', 'bunny.ply'), out, ...flags], { stdio: 'ignore' });
-      const paths = fs.readdirSync(out).filter((n) => n.endsWith('.vmd')).sort().map((n) => path.join(out, n));
+      const paths = fs.readdirSync(out).filter((n) => n.startsWith('delta_')).sort().map((n) => path.join(out, n));
+      const sources = fs.existsSync(path.join(out, 'sources.vmd')) ? path.join(out, 'sources.vmd') : null;
       const dec = new DeltaDecoder();
+      if (sources) await dec.holdScene(read(sources));
       for (let k = 0; k < paths.length; ++k) {
         const data = read(paths[k]);
         const before = fork(dec);
         const f = await dec.decode(data);
-        same(f, cliDecode(paths.slice(0, k + 1)), `${name} frame ${k}`);
+        same(f, cliDecode(paths.slice(0, k + 1), sources), `${name} frame ${k}`);
         valid(f, `${name} frame ${k}`);
+        assert(!!f.compact === name.endsWith('_compact'), `${name} frame ${k}`, 'compact');
+        assert(f.keyframe === (!f.compact && (k === 0 || (name.includes('q4') && k % 3 === 0))), `${name} frame ${k}`,
+          'keyframe');
         if (timing) {
           const times = [];
           for (let i = 0; i < 15; ++i) {
@@ -372,11 +403,12 @@ const tests = {
             `${f.xy.length / 2} vertices: ${times[0].toFixed(2)} ms min, ${times[7].toFixed(2)} ms median (15 runs)`);
         }
       }
-      if (name === 'bunny_q4') {
+      if (name === 'bunny_q4' || name === 'bunny_v2_q4_held') {
         const base = paths.slice(0, 2).map(read);
         const target = read(paths[2]);
         const cases = [...mutations(target, rng(7), 60)];
-        const [accepted, checked] = await checkMutations(base, target, cliDecode(paths.slice(0, 3)), cases, 4);
+        const [accepted, checked] = await checkMutations(base, target, cliDecode(paths.slice(0, 3), sources), cases, 4,
+          sources);
         console.log(`  ${cases.length} mutations of ${name} frame 2: ${accepted} still valid, ${checked} compared`);
       }
     }

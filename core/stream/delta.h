@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -24,19 +25,42 @@ struct DeltaOptions {
   Compression compression = Compression::Zstd;
   int level = 0;                // 0: the coder's default
   uint32_t keyframe_every = 0;  // 0: only the first frame and on request
-  // Measurement only (bench/stream): code frames as if the client held every source triangle
-  // already (sends none). DeltaDecoder cannot decode such a stream yet: it has no way to be given
-  // the scene; a client that parses the scene it uploaded will need one.
+  // The format version written (DELTA.md): 2 adds the records predicted from the frame before,
+  // sends a frame as its compact frame (COMPACT.md) whenever that is smaller, and lets the client
+  // hold the scene; 1 is what protocol version 2 sessions get.
+  uint32_t version = 2;
+  // The client holds every source triangle: version 2, it was given encode_delta_sources' message
+  // (DeltaDecoder::hold_scene); version 1, bytes only (a measurement mode, not decodable).
   bool client_holds_scene = false;
 };
 
+// How a frame went out: coded against the client's state, as a keyframe (state afresh), or as
+// the compact frame of the same view (smaller than either; the client's state is left alone).
+enum class DeltaCoding : uint8_t { Delta, Keyframe, Compact };
+
 struct DeltaStats {
-  bool keyframe = false;
-  uint64_t whole = 0, added = 0, removed = 0;  // whole triangles: drawn, entering, leaving
+  DeltaCoding coding = DeltaCoding::Delta;
+  bool keyframe = false;                        // coding == Keyframe
+  uint64_t delta_bytes = 0, compact_bytes = 0;  // the candidates' sizes (0: not made)
+  uint64_t whole = 0, added = 0, removed = 0;   // whole triangles: drawn, entering, leaving
+  uint64_t flips = 0;  // triangles whose facing changed since the base frame (version 2)
   uint64_t partial = 0, partial_corners = 0, points = 0;  // polygons, their corners, new points
   uint64_t edge_points = 0;  // of the points: those sent as a step along an own edge
+  uint64_t edge_refs = 0;    // corners that name a point already on an own edge (version 2)
   uint64_t new_triangles = 0, new_vertices = 0;                 // sources sent with this frame
   uint64_t source_bytes = 0, set_bytes = 0, polygon_bytes = 0;  // before entropy coding
+};
+
+// What the encoder knows the client holds: the state after the last frame it coded as delta or
+// keyframe (a compact frame leaves it alone).
+struct DeltaClientState {
+  bool valid = false;                            // false: the next delta frame is a keyframe
+  uint32_t index = 0;                            // the frame this state is at
+  std::vector<uint8_t> known_tri, known_vertex;  // per global id / vertex number
+  std::vector<uint32_t> whole;                   // sorted global ids drawn whole in that frame
+  std::vector<uint32_t> partial;                 // sorted global ids that owned polygons in it
+  std::array<double, 12> rows{};  // its projection, and grid (version 2: facing flips)
+  uint32_t width = 0, height = 0;
 };
 
 // The server's side, one per session: what the client holds. Its memory is bounded by the
@@ -56,17 +80,22 @@ class DeltaEncoder {
   DeltaOptions options_;
   std::vector<uint64_t> base_;         // per mesh: first global id
   std::vector<uint64_t> vertex_base_;  // per mesh: first global vertex number
-  std::vector<uint8_t> known_tri_, known_vertex_;
-  std::vector<uint32_t> whole_;    // sorted global ids drawn whole in the previous frame
-  std::vector<uint32_t> partial_;  // sorted global ids that owned polygons in the previous frame
+  DeltaClientState client_;
+  std::vector<uint8_t> held_tri_;  // the scene's faces when the client holds it, else zeros
   uint32_t frame_ = 0;
   bool keyframe_ = true;
 };
+
+// The message that gives a client the whole scene (DELTA.md, "Sources message"): every source
+// vertex and triangle, so that DeltaDecoder::hold_scene can keep it and delta frames coded with
+// client_holds_scene send none.
+std::string encode_delta_sources(const Scene& scene, Compression compression, int level = 0);
 
 // The decoded frame: triangles on the grid, as the compact frame's.
 struct DeltaFrame {
   uint32_t width = 0, height = 0, quantum = 0, index = 0;
   bool keyframe = false;
+  bool compact = false;           // a compact frame in the stream (no camera, state untouched)
   Camera camera;                  // projection, eye and target (the light of the shade)
   std::array<double, 12> rows{};  // clip_rows of the view-projection the frame was rendered with
   std::vector<int32_t> xy;        // 2 per vertex, grid steps
@@ -87,26 +116,33 @@ struct DeltaOutOfSync : InputError {
 // The client's side: the sources it was sent and the previous whole set.
 class DeltaDecoder {
  public:
+  // A delta frame (VMDF) or, in a version 2 stream, a compact frame (VMCF).
   DeltaFrame decode(const std::string& bytes);  // throws InputError / DeltaOutOfSync
   bool has_state() const { return have_state_; }
+  // Keeps the scene of encode_delta_sources' message: keyframes flagged `held` start from it.
+  void hold_scene(const std::string& sources);  // throws InputError
+  bool holds_scene() const { return held_ != nullptr; }
 
   // What a client holds between frames; a keyframe starts it afresh from its mesh table.
   struct State {
-    std::vector<uint64_t> base, vertex_base;    // per mesh: first global id, first vertex number
-    std::vector<float> vertex;                  // 3 per global vertex (NaN: not sent)
-    std::vector<uint32_t> tri;                  // 3 per global triangle (~0: not sent)
-    std::vector<uint32_t> whole;                // sorted
-    std::vector<uint32_t> partial;              // sorted: the previous frame's polygon sources
-    std::vector<std::array<float, 3>> colors;   // per mesh: linear RGB
+    std::vector<uint64_t> base, vertex_base;      // per mesh: first global id, first vertex number
+    std::vector<float> vertex;                    // 3 per global vertex (NaN: not sent)
+    std::vector<uint32_t> tri;                    // 3 per global triangle (~0: not sent)
+    std::vector<uint32_t> whole;                  // sorted
+    std::vector<uint32_t> partial;                // sorted: the previous frame's polygon sources
+    std::vector<std::array<float, 3>> colors;     // per mesh: linear RGB
+    std::array<double, 12> rows{};                // the last frame's projection and grid
+    uint32_t width = 0, height = 0, quantum = 0;  // (0: none yet; version 2 facing flips)
     size_t triangles() const { return tri.size() / 3; }
     size_t vertices() const { return vertex.size() / 3; }
-    uint32_t mesh_of(uint32_t id) const;        // the mesh of a global triangle id
+    uint32_t mesh_of(uint32_t id) const;  // the mesh of a global triangle id
   };
 
  private:
   bool have_state_ = false;
   uint32_t last_ = 0;
   State state_;
+  std::shared_ptr<const State> held_;  // the scene of hold_scene: its store, no frame yet
 };
 
 // The rows x, y and w of a view-projection matrix (column-major Mat4), 4 each: what a delta frame

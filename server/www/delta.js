@@ -1,4 +1,4 @@
-// Decoder for the vismap delta frame, version 1 (proto/DELTA.md), for the browser and Node 20.
+// Decoder for the vismap delta frame, versions 1 and 2 (proto/DELTA.md), for the browser and Node 20.
 // An ES module; raw deflate and the sections' numbers come from frame_io.js (shared with
 // compact.js), zstd from an injected decoder. It keeps the state the reference keeps
 // (DeltaDecoder in core/stream/delta.cpp: the source vertices and triangles sent so far, the whole set,
@@ -20,7 +20,9 @@
 // in the order written (as C++ evaluates it), rounded half away from zero (llround; Math.round
 // rounds -2.5 to -2); edge points are exact integer arithmetic (BigInt past 2^53), and so are
 // orientations (coordinates of source vertices may reach 1e9 grid steps: BigInt past 2^26).
-// Calls to decode run one after another in call order, whatever their awaits.
+// Calls to decode run one after another in call order, whatever their awaits. Version 2 streams
+// may hold compact frames (decoded by compact.js; {compact: true}, the state left alone) and
+// start from a held scene (holdScene: the sources message).
 //
 // Time (clients/js/test_delta.mjs --time): a 1920x1080 bunny orbit delta frame (18-23 KB, 31,000
 // triangles of which 26,000-28,000 whole, 2,200-2,500 polygons with 9,000-10,000 corners)
@@ -30,24 +32,29 @@
 // triangles ~60% (projection, orientation and shade of each), the corners ~20%, inflate ~15%.
 
 import { decompress, Numbers } from './frame_io.js';
+import { decodeCompact } from './compact.js';
 
 const MAGIC = 0x46444d56; // "VMDF" little-endian
-const VERSION = 1;
+const COMPACT_MAGIC = 0x46434d56; // "VMCF"
 const HEADER_BYTES = 48;
 const KEYFRAME = 1;
+const HELD = 2; // version 2, keyframes: the store starts from the held scene
+const SOURCES = 4; // version 2: the sources message
 const MAX_RATIO = 256;
 const MAX_SOURCES = 2 ** 26; // triangles, and vertices, a client holds (as core/stream/delta.cpp)
 const CAMERA_BYTES = 4 + 18 * 8;
 const UNSENT = 0xffffffff;
 const SECTIONS = ['vertices', 'vertex positions', 'triangles', 'removed', 'added', 'polygons', 'corner codes',
-  'vertex refs', 'points', 'edge steps'];
+  'vertex refs', 'points', 'edge steps', 'flips']; // version 1: the first ten
 // Corner codes (DELTA.md, "Corner codes").
 const VERTEX_REF = 3;
 const NEW_POINT = 4;
 const TWIN = 5;
 const EDGE_POINT = 6;
 const POINT_REF = 9;
-
+const EDGE_REF = 9; // version 2: 9 + 3i + k, a point made on own edge k's source edge
+const EDGE_REFS = 2;
+const POINT_REF2 = 15; // version 2: 15 + j
 export class DeltaFrameError extends Error {
   constructor(part, message) {
     super(`delta frame: ${part}: ${message}`);
@@ -136,6 +143,191 @@ function readIds(s, limit) {
     ids[i] = id;
   }
   return ids;
+}
+
+// Flags (DELTA.md): a bit per entry of a list of n; set(i) for each set bit.
+function readFlags(s, n, set) {
+  for (let i = 0; i < n; i += 8) {
+    if (s.p >= s.b.length) fail(s.part, 'ends early');
+    const bits = s.b[s.p++];
+    for (let b = 0; b < 8; ++b) {
+      if ((bits >> b) & 1) {
+        if (i + b >= n) fail(s.part, "a flag past the list's end");
+        set(i + b);
+      }
+    }
+  }
+}
+
+function hasId(sorted, id) { // binary search
+  let lo = 0;
+  let hi = sorted.length;
+  while (lo < hi) {
+    const mid = (lo + hi) >>> 1;
+    if (sorted[mid] < id) lo = mid + 1;
+    else hi = mid;
+  }
+  return lo < sorted.length && sorted[lo] === id;
+}
+
+function mergeSorted(a, b) { // two ascending lists without common ids
+  const out = new Uint32Array(a.length + b.length);
+  let i = 0;
+  let j = 0;
+  let n = 0;
+  while (i < a.length || j < b.length) out[n++] = j === b.length || (i < a.length && a[i] < b[j]) ? a[i++] : b[j++];
+  return out;
+}
+
+// DELTA.md's facing of held triangle id at view {rows, width, height, quantum}: 0 degenerate, 1
+// positive, 2 negative, 3 a vertex that does not project; proj/state cache each vertex's grid.
+function facing(view, vertex, tri, id, proj, state) {
+  for (let k = 0; k < 3; ++k) {
+    const gv = tri[3 * id + k];
+    if (!state[gv]) {
+      state[gv] = projectToGrid(view.rows, view.width, view.height, view.quantum, vertex[3 * gv], vertex[3 * gv + 1],
+        vertex[3 * gv + 2], proj, 2 * gv) ? 1 : 2;
+    }
+    if (state[gv] === 2) return 3;
+  }
+  const o = orient(proj, tri[3 * id], tri[3 * id + 1], tri[3 * id + 2]);
+  return o > 0 ? 1 : o < 0 ? 2 : 0;
+}
+
+// Ascending ids of the held triangles whose facing differs between the two views.
+function facingFlips(before, now, vertex, tri) {
+  const nVerts = vertex.length / 3;
+  const pa = new Int32Array(2 * nVerts);
+  const pb = new Int32Array(2 * nVerts);
+  const sa = new Uint8Array(nVerts);
+  const sb = new Uint8Array(nVerts);
+  const flips = [];
+  for (let id = 0, n = tri.length / 3; id < n; ++id) {
+    if (tri[3 * id] === UNSENT) continue;
+    if (facing(before, vertex, tri, id, pa, sa) !== facing(now, vertex, tri, id, pb, sb)) flips.push(id);
+  }
+  return Uint32Array.from(flips);
+}
+
+// The 48-byte header's fields, checked as far as the header alone tells.
+function readHeader(msg) {
+  if (msg.length < HEADER_BYTES) fail('header', `${msg.length} bytes, the header alone is ${HEADER_BYTES}`);
+  const h = new DataView(msg.buffer, msg.byteOffset, HEADER_BYTES);
+  const u32 = (i) => h.getUint32(i, true);
+  if (u32(0) !== MAGIC) fail('header', 'magic is not VMDF');
+  const r = {
+    version: u32(4), width: u32(8), height: u32(12), flags: u32(16), quantum: u32(20), index: u32(24),
+    base: u32(28), nm: u32(32), codec: u32(36), size: u32(40), wholeCount: u32(44),
+  };
+  if (r.version !== 1 && r.version !== 2) fail('header', `version ${r.version} (this decoder knows 1, 2)`);
+  if (r.flags & ~(r.version === 1 ? KEYFRAME : KEYFRAME | HELD | SOURCES)) fail('header', 'unknown flag bits');
+  if (r.flags & HELD && !(r.flags & KEYFRAME)) fail('header', 'held without keyframe');
+  if (r.flags & SOURCES && r.flags !== SOURCES) fail('header', 'sources with other flags');
+  if (r.width < 1 || r.height < 1 || r.width > 65536 || r.height > 65536) fail('header', 'viewport out of range');
+  if (r.quantum < 1 || r.quantum > 256) fail('header', 'quantum out of 1 ... 256');
+  if (r.codec !== 1 && r.codec !== 2) fail('header', `unknown compression ${r.codec}`);
+  if (r.nm === 0 || r.nm > 2 ** 24) fail('header', 'mesh count out of range');
+  r.key = (r.flags & KEYFRAME) !== 0;
+  r.held = (r.flags & HELD) !== 0;
+  return r;
+}
+
+// A keyframe's (or the sources message's) mesh table at `at`: {meshBase, colors, tris, verts}.
+function readMeshTable(payload, pv, at, nm) {
+  if (payload.length - at < 24 * nm) fail('mesh', 'ends early');
+  const meshBase = new Uint32Array(nm);
+  const colors = new Float32Array(3 * nm);
+  let tris = 0;
+  let verts = 0;
+  for (let m = 0; m < nm; ++m, at += 24) {
+    const first = pv.getUint32(at, true);
+    if (first !== tris) fail(`mesh ${m}`, 'first ids do not follow the counts');
+    meshBase[m] = first;
+    tris += pv.getUint32(at + 4, true);
+    verts += pv.getUint32(at + 8, true);
+    for (let c = 0; c < 3; ++c) {
+      const v = pv.getFloat32(at + 12 + 4 * c, true);
+      if (!(v >= 0 && v <= 1)) fail(`mesh ${m}`, 'color not in [0, 1]');
+      colors[3 * m + c] = v;
+    }
+    if (tris > MAX_SOURCES || verts > MAX_SOURCES) fail(`mesh ${m}`, 'more than 2^26 triangles or vertices');
+  }
+  return { meshBase, colors, tris, verts, at };
+}
+
+function emptyStore(tris, verts) {
+  try { // (as C++: the store is sized by the mesh table, up to 2^26 of each)
+    return { vertex: new Float32Array(3 * verts).fill(NaN), tri: new Uint32Array(3 * tris).fill(UNSENT) };
+  } catch (e) {
+    if (!(e instanceof RangeError)) throw e;
+    fail('mesh', `no memory for ${verts} vertices and ${tris} triangles`);
+  }
+}
+
+// The section sizes and sections (count of them), which must fill the payload.
+function readSections(payload, pv, at, count) {
+  if (payload.length - at < 4 * count) fail('section sizes', 'ends early');
+  const sec = [];
+  let from = at + 4 * count;
+  for (let i = 0; i < SECTIONS.length; ++i) {
+    const n = i < count ? pv.getUint32(at + 4 * i, true) : 0;
+    if (n > payload.length - from) fail(SECTIONS[i], 'ends early');
+    sec.push(new Numbers(payload.subarray(from, from + n), SECTIONS[i], fail));
+    from += n;
+  }
+  if (from !== payload.length) fail('camera', 'trailing bytes');
+  return sec;
+}
+
+// The vertices and triangles sections onto the store: {vertex, tri}, copies where changed.
+function addSources(sec, vertex, tri) {
+  const nTris = tri.length / 3;
+  const nVerts = vertex.length / 3;
+  {
+    const s = sec[0];
+    const n = s.uint();
+    if (n > nVerts) fail('vertices', 'more than the scene has');
+    const pos = sec[1].b;
+    if (pos.length !== 12 * n) fail('vertex positions', pos.length < 12 * n ? 'ends early' : 'trailing bytes');
+    const dv = new DataView(pos.buffer, pos.byteOffset, pos.byteLength);
+    if (n > 0) vertex = vertex.slice();
+    let gv = 0;
+    for (let i = 0; i < n; ++i) {
+      const d = s.uint();
+      if (i > 0 && d === 0) fail('vertices', 'not ascending');
+      gv += d;
+      if (gv >= nVerts) fail(`vertices ${i}`, 'out of range');
+      for (let c = 0; c < 3; ++c) {
+        const v = dv.getFloat32(12 * i + 4 * c, true);
+        if (!Number.isFinite(v)) fail(`vertices ${i}`, 'not finite');
+        vertex[3 * gv + c] = v;
+      }
+    }
+    s.done();
+  }
+  {
+    const s = sec[2];
+    const n = s.uint();
+    if (n > nTris) fail('triangles', 'more than the scene has');
+    if (n > 0) tri = tri.slice();
+    let id = 0;
+    let lastV = 0;
+    for (let i = 0; i < n; ++i) {
+      const d = s.uint();
+      if (i > 0 && d === 0) fail(`triangles ${i}`, 'not ascending');
+      id += d;
+      if (id >= nTris) fail(`triangles ${i}`, 'out of range');
+      for (let k = 0; k < 3; ++k) {
+        lastV += s.next();
+        if (!(lastV >= 0 && lastV < nVerts) || Number.isNaN(vertex[3 * lastV])) {
+          fail(`triangles ${i}`, 'names a vertex not sent');
+        }
+        tri[3 * id + k] = lastV;
+      }
+    }
+    s.done();
+  }
+  return { vertex, tri };
 }
 
 // The frame being decoded: the projections of the store's vertices (each once, when first
@@ -268,7 +460,36 @@ export class DeltaDecoder {
   constructor(options = {}) {
     this.zstd = options.zstd || null;
     this.tail = Promise.resolve();
+    this.held = null; // holdScene's {meshBase, colors, vertex, tri}
     this.reset();
+  }
+
+  /**
+   * Keeps the scene of a sources message (DELTA.md, "The held scene"): keyframes flagged held
+   * start from it. Rejects with a DeltaFrameError when malformed (what was held stays).
+   */
+  holdScene(arrayBuffer) {
+    const run = this.tail.then(async () => {
+      const msg = arrayBuffer instanceof Uint8Array ? arrayBuffer : new Uint8Array(arrayBuffer);
+      const h = readHeader(msg);
+      if (!(h.flags & SOURCES)) fail('header', 'not a sources message');
+      const z = msg.subarray(HEADER_BYTES);
+      if (h.size > MAX_RATIO * z.length + 4096) fail('header', 'payload size out of proportion');
+      const payload = await decompress(h.codec, z, h.size, this.zstd, fail);
+      const pv = new DataView(payload.buffer, payload.byteOffset, payload.byteLength);
+      const t = readMeshTable(payload, pv, 0, h.nm);
+      const empty = emptyStore(t.tris, t.verts);
+      const sec = readSections(payload, pv, t.at, 3);
+      const { vertex, tri } = addSources(sec, empty.vertex, empty.tri);
+      for (let v = 0; v < vertex.length / 3; ++v) if (Number.isNaN(vertex[3 * v])) fail(`vertices ${v}`, 'not sent');
+      this.held = { meshBase: t.meshBase, colors: t.colors, vertex, tri };
+    });
+    this.tail = run.catch(() => {});
+    return run;
+  }
+
+  get holdsScene() {
+    return this.held !== null;
   }
 
   /** Drops the state: the next frame must be a keyframe. */
@@ -281,6 +502,7 @@ export class DeltaDecoder {
     this.tri = new Uint32Array(0); // 3 per global triangle, UNSENT: not sent
     this.whole = new Uint32Array(0); // sorted
     this.partial = new Uint32Array(0); // sorted: the previous frame's polygon sources
+    this.view = null; // the last frame's {rows, width, height, quantum}
   }
 
   get hasState() {
@@ -308,28 +530,13 @@ export class DeltaDecoder {
 
   async decodeNow(arrayBuffer) {
     const msg = arrayBuffer instanceof Uint8Array ? arrayBuffer : new Uint8Array(arrayBuffer);
-    if (msg.length < HEADER_BYTES) fail('header', `${msg.length} bytes, the header alone is ${HEADER_BYTES}`);
-    const h = new DataView(msg.buffer, msg.byteOffset, HEADER_BYTES);
-    const u32 = (i) => h.getUint32(i, true);
-    if (u32(0) !== MAGIC) fail('header', 'magic is not VMDF');
-    const version = u32(4);
-    const width = u32(8);
-    const height = u32(12);
-    const flags = u32(16);
-    const quantum = u32(20);
-    const index = u32(24);
-    const base = u32(28);
-    const nm = u32(32);
-    const codec = u32(36);
-    const size = u32(40);
-    const wholeCount = u32(44);
-    if (version !== VERSION) fail('header', `version ${version} (this decoder knows ${VERSION})`);
-    if (flags & ~KEYFRAME) fail('header', 'unknown flag bits');
-    const key = (flags & KEYFRAME) !== 0;
-    if (width < 1 || height < 1 || width > 65536 || height > 65536) fail('header', 'viewport out of range');
-    if (quantum < 1 || quantum > 256) fail('header', 'quantum out of 1 ... 256');
-    if (codec !== 1 && codec !== 2) fail('header', `unknown compression ${codec}`);
-    if (nm === 0 || nm > 2 ** 24) fail('header', 'mesh count out of range');
+    if (msg.length >= 4 && new DataView(msg.buffer, msg.byteOffset, 4).getUint32(0, true) === COMPACT_MAGIC) {
+      return this.compactFrame(msg);
+    }
+    const { version, width, height, flags, quantum, index, base, nm, codec, size, wholeCount, key, held } =
+      readHeader(msg);
+    if (flags & SOURCES) fail('header', 'a sources message (holdScene takes it)');
+    if (held && !this.held) throw new DeltaOutOfSync('a keyframe of the held scene, and this decoder holds none');
     if (!key && !this.have) throw new DeltaOutOfSync('no keyframe decoded yet: ask for one');
     if (!key && (base !== this.last || nm !== this.base.length)) {
       throw new DeltaOutOfSync(`based on frame ${base}, the last decoded is ${this.last}: ask for a keyframe`);
@@ -337,7 +544,7 @@ export class DeltaDecoder {
     const z = msg.subarray(HEADER_BYTES);
     if (size > MAX_RATIO * z.length + 4096) fail('header', 'payload size out of proportion');
     const payload = await decompress(codec, z, size, this.zstd, fail);
-    const { frame, state } = this.apply(payload, { width, height, quantum, index, key, nm, wholeCount });
+    const { frame, state } = this.apply(payload, { version, width, height, quantum, index, key, held, nm, wholeCount });
     frame.compression = codec === 1 ? 'zstd' : 'deflate';
     Object.assign(this, state); // commit
     this.last = index;
@@ -345,8 +552,26 @@ export class DeltaDecoder {
     return frame;
   }
 
+  // A compact frame in a version 2 stream: drawn as it is, the state left alone.
+  async compactFrame(msg) {
+    let c;
+    try {
+      c = await decodeCompact(msg, { zstd: this.zstd });
+    } catch (e) {
+      if (e instanceof DeltaFrameError || !(e instanceof Error)) throw e;
+      fail('compact frame', e.message);
+    }
+    if (!c.shade) fail('compact frame', 'no shades');
+    return {
+      width: c.width, height: c.height, quantum: c.quantum, index: 0, keyframe: false, compact: true,
+      compression: c.compression, projection: 'perspective', eye: new Float64Array(3), target: new Float64Array(3),
+      rows: new Float64Array(12), xy: c.xy, indices: c.indices, source: c.source, mesh: c.mesh, shade: c.shade,
+      meshBase: c.meshBase, meshColor: c.meshColor,
+    };
+  }
+
   // The payload on top of the state: the frame and the state after it (this is not changed).
-  apply(payload, { width, height, quantum, index, key, nm, wholeCount }) {
+  apply(payload, { version, width, height, quantum, index, key, held, nm, wholeCount }) {
     const pv = new DataView(payload.buffer, payload.byteOffset, payload.byteLength);
     if (payload.length < CAMERA_BYTES) fail('camera', 'ends early');
     if (payload[0] > 1) fail('camera', 'unknown projection');
@@ -360,7 +585,8 @@ export class DeltaDecoder {
     const rows = cam.slice(6, 18);
     let at = CAMERA_BYTES;
 
-    // The store: a keyframe's mesh table sizes it anew; copies where this frame changes it.
+    // The store: a keyframe's mesh table sizes it anew (or names the held scene's); copies where
+    // this frame changes it.
     let meshBase = this.base;
     let colors = this.colors;
     let vertex = this.vertex;
@@ -368,98 +594,50 @@ export class DeltaDecoder {
     let whole = this.whole;
     let partial = this.partial;
     if (key) {
-      if (payload.length - at < 24 * nm) fail('mesh', 'ends early');
-      meshBase = new Uint32Array(nm);
-      colors = new Float32Array(3 * nm);
-      let tris = 0;
-      let verts = 0;
-      for (let m = 0; m < nm; ++m, at += 24) {
-        const first = pv.getUint32(at, true);
-        if (first !== tris) fail(`mesh ${m}`, 'first ids do not follow the counts');
-        meshBase[m] = first;
-        tris += pv.getUint32(at + 4, true);
-        verts += pv.getUint32(at + 8, true);
-        for (let c = 0; c < 3; ++c) {
-          const v = pv.getFloat32(at + 12 + 4 * c, true);
-          if (!(v >= 0 && v <= 1)) fail(`mesh ${m}`, 'color not in [0, 1]');
-          colors[3 * m + c] = v;
-        }
-        if (tris > MAX_SOURCES || verts > MAX_SOURCES) fail(`mesh ${m}`, 'more than 2^26 triangles or vertices');
-      }
-      try { // (as C++: the store is sized by the mesh table, up to 2^28 of each)
-        vertex = new Float32Array(3 * verts).fill(NaN);
-        tri = new Uint32Array(3 * tris).fill(UNSENT);
-      } catch (e) {
-        if (!(e instanceof RangeError)) throw e;
-        fail('mesh', `no memory for ${verts} vertices and ${tris} triangles`);
+      const t = readMeshTable(payload, pv, at, nm);
+      at = t.at;
+      meshBase = t.meshBase;
+      colors = t.colors;
+      if (held) {
+        const h = this.held;
+        const same = (a, b) => a.length === b.length && a.every((v, i) => v === b[i]);
+        if (!same(h.meshBase, meshBase) || !same(h.colors, colors) || h.tri.length !== 3 * t.tris ||
+            h.vertex.length !== 3 * t.verts) fail('mesh', "not the held scene's meshes");
+        vertex = h.vertex;
+        tri = h.tri;
+      } else {
+        ({ vertex, tri } = emptyStore(t.tris, t.verts));
       }
       whole = new Uint32Array(0);
       partial = new Uint32Array(0);
     }
     const nTris = tri.length / 3;
     const nVerts = vertex.length / 3;
-    if (payload.length - at < 40) fail('section sizes', 'ends early');
-    const sec = [];
-    let from = at + 40;
-    for (let i = 0; i < 10; ++i) {
-      const n = pv.getUint32(at + 4 * i, true);
-      if (n > payload.length - from) fail(SECTIONS[i], 'ends early');
-      sec.push(new Numbers(payload.subarray(from, from + n), SECTIONS[i], fail));
-      from += n;
-    }
-    if (from !== payload.length) fail('camera', 'trailing bytes');
+    const sec = readSections(payload, pv, at, version === 1 ? 10 : 11);
 
-    // New vertices and triangles.
-    {
-      const s = sec[0];
-      const n = s.uint();
-      if (n > nVerts) fail('vertices', 'more than the scene has');
-      const pos = sec[1].b;
-      if (pos.length !== 12 * n) fail('vertex positions', pos.length < 12 * n ? 'ends early' : 'trailing bytes');
-      const dv = new DataView(pos.buffer, pos.byteOffset, pos.byteLength);
-      if (n > 0) vertex = vertex.slice();
-      let gv = 0;
-      for (let i = 0; i < n; ++i) {
-        const d = s.uint();
-        if (i > 0 && d === 0) fail('vertices', 'not ascending');
-        gv += d;
-        if (gv >= nVerts) fail(`vertices ${i}`, 'out of range');
-        for (let c = 0; c < 3; ++c) {
-          const v = dv.getFloat32(12 * i + 4 * c, true);
-          if (!Number.isFinite(v)) fail(`vertices ${i}`, 'not finite');
-          vertex[3 * gv + c] = v;
-        }
-      }
-      s.done();
-    }
-    {
-      const s = sec[2];
-      const n = s.uint();
-      if (n > nTris) fail('triangles', 'more than the scene has');
-      if (n > 0) tri = tri.slice();
-      let id = 0;
-      let lastV = 0;
-      for (let i = 0; i < n; ++i) {
-        const d = s.uint();
-        if (i > 0 && d === 0) fail(`triangles ${i}`, 'not ascending');
-        id += d;
-        if (id >= nTris) fail(`triangles ${i}`, 'out of range');
-        for (let k = 0; k < 3; ++k) {
-          lastV += s.next();
-          if (!(lastV >= 0 && lastV < nVerts) || Number.isNaN(vertex[3 * lastV])) {
-            fail(`triangles ${i}`, 'names a vertex not sent');
-          }
-          tri[3 * id + k] = lastV;
-        }
-      }
-      s.done();
-    }
+    // Version 2: the facing flips since the last frame, on the store before this frame's sources.
+    const view = { rows, width, height, quantum };
+    const flips = version >= 2 && !key ? facingFlips(this.view, view, vertex, tri) : new Uint32Array(0);
+    ({ vertex, tri } = addSources(sec, vertex, tri));
 
-    // The whole set's change.
-    const removed = readIds(sec[3], nTris);
-    const added = readIds(sec[4], nTris);
+    // The whole set's change: the flips' bits, then the lists of the rest.
+    const fin = [];
+    const fout = [];
+    for (const id of flips) (hasId(whole, id) ? fin : fout).push(id);
+    const flagRemoved = [];
+    const flagAdded = [];
+    readFlags(sec[10], fin.length, (i) => flagRemoved.push(fin[i]));
+    readFlags(sec[10], fout.length, (i) => flagAdded.push(fout[i]));
+    sec[10].done();
+    const restRemoved = readIds(sec[3], nTris);
+    const restAdded = readIds(sec[4], nTris);
     sec[3].done();
     sec[4].done();
+    for (const [name, list] of [['removed', restRemoved], ['added', restAdded]]) {
+      for (const id of list) if (hasId(flips, id)) fail(`${name} ${id}`, 'an id the flips cover');
+    }
+    const removed = mergeSorted(Uint32Array.from(flagRemoved), restRemoved);
+    const added = mergeSorted(Uint32Array.from(flagAdded), restAdded);
     {
       const kept = new Uint32Array(whole.length);
       let nk = 0;
@@ -503,18 +681,8 @@ export class DeltaDecoder {
     // The polygons' sources (DELTA.md, "Polygons section").
     const s = sec[5];
     const order = [];
-    for (const list of [removed, partial]) {
-      for (let i = 0; i < list.length; i += 8) {
-        if (s.p >= s.b.length) fail('polygons', 'ends early');
-        const bits = s.b[s.p++];
-        for (let b = 0; b < 8; ++b) {
-          if ((bits >> b) & 1) {
-            if (i + b >= list.length) fail('polygons', "a flag past the list's end");
-            order.push(list[i + b]);
-          }
-        }
-      }
-    }
+    const candidates = flips.filter((id) => !hasId(whole, id) && !hasId(removed, id) && !hasId(partial, id));
+    for (const list of [removed, partial, candidates]) readFlags(s, list.length, (i) => order.push(list[i]));
     {
       const nr = s.uint();
       if (nr > nTris) fail('polygons', 'more sources than the scene has');
@@ -549,6 +717,10 @@ export class DeltaDecoder {
     let lx = 0;
     let ly = 0;
     let p = 0;
+    const v2 = version >= 2;
+    const pointRef = v2 ? POINT_REF2 : POINT_REF;
+    const edges = new Map(); // version 2: source edge (min * 2^26 + max) -> the first points made on it
+    const edgeKey = (a, b) => (a < b ? a * 2 ** 26 + b : b * 2 ** 26 + a);
     for (let o = 0; o < order.length; ++o) {
       const id = order[o];
       for (let q = 0; q < polyCount[o]; ++q, ++p) {
@@ -582,7 +754,7 @@ export class DeltaDecoder {
               pointBefore = true;
             }
             ringId.push(t);
-          } else if (code === NEW_POINT || (code >= EDGE_POINT && code < POINT_REF)) {
+          } else if (code === NEW_POINT || (code >= EDGE_POINT && code < EDGE_POINT + 3)) {
             let x;
             let y;
             if (code === NEW_POINT) {
@@ -603,6 +775,12 @@ export class DeltaDecoder {
               if (n < 2 || st < 1 || st >= n) fail(`edge steps ${npoints}`, 'out of the edge');
               x = proj[2 * a] + stepAlong(st, dx, n);
               y = proj[2 * a + 1] + stepAlong(st, dy, n);
+              if (v2) {
+                const key = edgeKey(a, b);
+                let on = edges.get(key);
+                if (!on) edges.set(key, (on = []));
+                if (on.length < EDGE_REFS) on.push(npoints);
+              }
             }
             if (!(x >= 0 && y >= 0 && x <= xmax && y <= ymax)) fail(`points ${npoints}`, 'outside the viewport');
             const at = out.point(x, y);
@@ -611,10 +789,20 @@ export class DeltaDecoder {
             ringId.push(nVerts + npoints - 1);
             pointBefore = true;
           } else {
-            const j = code - POINT_REF;
-            if (j >= npoints) fail(`polygons ${p}`, 'point ref out of range');
-            ring.push(pointSlot[npoints - 1 - j]);
-            ringId.push(nVerts + npoints - 1 - j);
+            let k;
+            if (code < pointRef) { // version 2: a point made on own edge e's source edge
+              const e = (code - EDGE_REF) % 3;
+              const on = edges.get(edgeKey(tri[3 * id + e], tri[3 * id + ((e + 1) % 3)]));
+              const i = Math.floor((code - EDGE_REF) / 3);
+              if (!on || i >= on.length) fail(`polygons ${p}`, 'no such point on the edge');
+              k = on[i];
+            } else {
+              const j = code - pointRef;
+              if (j >= npoints) fail(`polygons ${p}`, 'point ref out of range');
+              k = npoints - 1 - j;
+            }
+            ring.push(pointSlot[k]);
+            ringId.push(nVerts + k);
             pointBefore = true;
           }
         }
@@ -639,7 +827,7 @@ export class DeltaDecoder {
         projection: ortho ? 'orthographic' : 'perspective', eye, target, rows,
         xy, indices, source, mesh, shade, meshBase: meshBase.slice(), meshColor: colors.slice(),
       },
-      state: { base: meshBase, colors, vertex, tri, whole, partial },
+      state: { base: meshBase, colors, vertex, tri, whole, partial, view },
     };
   }
 }

@@ -8,25 +8,36 @@
 //   compact  protocol version 2, compact frames (proto/COMPACT.md) with raw deflate, decoded by
 //            compact.js (decodeCompact, the browser inflates with DecompressionStream) and
 //            drawn on a 2D canvas;
-//   delta    protocol version 2, delta frames (proto/DELTA.md) with raw deflate, decoded in
-//            sequence by delta.js (DeltaDecoder: the page holds the source triangles and the
-//            previous frame; a frame that does not apply asks the server for a keyframe), drawn
-//            as compact frames are.
+//   delta    protocol version 3, delta frames (proto/DELTA.md version 2) with raw deflate,
+//            decoded in sequence by delta.js (DeltaDecoder: the page holds the scene, sent once
+//            after scene_ready as the sources message (hold_scene), and the previous frame; a
+//            frame may be the view's compact frame when that is smaller; a frame that does not
+//            apply asks the server for a keyframe), drawn as compact frames are.
 // Drag orbits the camera, the wheel zooms. ?scene=NAME opens a library scene, ?format=svg|compact|delta
 // picks the mode (the selector switches it live: a new session, the same scene and camera),
 // ?viewport=WxH the frame size (default: the view's size). The style controls (?style=fill|lines|
 // fill+lines, ?hidden=1, ?crease=DEG; docs/LINES.md) ask the server for line drawings in svg and
 // bin modes; they switch live like the format and are off in compact and delta modes, whose
 // formats carry no lines.
+// Compact and delta frames are decoded in a Worker (decode_worker.js: the frame's bytes go in
+// and the draw's buffers come back, transferred, not copied), so the page never waits on a
+// decode, and drawn with WebGL 2 (gl_draw.js: one buffer upload, two instanced draws,
+// antialiased as the SVG's coverage) where the browser has it on a GPU, else on a 2D canvas
+// (drawCompact: a path per colour); ?draw=webgl or ?draw=2d chooses. bin frames are decoded and drawn here on a 2D canvas (their
+// lines are strokes, dashed for hidden parts).
 // Every frame shown is timed in the page (performance.now()): decode (compact, delta: the
-// decoder's promise, inflate included; svg: the innerHTML assignment, which parses the SVG into
-// the DOM) and draw (canvas: drawCompact; svg: until the second animation frame after the
-// insertion, so the paint is in it, and up to one frame interval of waiting). With ?timing=1 the
-// canvas draw ends by reading one pixel back (getImageData), which makes the 2D canvas finish
-// rasterizing what was recorded; without it the draw is the calls only. The last 1000 frames'
-// times are in window.vismapViewer.timings ({seq, format, bytes, keyframe, triangles, decode_ms, draw_ms,
-// paths_ms: of the draw, building the Path2Ds; the rest is the canvas's fill, stroke and raster}, or
-// {seq, format, error} for a frame that did not decode);
+// worker's decode, inflate included; bin: bin.js; svg: the innerHTML assignment, which parses the
+// SVG into the DOM) and draw (WebGL: upload and draw calls; canvas: drawCompact; svg: until the
+// second animation frame after the insertion, so the paint is in it, and up to one frame interval
+// of waiting). With ?timing=1 the draw ends by reading one pixel back (readPixels,
+// getImageData), which makes the browser finish rasterizing; without it the draw is the calls
+// only. The last 1000 frames' times are in window.vismapViewer.timings ({seq, format, bytes,
+// keyframe, triangles, decode_ms, draw_ms, paths_ms: of a 2D draw, building the Path2Ds; the rest
+// is the canvas's fill, stroke and raster; worker frames also build_ms (the worker's buffers),
+// wait_ms (posting the bytes to having the buffers back, the decode and build in it), upload_ms
+// (WebGL: bufferData), script_ms (this thread's time for the frame, without the pixel read back:
+// what it costs the page when not timing), renderer: 'webgl2' | '2d'},
+// or {seq, format, error} for a frame that did not decode);
 // window.vismapViewer.camera(fields) sends a camera with these fields (a bench drives the
 // viewer with it: bench/stream/clients.py) and returns its seq.
 (() => {
@@ -48,9 +59,33 @@
   let ws = null, pendingHeader = null, orbit = null, keepOrbit = false;
   let seq = 0, sentAt = new Map(), lastFps = [];
   let lastScene = null;  // {message, bytes}: sent again when the mode changes
-  let compact = null;  // the module compact.js (decodeCompact, triangleColor), imported on first use
   let bin = null;  // bin.js (decodeBin), imported on first use
-  let deltaModule = null, delta = null;  // delta.js, and this session's DeltaDecoder
+  let meshEdges = null;  // mesh_edges.js (sharedEdges), imported before the first 2D canvas draw
+  let pendingSources = false;  // the next binary message is the held scene's sources
+  // WebGL 2 where the browser has it on a GPU (a probe canvas says); a software rasterizer
+  // (SwiftShader, llvmpipe) draws a 1920x1080 bunny frame in ~3 s where the 2D canvas takes
+  // ~0.1 s (docs/STREAMING.md), so there the 2D canvas; ?draw=webgl or ?draw=2d decides.
+  const useGl = (() => {
+    if (params.get('draw') === '2d') return false;
+    const gl = document.createElement('canvas').getContext('webgl2');
+    if (!gl) return false;
+    if (params.get('draw') === 'webgl') return true;
+    const info = gl.getExtension('WEBGL_debug_renderer_info');
+    const name = info ? String(gl.getParameter(info.UNMASKED_RENDERER_WEBGL)) : '';
+    return !/swiftshader|llvmpipe|software/i.test(name);
+  })();
+  let glModule = null, glDraw = null;  // gl_draw.js, and the canvas's GlDraw (null: 2D canvas)
+  // The decoding worker: requests by id, answered in order of completion.
+  const worker = new Worker('decode_worker.js', { type: 'module' });
+  const replies = new Map();
+  let requestId = 0;
+  worker.onmessage = (e) => { const r = replies.get(e.data.id); replies.delete(e.data.id); if (r) r(e.data); };
+  const inWorker = (kind, bytes) => new Promise((resolve) => {
+    const id = ++requestId;
+    replies.set(id, resolve);
+    worker.postMessage({ id, kind, bytes, target: useGl ? 'gl' : '2d' },
+      bytes ? [bytes] : []);
+  });
   let frameNo = 0, shownNo = 0;  // a decode that ends after a newer frame's is not drawn
   const timingFinish = params.get('timing') === '1';
   const vp = /^(\d+)x(\d+)$/.exec(params.get('viewport') || '');
@@ -67,15 +102,17 @@
   function connect() {
     if (ws) { ws.onclose = null; ws.close(); }
     pendingHeader = null;
-    delta = null;  // a new session starts from a keyframe
+    pendingSources = false;
+    worker.postMessage({ kind: 'reset' });  // a new session starts from a keyframe
     ws = new WebSocket((location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/');
     ws.binaryType = 'arraybuffer';
     ws.onopen = () => {
       const viewport = vp ? { width: +vp[1], height: +vp[2] }
         : { width: view.clientWidth | 0 || 800, height: view.clientHeight | 0 || 600 };
       const lines = style() !== 'fill';
-      const hello = { type: 'hello', version: format === 'svg' && !lines ? 1 : 2, format, viewport };
+      const hello = { type: 'hello', version: format === 'delta' ? 3 : format === 'svg' && !lines ? 1 : 2, format, viewport };
       if (format === 'compact' || format === 'delta') hello.compression = 'deflate';  // browsers inflate it natively
+      if (format === 'delta') hello.hold_scene = true;  // the scene's sources once, then frames without
       if (lines) {
         hello.style = style();
         hello.hidden = hiddenBox.checked;
@@ -91,10 +128,14 @@
   setInterval(() => send({ type: 'ping' }), 20000);  // keeps the idle timeout away
 
   function onMessage(e) {
+    if (pendingSources) {  // the held scene (the worker's decoder takes it before the frames)
+      pendingSources = false;
+      inWorker('sources', e.data).then((r) => { if (!r.ok) stats.textContent = `sources: ${r.error}`; });
+      return;
+    }
     if (pendingHeader) {  // the payload that follows a frame header
       const h = pendingHeader; pendingHeader = null;
-      if (h.format === 'compact') return showCompact(h, e.data);
-      if (h.format === 'delta') return showDelta(h, e.data);
+      if (h.format === 'compact' || h.format === 'delta') return showDecoded(h, e.data);
       if (h.format === 'bin') return showBin(h, e.data);
       return showSvg(h, e.data);
     }
@@ -118,6 +159,8 @@
       sendCamera();
     } else if (m.type === 'frame') {
       pendingHeader = m;
+    } else if (m.type === 'sources') {
+      pendingSources = true;
     } else if (m.type === 'error') {
       stats.textContent = `error ${m.code}: ${m.message}`;
     }
@@ -145,52 +188,65 @@
     record(h, null, t1 - t0, performance.now() - t1);
   }
 
-  // Draws a decoded frame and records its times (t0: the decode's start).
-  function drawTimed(h, f, t0) {
-    const t1 = performance.now();
-    drawCompact(f, compact.triangleColors(f));
-    if (timingFinish) view.querySelector('canvas').getContext('2d').getImageData(0, 0, 1, 1);
-    record(h, f.indices.length / 3, t1 - t0, performance.now() - t1, pathsMs);
-  }
-
-  async function showCompact(h, bytes) {
-    const no = ++frameNo;
-    try {
-      if (!compact) compact = await import('./compact.js');
-      const t0 = performance.now();
-      const f = await compact.decodeCompact(bytes);
-      if (no < shownNo) return;
-      shownNo = no;
-      drawTimed(h, f, t0);
-      shown(h);
-    } catch (err) {
-      timings.push({ seq: h.seq, format: h.format, error: String(err.message || err) });
-      stats.textContent = `compact frame: ${err.message || err}`;
+  // The canvas, with the context kind the frame needs (a canvas keeps its first kind).
+  function canvasFor(kind) {
+    let canvas = view.querySelector('canvas');
+    if (!canvas || canvas.dataset.context !== kind) {
+      view.innerHTML = '';
+      canvas = document.createElement('canvas');
+      canvas.dataset.context = kind;
+      view.appendChild(canvas);
+      glDraw = null;
     }
+    return canvas;
   }
 
-  // Delta frames decode in order (DeltaDecoder queues them): each is drawn when it is the newest.
-  async function showDelta(h, bytes) {
+  // A compact or delta frame: decoded (and made ready to draw) in the worker, then drawn with
+  // WebGL 2 or the 2D canvas, each drawn when it is the newest (delta frames decode in order).
+  async function showDecoded(h, bytes) {
     const no = ++frameNo;
-    try {
-      if (!compact) compact = await import('./compact.js');
-      if (!deltaModule) deltaModule = await import('./delta.js');
-      if (!delta) delta = new deltaModule.DeltaDecoder();
-      const t0 = performance.now();
-      const f = await delta.decode(bytes);
-      if (no < shownNo) return;
-      shownNo = no;
-      drawTimed(h, f, t0);  // the same arrays as a compact frame's, shades included
-      shown(h);
-    } catch (err) {
-      timings.push({ seq: h.seq, format: h.format, error: String(err.message || err) });
-      if (deltaModule && err instanceof deltaModule.DeltaOutOfSync) {
+    const t0 = performance.now();
+    const r = await inWorker(h.format, bytes);
+    const t1 = performance.now();
+    if (!r.ok) {
+      timings.push({ seq: h.seq, format: h.format, error: r.error });
+      if (r.outOfSync) {
         send({ type: 'keyframe' });  // this frame did not apply: the next one stands alone
         sendCamera();
         return;
       }
-      stats.textContent = `delta frame: ${err.message || err}`;
+      stats.textContent = `${h.format} frame: ${r.error}`;
+      return;
     }
+    if (no < shownNo) return;
+    shownNo = no;
+    const f = r.frame;
+    let times;
+    if (f.gl) {
+      if (!glDraw) {
+        if (!glModule) glModule = await import('./gl_draw.js');
+        glDraw = glModule.GlDraw.create(canvasFor('webgl2'));
+      }
+      if (glDraw) {
+        times = glDraw.draw(f.gl, f.width, f.height, timingFinish);
+        glDraw.gl.canvas.dataset.frames = String(shownNo);
+      }
+    }
+    if (!times) {  // no WebGL 2 (or ?draw=2d): the 2D canvas, with the frame's arrays
+      if (!meshEdges) meshEdges = await import('./mesh_edges.js');
+      const s0 = performance.now();
+      drawCompact(f, f.colors);
+      const s1 = performance.now();
+      if (timingFinish) view.querySelector('canvas').getContext('2d').getImageData(0, 0, 1, 1);
+      times = { uploadMs: null, callsMs: s1 - s0, finishMs: performance.now() - s1 };
+    }
+    const t2 = performance.now();
+    timings.push({ seq: h.seq, format: h.format, bytes: h.bytes, keyframe: f.keyframe, triangles: f.triangles,
+                   decode_ms: r.decodeMs, build_ms: r.buildMs, wait_ms: t1 - t0, upload_ms: times.uploadMs,
+                   draw_ms: times.callsMs + times.finishMs, script_ms: t2 - t1 - times.finishMs,
+                   paths_ms: f.gl ? null : pathsMs, renderer: f.gl ? 'webgl2' : '2d' });
+    if (timings.length > 1000) timings.shift();
+    shown(h);
   }
 
   // A bin frame: the triangles welded where their corners are bit-identical (the map's neighbours
@@ -200,6 +256,7 @@
     const no = ++frameNo;
     try {
       if (!bin) bin = await import('./bin.js');
+      if (!meshEdges) meshEdges = await import('./mesh_edges.js');
       const t0 = performance.now();
       const f = bin.decodeBin(bytes);
       const t1 = performance.now();
@@ -307,25 +364,12 @@
   // script time for a 1920x1080 bunny frame, bench/stream/clients.py).
   function drawCompact(f, colors) {
     const t0 = performance.now();
-    let canvas = view.querySelector('canvas');
-    if (!canvas) { view.innerHTML = ''; canvas = document.createElement('canvas'); view.appendChild(canvas); }
+    const canvas = canvasFor('2d');
     if (canvas.width !== f.width || canvas.height !== f.height) { canvas.width = f.width; canvas.height = f.height; }
     const ctx = canvas.getContext('2d');
     ctx.clearRect(0, 0, f.width, f.height);
-    const q = f.quantum, xy = f.xy, ix = f.indices, n = ix.length / 3, nv = xy.length / 2;
-    // next[first[a] ... first[a + 1] - 1]: the vertices b of the edges a -> b, one per use.
-    const first = new Int32Array(nv + 1), next = new Int32Array(ix.length);
-    for (let i = 0; i < ix.length; ++i) ++first[ix[i] + 1];
-    for (let a = 0; a < nv; ++a) first[a + 1] += first[a];
-    const fill = first.slice(0, nv);
-    for (let i = 0; i < ix.length; i += 3)
-      for (let k = 0; k < 3; ++k) next[fill[ix[i + k]]++] = ix[i + (k + 1) % 3];
-    const uses = (a, b) => {
-      let u = 0;
-      for (let j = first[a], e = first[a + 1]; j < e; ++j) u += next[j] === b;
-      for (let j = first[b], e = first[b + 1]; j < e; ++j) u += next[j] === a;
-      return u;
-    };
+    const q = f.quantum, xy = f.xy, ix = f.indices, n = ix.length / 3;
+    const shared = meshEdges.sharedEdges(ix, xy.length / 2);  // loaded before any 2D draw
     // colors: 3 sRGB bytes per triangle
     const groups = new Map();  // packed colour -> {fill: Path2D, stroke: Path2D, style}
     let g = -1, p = null;
@@ -347,9 +391,9 @@
       p.fill.lineTo(x1, y1);
       p.fill.lineTo(x2, y2);
       p.fill.closePath();
-      if (uses(v0, v1) >= 2) { p.stroke.moveTo(x0, y0); p.stroke.lineTo(x1, y1); }
-      if (uses(v1, v2) >= 2) { p.stroke.moveTo(x1, y1); p.stroke.lineTo(x2, y2); }
-      if (uses(v2, v0) >= 2) { p.stroke.moveTo(x2, y2); p.stroke.lineTo(x0, y0); }
+      if (shared[t] & 1) { p.stroke.moveTo(x0, y0); p.stroke.lineTo(x1, y1); }
+      if (shared[t] & 2) { p.stroke.moveTo(x1, y1); p.stroke.lineTo(x2, y2); }
+      if (shared[t] & 4) { p.stroke.moveTo(x2, y2); p.stroke.lineTo(x0, y0); }
     }
     pathsMs = performance.now() - t0;
     ctx.lineWidth = 1;

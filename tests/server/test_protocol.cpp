@@ -19,7 +19,7 @@ static std::string code_of(const std::string& text, uint64_t max_scene = 1000) {
 
 TEST(Protocol, HelloNegotiatesVersion) {
   auto r = parse_request(
-      R"({"type":"hello","versions":[3,1],"format":"bin","viewport":{"width":64,"height":32}})", 10,
+      R"({"type":"hello","versions":[4,1],"format":"bin","viewport":{"width":64,"height":32}})", 10,
       4096);
   auto& h = std::get<Hello>(r);
   EXPECT_EQ(h.version, 1);
@@ -68,6 +68,13 @@ TEST(Protocol, CompactRefusals) {
   EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"delta","keyframe_every":-1})"),
             "bad_message");
   EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"delta","keyframe_every":30})"), "ok");
+  // hold_scene: version 3, delta only, a boolean; version 2 ignores it as any unlisted field.
+  EXPECT_EQ(code_of(R"({"type":"hello","version":3,"format":"delta","hold_scene":true})"), "ok");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":3,"format":"compact","hold_scene":true})"),
+            "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":3,"format":"delta","hold_scene":1})"),
+            "bad_message");
+  EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"compact","hold_scene":true})"), "ok");
   EXPECT_EQ(code_of(R"({"type":"keyframe"})"), "ok");
   EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"frobnicate"})"), "bad_message");
   try {
@@ -91,7 +98,7 @@ TEST(Protocol, FormatTableNamesEveryFormat) {
 
 TEST(Protocol, VersionMismatchIsFatal) {
   try {
-    parse_request(R"({"type":"hello","versions":[0,3]})", 10, 4096);
+    parse_request(R"({"type":"hello","versions":[0,4]})", 10, 4096);
     FAIL();
   } catch (const ProtoError& e) {
     EXPECT_EQ(e.code, "version_mismatch");

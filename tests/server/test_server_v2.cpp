@@ -3,9 +3,9 @@
 // refusals, the per-format metrics, and permessage-deflate with frames still correct through it.
 #include <gtest/gtest.h>
 
-#include <nlohmann/json.hpp>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "core/lines/lines.h"
@@ -35,8 +35,10 @@ class ServerV2Test : public ServerTest {
   }
   // The frame the server renders for frame(c, seq, angle) on `scene` at 128x96, built the way
   // the session builds it: the framing camera, the request's eye and target, near/far fitted.
+  // (screen: the render's screen triangles too, as a delta session keeps them.)
   vismap::PlanarMap render_like_the_server(const vismap::Scene& scene, double angle,
-                                           vismap::Camera& cam) {
+                                           vismap::Camera& cam,
+                                           vismap::ScreenTriangles* screen = nullptr) {
     cam = vismap::frame_scene(scene, 128, 96);
     cam.eye = {3 * std::sin(angle), 1.5, 3 * std::cos(angle)};
     cam.target = {0.25, 0.25, 0.25};
@@ -45,8 +47,9 @@ class ServerV2Test : public ServerTest {
     cam.validate();
     vismap::RenderOptions opts;
     opts.memory_budget = cfg_.limits.render_memory_bytes;
+    opts.keep_screen_triangles = screen != nullptr;
     if (!renderer_) renderer_ = std::make_unique<vismap::Renderer>(cfg_.device);
-    return renderer_->render(scene, cam, opts);
+    return renderer_->render(scene, cam, opts, nullptr, screen);
   }
   // Polls /metrics until it holds `line` (a frame is counted when the server's write completes,
   // which may be just after the client has its bytes).
@@ -73,12 +76,12 @@ TEST_F(ServerV2Test, HelloPicksTheHighestVersionAndListsFormats) {
   EXPECT_EQ(w["formats"], json::array({"svg", "bin", "compact", "delta"}));
   EXPECT_EQ(w["format"], "svg");
   WsClient future;  // a version this server does not speak is passed over, not refused
-  w = hello_answer(future, {{"versions", {3, 2}}, {"format", "compact"}});
-  EXPECT_EQ(w["version"], 2) << w.dump();
+  w = hello_answer(future, {{"versions", {4, 3}}, {"format", "compact"}});
+  EXPECT_EQ(w["version"], 3) << w.dump();
   EXPECT_EQ(w["format"], "compact");
   auto health = json::parse(http_get("127.0.0.1", port_, "/health").body);
-  EXPECT_EQ(health["protocol"], 2);
-  EXPECT_EQ(health["protocols"], json::array({1, 2}));
+  EXPECT_EQ(health["protocol"], 3);
+  EXPECT_EQ(health["protocols"], json::array({1, 2, 3}));
 }
 
 // A version 1 session sees version 1 exactly: no `formats`, no compact, svg and bin as before.
@@ -368,7 +371,9 @@ TEST_F(ServerV2Test, DeltaFramesApplyInSequenceAndKeyframesOnRequest) {
   ASSERT_EQ(next(c, 60)["type"], "scene_ready");
   vismap::Scene scene = vismap::load_scene_from_memory("grid.obj", grid);
   vismap::DeltaDecoder dec;
-  vismap::DeltaEncoder mine(scene, {});
+  vismap::DeltaOptions v1;  // protocol version 2 sessions get DELTA.md version 1
+  v1.version = 1;
+  vismap::DeltaEncoder mine(scene, v1);
   for (int i = 0; i < 4; ++i) {
     if (i == 2) c.send_text(json{{"type", "keyframe"}}.dump());
     const double angle = 0.3 * i;
@@ -401,6 +406,47 @@ TEST_F(ServerV2Test, DeltaFramesApplyInSequenceAndKeyframesOnRequest) {
   auto [h, p] = frame(c, 9, 0.1);
   EXPECT_EQ(h["keyframe"], true);
   EXPECT_TRUE(dec.decode(p.data).keyframe);
+}
+
+// Protocol version 3, delta with hold_scene: the sources message follows scene_ready, frames
+// are DELTA.md version 2 (delta, keyframe or, when smaller, the compact frame), coded as the
+// same render encoded here, and decode with the scene held; hold_scene elsewhere is refused.
+TEST_F(ServerV2Test, Version3DeltaSessionsHoldTheSceneAndNeverExceedCompact) {
+  start();
+  WsClient bad;
+  EXPECT_EQ(
+      hello_answer(bad, {{"version", 3}, {"format", "compact"}, {"hold_scene", true}})["code"],
+      "bad_message");
+  WsClient c;
+  hello(c, "delta", {{"version", 3}, {"hold_scene", true}});
+  const std::string grid = grid_obj(12);
+  upload(c, "grid.obj", grid);
+  ASSERT_EQ(next(c, 60)["type"], "scene_ready");
+  const json sh = next(c, 60);
+  ASSERT_EQ(sh["type"], "sources") << sh.dump();
+  const Message sources = c.read(60);
+  EXPECT_TRUE(sources.binary);
+  EXPECT_EQ(sh["bytes"], sources.data.size());
+  vismap::Scene scene = vismap::load_scene_from_memory("grid.obj", grid);
+  EXPECT_EQ(sources.data, vismap::encode_delta_sources(scene, vismap::Compression::Zstd));
+  vismap::DeltaDecoder dec;
+  dec.hold_scene(sources.data);
+  vismap::DeltaOptions o;
+  o.client_holds_scene = true;
+  vismap::DeltaEncoder mine(scene, o);
+  for (int i = 0; i < 3; ++i) {
+    auto [h, p] = frame(c, i, 0.3 * i);
+    EXPECT_EQ(h["format"], "delta");
+    ASSERT_TRUE(h.contains("coding")) << h.dump();
+    EXPECT_LE(p.data.size(), h["compact_bytes"].get<size_t>());
+    const vismap::DeltaFrame f = dec.decode(p.data);
+    EXPECT_EQ(f.compact, h["coding"] == "compact");
+    EXPECT_GT(f.triangle_count(), 0u);
+    vismap::Camera cam;
+    vismap::ScreenTriangles st;
+    const vismap::PlanarMap map = render_like_the_server(scene, 0.3 * i, cam, &st);
+    EXPECT_TRUE(mine.encode(map, st, cam) == p.data) << "frame " << i;
+  }
 }
 
 TEST_F(ServerV2Test, KeyframeOutsideDeltaIsRefused) {
@@ -438,8 +484,11 @@ TEST_F(ServerV2Test, CurvedSurfacesAreDicedPerFrame) {
     for (int k = 0; k < 2; ++k) {
       json cam = r["camera"];
       // the second frame from a little to the side
-      if (k == 1) cam["eye"][0] = cam["eye"][0].get<double>() + 0.1 * r["bounds"]["hi"][0].get<double>();
-      c.send_text(json{{"type", "camera"}, {"seq", k}, {"eye", cam["eye"]}, {"target", cam["target"]}}.dump());
+      if (k == 1)
+        cam["eye"][0] = cam["eye"][0].get<double>() + 0.1 * r["bounds"]["hi"][0].get<double>();
+      c.send_text(
+          json{{"type", "camera"}, {"seq", k}, {"eye", cam["eye"]}, {"target", cam["target"]}}
+              .dump());
       json h = next(c, 60);
       ASSERT_EQ(h["type"], "frame") << file << h.dump();
       Message p = c.read(60);
@@ -467,8 +516,11 @@ TEST_F(ServerV2Test, ImplicitSurfacesAreDicedPerFrame) {
     json r = next(c, 60);
     EXPECT_EQ(r["type"], "scene_ready") << r.dump();
     if (r["type"] != "scene_ready") return vismap::BinFrame{};
-    c.send_text(json{{"type", "camera"}, {"seq", 1}, {"eye", r["camera"]["eye"]},
-                     {"target", r["camera"]["target"]}}.dump());
+    c.send_text(json{{"type", "camera"},
+                     {"seq", 1},
+                     {"eye", r["camera"]["eye"]},
+                     {"target", r["camera"]["target"]}}
+                    .dump());
     json h = next(c, 60);
     EXPECT_EQ(h["type"], "frame") << h.dump();
     if (h["type"] != "frame") return vismap::BinFrame{};

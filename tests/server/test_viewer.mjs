@@ -2,12 +2,16 @@
 //  1. svg mode: it connects, loads a library scene, shows the live SVG stream and orbits on a
 //     mouse drag;
 //  2. the bunny in svg mode, then switched to compact mode (protocol version 2, raw deflate,
-//     compact.js, a 2D canvas) with the same camera; the two screenshots must agree: at most
+//     compact.js in the viewer's worker, drawn with WebGL 2: SwiftShader here) with the same
+//     camera (?draw=webgl), and in a page of its own on the 2D canvas (which the viewer picks
+//     over SwiftShader's software WebGL); the screenshots must agree: at most
 //     MAX_DIFFERING of the pixels that either shows as object may differ by more than
 //     PIXEL_TOLERANCE in a channel (anti-aliased outlines and the 1/16 px grid differ a little,
 //     a missing, turned or wrongly coloured bunny over much of it). Measured at 800x546 (a two-row bar since the line controls): 0.03% of
-//     62,984 object pixels (mean difference 1.9 of 255; 0.12% of 67,629 at 800x566 before); the frame of a camera turned by 180
-//     degrees instead: 30%.
+//     62,984 object pixels (mean difference 1.9 of 255; 0.12% of 67,629 at 800x566 before) on the
+//     2D canvas, 0.16% with WebGL 2 (its strokes and fills counted on 4x4 samples: gl_draw.js);
+//     the frame of a camera turned by 180 degrees instead: 30%.
+//  3. delta mode (protocol version 3, the held scene), WebGL 2, against the same svg screenshot.
 //  4. line drawings: the bunny with style=lines in svg mode (protocol version 2, the server's
 //     SVG lines) and in bin mode (bin.js, the line section stroked on the canvas): the chain count
 //     decoded is the frame header's line_chains, and the screenshots agree as in 2 (a looser
@@ -58,6 +62,11 @@ const port = await new Promise((resolve, reject) => {
   });
   server.on('exit', () => reject(new Error('vismapd exited')));
 });
+
+// VIEWER_SHOTS=DIR keeps the screenshots compared there (svg.png, compact.png, delta.png, ...).
+function keep(name, png) {
+  if (process.env.VIEWER_SHOTS) fs.writeFileSync(path.join(process.env.VIEWER_SHOTS, name), png);
+}
 
 // Pixels of two PNG screenshots of the same size, compared in the page (Chromium decodes PNG).
 async function compare(page, a, b) {
@@ -114,10 +123,11 @@ try {
   const bunny = await browser.newPage({ viewport: { width: 800, height: 600 } });
   const errors = [];
   bunny.on('pageerror', (e) => errors.push(String(e)));
-  await bunny.goto(`http://127.0.0.1:${port}/?scene=bunny.ply`);
+  await bunny.goto(`http://127.0.0.1:${port}/?scene=bunny.ply&draw=webgl`);  // (SwiftShader here: the viewer would pick the 2D canvas)
   await bunny.waitForSelector('#view svg path', { timeout: 90000 });
   await bunny.waitForFunction(() => /fps/.test(document.querySelector('#stats').textContent), null, { timeout: 30000 });
   const svgShot = await bunny.locator('#view svg').screenshot();
+  keep('svg.png', svgShot);
   console.log('ok: bunny in svg mode');
   if (!haveCompactJs) {
     console.log('skipped: compact mode and the svg/compact screenshot comparison: server/www/compact.js ' +
@@ -129,6 +139,9 @@ try {
     await bunny.waitForSelector('#view canvas[data-frames]', { timeout: 90000 });
     const canvasSize = await bunny.$eval('#view canvas', (c) => [c.width, c.height]);
     const compactShot = await bunny.locator('#view canvas').screenshot();
+    keep('compact.png', compactShot);
+    const renderer = await bunny.evaluate(() => window.vismapViewer.timings.filter((t) => t.renderer).pop().renderer);
+    if (renderer !== 'webgl2') throw new Error(`compact mode drew with ${renderer}, not WebGL 2`);
     const d = await compare(bunny, svgShot, compactShot);
     if (d.error) throw new Error(`screenshots differ in size: ${d.error} (canvas ${canvasSize})`);
     console.log(`svg vs compact: ${d.object} object pixels (svg ${d.objectA}, compact ${d.objectB}), ` +
@@ -136,13 +149,28 @@ try {
                 `limit ${100 * MAX_DIFFERING}%), mean difference ${d.mean.toFixed(2)}`);
     if (d.objectA < 1000 || d.objectB < 1000) throw new Error('an image shows almost no bunny');
     if (d.fraction > MAX_DIFFERING) throw new Error('svg and compact screenshots differ too much');
-    console.log('ok: bunny in compact mode matches svg mode');
+    console.log('ok: bunny in compact mode (WebGL 2) matches svg mode');
+    // The 2D canvas, the same first camera in a page of its own: without ?draw the viewer
+    // picks it here, WebGL 2 being SwiftShader's (software).
+    const flat = await browser.newPage({ viewport: { width: 800, height: 600 } });
+    await flat.goto(`http://127.0.0.1:${port}/?scene=bunny.ply&format=compact`);
+    await flat.waitForSelector('#view canvas[data-frames]', { timeout: 90000 });
+    const flatRenderer = await flat.evaluate(() => window.vismapViewer.timings.filter((t) => t.renderer).pop().renderer);
+    if (flatRenderer !== '2d') throw new Error(`a software WebGL 2 was used (${flatRenderer}), not the 2D canvas`);
+    const flatShot = await flat.locator('#view canvas').screenshot();
+    keep('compact_2d.png', flatShot);
+    const d2 = await compare(flat, svgShot, flatShot);
+    console.log(`svg vs compact on the 2D canvas: ${d2.differ} of ${d2.object} object pixels differ ` +
+                `(${(100 * d2.fraction).toFixed(2)}%), mean difference ${d2.mean.toFixed(2)}`);
+    if (d2.error || d2.fraction > MAX_DIFFERING) throw new Error('svg and the 2D canvas differ too much');
+    await flat.close();
 
     // 3. the same camera in delta mode: a keyframe, then frames applied to it.
     await bunny.selectOption('#format', 'delta');
     await bunny.waitForFunction(() => { const c = document.querySelector('#view canvas');
       return c && /whole/.test(document.querySelector('#stats').textContent); }, null, { timeout: 90000 });
     const deltaShot = await bunny.locator('#view canvas').screenshot();
+    keep('delta.png', deltaShot);
     const dd = await compare(bunny, svgShot, deltaShot);
     if (dd.error) throw new Error(`screenshots differ in size: ${dd.error}`);
     console.log(`svg vs delta: ${dd.object} object pixels (svg ${dd.objectA}, delta ${dd.objectB}), ` +

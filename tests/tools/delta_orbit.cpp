@@ -4,7 +4,10 @@
 // tests/test_delta.cpp's orbit.
 //   vismap_delta_orbit SCENE OUTDIR [--frames N] [--width W] [--height H] [--quantum Q]
 //                      [--compression zstd|deflate] [--step DEG] [--keyframe-every K]
-// writes OUTDIR/delta_000.vmd ... and prints one line per frame (bytes, polygons, corners).
+//                      [--version 1|2] [--held 0|1]
+// writes OUTDIR/delta_000.vmd ... (version 2 with --held 1: OUTDIR/sources.vmd first, the held
+// scene's message) and prints one line per frame (bytes, how coded, polygons, corners). Version
+// 1 unless asked: the clients' version 1 tests use it.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -23,13 +26,15 @@ int main(int argc, char** argv) {
   if (argc < 3) {
     std::fprintf(stderr,
                  "usage: vismap_delta_orbit SCENE OUTDIR [--frames N] [--width W] [--height H] "
-                 "[--quantum Q] [--compression zstd|deflate] [--step DEG] [--keyframe-every K]\n");
+                 "[--quantum Q] [--compression zstd|deflate] [--step DEG] [--keyframe-every K] "
+                 "[--version 1|2] [--held 0|1]\n");
     return 2;
   }
   int frames = 4;
   uint32_t width = 1920, height = 1080;
   double step = 6;
   DeltaOptions opt;
+  opt.version = 1;
   for (int i = 3; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
     if (a == "--frames")
@@ -40,6 +45,10 @@ int main(int argc, char** argv) {
       height = uint32_t(std::atoi(v.c_str()));
     else if (a == "--quantum")
       opt.quantum = uint32_t(std::atoi(v.c_str()));
+    else if (a == "--held")
+      opt.client_holds_scene = v == "1";
+    else if (a == "--version")
+      opt.version = uint32_t(std::atoi(v.c_str()));
     else if (a == "--step")
       step = std::atof(v.c_str());
     else if (a == "--keyframe-every")
@@ -55,6 +64,9 @@ int main(int argc, char** argv) {
     const Scene s = load_scene(argv[1]);
     Renderer renderer;
     DeltaEncoder enc(s, opt);
+    if (opt.client_holds_scene && opt.version >= 2)
+      std::ofstream(std::string(argv[2]) + "/sources.vmd", std::ios::binary)
+          << encode_delta_sources(s, opt.compression);
     for (int i = 0; i < frames; ++i) {
       Camera c = frame_scene(s, width, height);
       const double a = i * step * M_PI / 180;
@@ -73,10 +85,16 @@ int main(int argc, char** argv) {
       std::snprintf(name, sizeof name, "/delta_%03d.vmd", i);
       std::ofstream(std::string(argv[2]) + name, std::ios::binary) << bytes;
       std::printf(
-          "%s: %zu bytes, keyframe %d, whole %llu, polygons %llu, corners %llu, points %llu\n",
-          name + 1, bytes.size(), int(st.keyframe), (unsigned long long)st.whole,
-          (unsigned long long)st.partial, (unsigned long long)st.partial_corners,
-          (unsigned long long)st.points);
+          "%s: %zu bytes (%s; delta %llu, compact %llu), flips %llu, edge refs %llu, whole %llu, "
+          "polygons %llu, corners %llu, points %llu\n",
+          name + 1, bytes.size(),
+          st.coding == DeltaCoding::Compact ? "compact"
+          : st.keyframe                     ? "keyframe"
+                                            : "delta",
+          (unsigned long long)st.delta_bytes, (unsigned long long)st.compact_bytes,
+          (unsigned long long)st.flips, (unsigned long long)st.edge_refs,
+          (unsigned long long)st.whole, (unsigned long long)st.partial,
+          (unsigned long long)st.partial_corners, (unsigned long long)st.points);
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "vismap_delta_orbit: %s\n", e.what());

@@ -343,7 +343,7 @@ def test_session_hello():
         print("  (no websockets: hello not checked)")
         return
     s = vc.Session("ws://127.0.0.1:1/", fmt="compact", quantum=8, compression="deflate", width=64, height=32)
-    assert s.hello == {"type": "hello", "versions": [1, 2], "format": "compact", "attributes": False,
+    assert s.hello == {"type": "hello", "versions": [1, 2, 3], "format": "compact", "attributes": False,
                        "viewport": {"width": 64, "height": 32}, "quantum": 8, "compression": "deflate"}, s.hello
     assert "quantum" not in vc.Session("ws://x/", fmt="bin").hello
     for bad in (dict(fmt="png"), dict(fmt="bin", quantum=4), dict(fmt="compact", attributes=True)):
@@ -390,7 +390,7 @@ def test_session_stub():
                 assert header["seq"] == 1 and isinstance(frame, vc.CompactFrame) and frame.triangle_count == 116
 
     asyncio.run(run())
-    assert hellos[0]["versions"] == [1, 2] and hellos[0]["format"] == "compact", hellos
+    assert hellos[0]["versions"] == [1, 2, 3] and hellos[0]["format"] == "compact", hellos
     assert hellos[0]["compression"] == "deflate" and "quantum" not in hellos[0], hellos
 
 

@@ -110,10 +110,12 @@ def decode(dec, data, what):
         raise AssertionError(f"{what}: {type(e).__name__} instead of ValueError: {e}") from e
 
 
-def cli_decode(vismap, paths):
-    """`vismap decode PATHS... --json`: the last frame's JSON, or None when the C++ decoder refuses
-    one of them."""
-    r = subprocess.run([vismap, "decode", *paths, "--json"], capture_output=True, text=True, timeout=120)
+def cli_decode(vismap, paths, sources=None):
+    """`vismap decode PATHS... --json` (after `--sources SOURCES`, a held scene): the last frame's
+    JSON, or None when the C++ decoder refuses one of them."""
+    held = ["--sources", sources] if sources else []
+    r = subprocess.run([vismap, "decode", *held, *paths, "--json"], capture_output=True, text=True,
+                       timeout=120)
     assert r.returncode >= 0, f"vismap decode died: {r.returncode} {r.stderr}"
     if r.returncode != 0:
         return None
@@ -159,6 +161,22 @@ def test_vectors():
         raise AssertionError("read_frame decoded a delta frame without its stream")
     except ValueError:
         pass
+    # Version 2 (proto/vectors/README.md): the held torus, a compact frame at 3, frame 4 based on 2.
+    dec = vc.DeltaDecoder()
+    try:
+        dec.decode(read(os.path.join(VECTORS, "delta2_torus_0.vmd")))
+        raise AssertionError("a held keyframe decoded without the held scene")
+    except vc.DeltaOutOfSync:
+        pass
+    dec.hold_scene(read(os.path.join(VECTORS, "delta2_torus_sources.vmd")))
+    assert dec.holds_scene
+    for k in range(5):
+        f = dec.decode(read(os.path.join(VECTORS, f"delta2_torus_{k}.vmd")))
+        what = f"version 2 vector {k}"
+        same(f, json.loads(read(os.path.join(VECTORS, f"delta2_torus_{k}.json"))), what)
+        valid(f, what)
+        assert f.keyframe == (k == 0) and f.compact == (k == 3), what
+        assert dec.last_index == (2 if k == 3 else k), what  # a compact frame leaves the state alone
 
 
 def test_rounding():
@@ -241,6 +259,7 @@ def mutations(data, rng, count):
     key = struct.unpack_from("<I", data, 16)[0] & 1
     nm = struct.unpack_from("<I", data, 32)[0]
     sizes_at = 148 + (24 * nm if key else 0)
+    ns = 10 if struct.unpack_from("<I", data, 4)[0] == 1 else 11  # sections
     out = []
     for i in range(11):  # header fields
         v0 = struct.unpack_from("<I", data, 4 + 4 * i)[0]
@@ -256,7 +275,7 @@ def mutations(data, rng, count):
             out.append((f"message byte {at} flipped", bytes(b)))
             continue
         if kind in (1, 2):  # flip payload bytes (kind 2: only in the sections)
-            lo = sizes_at + 40 if kind == 2 else 0
+            lo = sizes_at + 4 * ns if kind == 2 else 0
             for _ in range(rng.choice((1, 1, 2, 3))):
                 at = rng.randrange(lo, len(b))
                 b[at] ^= 1 << rng.randrange(8) if rng.random() < 0.6 else rng.randrange(1, 256)
@@ -269,22 +288,25 @@ def mutations(data, rng, count):
                 b[at:at] = bytes(rng.randrange(256) for _ in range(rng.randrange(1, 4)))
             what = f"payload cut or grown at {at}"
         else:  # move bytes between sections
-            s = list(struct.unpack_from("<10I", b, sizes_at))
-            i, j = rng.sample(range(10), 2)
+            s = list(struct.unpack_from(f"<{ns}I", b, sizes_at))
+            i, j = rng.sample(range(ns), 2)
             d = rng.choice((1, 2, 3))
             s[i] += d
             s[j] -= d
-            struct.pack_into("<10I", b, sizes_at, *[x & 0xFFFFFFFF for x in s])
+            struct.pack_into(f"<{ns}I", b, sizes_at, *[x & 0xFFFFFFFF for x in s])
             what = f"section sizes {s}"
         out.append((what, repack(data, codec, bytes(b))))
     return out
 
 
-def check_mutations(base_frames, target, ref, cases, vismap, tmp, every=10):
-    """Each case applied after base_frames: refused with ValueError (then the state decodes
-    `target` to `ref`, checked on a sample and at the end) or accepted as a valid frame; on the
-    accepted ones and a sample of the refused, the C++ decoder agrees."""
+def check_mutations(base_frames, target, ref, cases, vismap, tmp, every=10, sources=None):
+    """Each case applied after base_frames (after the held scene `sources`, a path): refused with
+    ValueError (then the state decodes `target` to `ref`, checked on a sample and at the end) or
+    accepted as a valid frame; on the accepted ones and a sample of the refused, the C++ decoder
+    agrees."""
     dec = vc.DeltaDecoder()
+    if sources:
+        dec.hold_scene(read(sources))
     for f in base_frames:
         dec.decode(f)
     paths = []
@@ -306,7 +328,7 @@ def check_mutations(base_frames, target, ref, cases, vismap, tmp, every=10):
         if vismap and (f is not None or k % every == 0):
             with open(mutated, "wb") as fh:
                 fh.write(data)
-            cpp = cli_decode(vismap, paths + [mutated])
+            cpp = cli_decode(vismap, paths + [mutated], sources)
             checked += 1
             assert (cpp is None) == (f is None), f"{what}: C++ {'refuses' if cpp is None else 'accepts'}, Python not"
             if f is not None:
@@ -364,40 +386,56 @@ def test_craft(vismap, tmp):
 
 
 def orbit_frames(orbit, tmp, name, *flags):
+    """The orbit's frames, and its sources message (a held stream) or None."""
     out = os.path.join(tmp, name)
     os.makedirs(out, exist_ok=True)
     subprocess.run([orbit, os.path.join(ROOT, "data", "bunny.ply"), out, *flags], check=True,
                    capture_output=True, timeout=600)
-    return [os.path.join(out, n) for n in sorted(os.listdir(out)) if n.endswith(".vmd")]
+    sources = os.path.join(out, "sources.vmd")
+    return ([os.path.join(out, n) for n in sorted(os.listdir(out)) if n.startswith("delta_")],
+            sources if os.path.exists(sources) else None)
+
+
+# Version 1 and version 2 streams: held (facing flips, edge references), and not held (every
+# frame the compact frame: the keyframe with every source is larger).
+BUNNY_STREAMS = {
+    "bunny_zstd": ("--frames", "5", "--width", "1920", "--height", "1080"),
+    "bunny_deflate": ("--frames", "7", "--width", "640", "--height", "480", "--quantum", "4",
+                      "--compression", "deflate", "--step", "10", "--keyframe-every", "3"),
+    "bunny_v2_held": ("--frames", "5", "--width", "1920", "--height", "1080", "--version", "2",
+                      "--held", "1"),
+    "bunny_v2_held_deflate": ("--frames", "7", "--width", "640", "--height", "480", "--quantum", "4",
+                              "--compression", "deflate", "--step", "10", "--keyframe-every", "3",
+                              "--version", "2", "--held", "1"),
+    "bunny_v2_compact": ("--frames", "2", "--width", "640", "--height", "480", "--version", "2"),
+}
 
 
 def test_bunny(vismap, orbit, tmp, timing):
-    streams = {
-        "bunny_zstd": ("--frames", "5", "--width", "1920", "--height", "1080"),
-        "bunny_deflate": ("--frames", "7", "--width", "640", "--height", "480", "--quantum", "4",
-                          "--compression", "deflate", "--step", "10", "--keyframe-every", "3"),
-    }
-    for name, flags in streams.items():
-        paths = orbit_frames(orbit, tmp, name, *flags)
+    for name, flags in BUNNY_STREAMS.items():
+        paths, sources = orbit_frames(orbit, tmp, name, *flags)
         dec = vc.DeltaDecoder()
+        if sources:
+            dec.hold_scene(read(sources))
         for k, p in enumerate(paths):
             data = read(p)
             before = copy.copy(dec)
             f = dec.decode(data)
             what = f"{name} frame {k}"
-            same(f, cli_decode(vismap, paths[:k + 1]), what)
+            same(f, cli_decode(vismap, paths[:k + 1], sources), what)
             valid(f, what)
-            assert f.keyframe == (k == 0 or (name == "bunny_deflate" and k % 3 == 0)) and f.triangle_count > 1000
+            assert f.compact == name.endswith("_compact") and f.triangle_count > 1000, what
+            assert f.keyframe == (not f.compact and (k == 0 or ("deflate" in name and k % 3 == 0))), what
             if timing:
                 best = min(_timed(lambda: copy.copy(before).decode(data)) for _ in range(7))
                 print(f"  {what}: {'keyframe, ' if f.keyframe else ''}{len(data)} bytes, {f.triangle_count} "
                       f"triangles, {f.vertex_count} vertices: {best * 1e3:.1f} ms")
-        if name == "bunny_deflate":
+        if name in ("bunny_deflate", "bunny_v2_held_deflate"):
             base = [read(p) for p in paths[:2]]
             rng = random.Random(7)
             cases = mutations(read(paths[2]), rng, 60)
-            accepted, checked = check_mutations(base, read(paths[2]), cli_decode(vismap, paths[:3]), cases,
-                                                vismap, tmp, every=4)
+            accepted, checked = check_mutations(base, read(paths[2]), cli_decode(vismap, paths[:3], sources),
+                                                cases, vismap, tmp, every=4, sources=sources)
             print(f"  {len(cases)} mutations of {name} frame 2: {accepted} still valid, {checked} compared")
 
 
@@ -412,7 +450,7 @@ def test_session_hello():
         print("  (no websockets: hello not checked)")
         return
     s = vc.Session("ws://127.0.0.1:1/", fmt="delta", quantum=8, compression="deflate", width=64, height=32)
-    assert s.hello == {"type": "hello", "versions": [1, 2], "format": "delta", "attributes": False,
+    assert s.hello == {"type": "hello", "versions": [1, 2, 3], "format": "delta", "attributes": False,
                        "viewport": {"width": 64, "height": 32}, "quantum": 8, "compression": "deflate"}, s.hello
     assert isinstance(s.delta, vc.DeltaDecoder) and vc.Session("ws://x/", fmt="compact").delta is None
     for bad in (dict(fmt="delta", attributes=True), dict(fmt="svg", compression="zstd")):

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""End-to-end delta frames: vismapd (protocol version 2) streams them and Session(fmt="delta")
+"""End-to-end delta frames: vismapd (protocol version 3) streams them and Session(fmt="delta")
 decodes them, zstd and raw deflate, at two quanta; a `keyframe` message makes the next frame a
 keyframe. Starts vismapd on an ephemeral loopback port.
 
@@ -42,18 +42,25 @@ async def speaks_delta(url):
     return None
 
 
-async def delta_session(url, compression, quantum):
-    async with vc.Session(url, fmt="delta", compression=compression, quantum=quantum, width=96, height=64) as s:
-        assert s.welcome["version"] == 2, s.welcome
+async def delta_session(url, compression, quantum, hold):
+    """Protocol version 3: DELTA.md version 2 frames, each delta, keyframe or (when smaller) the
+    compact frame, never larger than compact_bytes; with hold, the sources message first."""
+    async with vc.Session(url, fmt="delta", compression=compression, quantum=quantum, width=96, height=64,
+                          hold_scene=hold) as s:
+        assert s.welcome["version"] == 3, s.welcome
         ready = await s.upload("tet.obj", TET)
         assert ready["triangles"] == 4
+        assert (s.sources_bytes > 0) == hold and s.delta.holds_scene == hold
         for seq in range(4):
             if seq == 3:
                 await s.send({"type": "keyframe"})
             header, f = await s.frame(eye=[2.0, 1.0 + 0.2 * seq, 3.0], target=[0.25, 0.25, 0.25])
             assert header["format"] == "delta" and header["seq"] == s._seq, header
             assert isinstance(f, vc.DeltaFrame), type(f)
-            assert f.keyframe == (seq in (0, 3)), (seq, f.keyframe)
+            assert header["bytes"] <= header["compact_bytes"], header
+            assert f.compact == (header["coding"] == "compact"), header
+            assert f.keyframe == (header["coding"] == "keyframe"), header
+            assert f.keyframe or f.compact or seq not in (0, 3), (seq, header)
             assert (f.width, f.height) == (96, 64) and f.compression == (compression or "zstd")
             assert f.quantum == (quantum or 16) and f.triangle_count > 0
             assert set(f.source.tolist()) <= {0, 1, 2, 3}
@@ -77,8 +84,8 @@ def main():
             if why:
                 print(f"skipped: this vismapd does not stream delta frames: {why}")
                 sys.exit(77)
-            for compression, quantum in ((None, None), ("deflate", 4), ("zstd", 256)):
-                asyncio.run(delta_session(url, compression, quantum))
+            for compression, quantum, hold in ((None, None, False), ("deflate", 4, True), ("zstd", 256, True)):
+                asyncio.run(delta_session(url, compression, quantum, hold))
         finally:
             proc.send_signal(signal.SIGTERM)
             try:

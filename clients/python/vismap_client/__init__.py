@@ -25,4 +25,4 @@ from .session import FORMATS, PROTOCOL_VERSION, PROTOCOL_VERSIONS, ServerError, 
 
 __all__ = ["BinFrame", "CompactFrame", "DeltaDecoder", "DeltaFrame", "DeltaOutOfSync", "FORMATS", "PROTOCOL_VERSION",
            "PROTOCOL_VERSIONS", "ServerError", "Session", "read_bin", "read_compact", "read_frame", "websockets"]
-__version__ = "2.1.0"
+__version__ = "2.2.0"

@@ -1,11 +1,13 @@
-"""Decoder for the delta frame, version 1 (proto/DELTA.md), as numpy arrays.
+"""Decoder for the delta frame, versions 1 and 2 (proto/DELTA.md), as numpy arrays.
 
 The reference is DeltaDecoder::decode in core/stream/delta.cpp; this decoder keeps the same state
 (the source vertices and triangles it was sent, the whole set, the previous frame's polygon sources,
 the last index), accepts the frames it accepts (one difference: an id gap that would wrap 64-bit
 arithmetic back into range, which C++ takes, is refused here as out of range) and gives the same
 arrays bit for bit. A frame that does not apply raises DeltaOutOfSync; any other bad frame
-ValueError ("delta frame: PART: what"); either leaves the state as it was.
+ValueError ("delta frame: PART: what"); either leaves the state as it was. Version 2 streams may
+hold compact frames (drawn alone, the state left alone) and start from a held scene
+(hold_scene: the sources message).
 
 Exactness: the projection is DELTA.md's, operation by operation in IEEE doubles (numpy's
 element-wise float64 ops are IEEE's, one rounding each, no fused multiply-add), rounded half away
@@ -24,21 +26,24 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _wire
-from .compact import GridTriangles
+from .compact import GridTriangles, read_compact
 
 MAGIC = b"VMDF"
-VERSION = 1
+VERSIONS = (1, 2)
 HEADER_BYTES = 48
 KEYFRAME = 1
+HELD = 2     # version 2, keyframes: the store starts from the held scene
+SOURCES = 4  # version 2: the sources message
 NO_BASE = 0xFFFFFFFF
 MAX_RATIO = 256
 MAX_SOURCES = 1 << 26  # triangles, and vertices, a client holds (as core/stream/delta.cpp)
 CAMERA_BYTES = 4 + 18 * 8
 SECTIONS = ("vertices", "vertex positions", "triangles", "removed", "added", "polygons", "corner codes",
-            "vertex refs", "points", "edge steps")
+            "vertex refs", "points", "edge steps", "flips")  # version 1: the first ten
 COMPRESSION = {1: "zstd", 2: "deflate"}
 # Corner codes (DELTA.md, "Corner codes").
 VERTEX_REF, NEW_POINT, TWIN, EDGE_POINT, POINT_REF = 3, 4, 5, 6, 9
+EDGE_REF, EDGE_REFS, POINT_REF2 = 9, 2, 15  # version 2: 9 + 3i + k, then 15 + j
 UNSENT = 0xFFFFFFFF  # a triangle not sent yet
 
 
@@ -71,6 +76,7 @@ class DeltaFrame(GridTriangles):
     shade: np.ndarray         # uint8 per triangle: llround(255 k), k the --fill shade factor
     mesh_base: np.ndarray     # uint32 per mesh: its first global triangle id
     mesh_color: np.ndarray    # float32 (meshes, 3): linear RGB
+    compact: bool = False     # a compact frame in a version 2 stream (no camera; state untouched)
 
 
 def llround(g):
@@ -161,11 +167,186 @@ def _first_uses(v, n):
     return v[mine == at]
 
 
+def _flags(sec, at, n, part):
+    """A list of flags (DELTA.md): n bits from sec[at:], as a bool array, and the next offset."""
+    nb = (n + 7) // 8
+    if len(sec) - at < nb:
+        _fail(part, "ends early")
+    bits = np.unpackbits(np.frombuffer(sec, np.uint8, nb, at), bitorder="little")
+    if bits[n:].any():
+        _fail(part, "a flag past the list's end")
+    return bits[:n].astype(bool), at + nb
+
+
+def _header(data):
+    """The 48-byte header's fields, checked as far as the header alone tells."""
+    if len(data) < HEADER_BYTES:
+        _fail("header", f"{len(data)} bytes, the header alone is {HEADER_BYTES}")
+    if data[:4] != MAGIC:
+        _fail("header", "magic is not VMDF")
+    h = struct.unpack_from("<11I", data, 4)
+    version, width, height, flags, quantum, index, base, nm, codec, size, whole_count = h
+    if version not in VERSIONS:
+        _fail("header", f"version {version} (this decoder knows 1, 2)")
+    if flags & ~(KEYFRAME if version == 1 else KEYFRAME | HELD | SOURCES):
+        _fail("header", "unknown flag bits")
+    if flags & HELD and not flags & KEYFRAME:
+        _fail("header", "held without keyframe")
+    if flags & SOURCES and flags != SOURCES:
+        _fail("header", "sources with other flags")
+    if not (1 <= width <= 65536 and 1 <= height <= 65536):
+        _fail("header", "viewport out of range")
+    if not 1 <= quantum <= 256:
+        _fail("header", "quantum out of 1 ... 256")
+    if codec not in COMPRESSION:
+        _fail("header", f"unknown compression {codec}")
+    if nm == 0 or nm > 1 << 24:
+        _fail("header", "mesh count out of range")
+    return h
+
+
+def _payload(data, codec, size):
+    z = memoryview(data)[HEADER_BYTES:]
+    if size > MAX_RATIO * len(z) + 4096:
+        _fail("header", "payload size out of proportion")
+    return _wire.inflate(codec, z, size, _fail)
+
+
+def _mesh_table(payload, at, nm):
+    """A keyframe's mesh table: (first ids, colours, triangle count, vertex count), next offset."""
+    if len(payload) - at < 24 * nm:
+        _fail("mesh", "ends early")
+    table = np.frombuffer(payload, np.dtype([("first", "<u4"), ("tris", "<u4"), ("verts", "<u4"),
+                                             ("rgb", "<f4", 3)]), nm, at)
+    tris_end = np.cumsum(table["tris"].astype(np.uint64))
+    verts_end = np.cumsum(table["verts"].astype(np.uint64))
+    first = np.concatenate([[0], tris_end[:-1]]).astype(np.uint64)
+    bad = np.flatnonzero(table["first"].astype(np.uint64) != first)
+    if len(bad):
+        _fail(f"mesh {bad[0]}", "first ids do not follow the counts")
+    colors = table["rgb"].astype(np.float32)
+    bad = np.flatnonzero(~((colors >= 0) & (colors <= 1)).all(axis=1))
+    if len(bad):
+        _fail(f"mesh {bad[0]}", "color not in [0, 1]")
+    if tris_end[-1] > MAX_SOURCES or verts_end[-1] > MAX_SOURCES:
+        _fail("mesh", "more than 2^26 triangles or vertices")
+    return first, colors, int(tris_end[-1]), int(verts_end[-1]), at + 24 * nm
+
+
+def _empty_store(n_tris, n_verts):
+    try:  # (as C++: the store is sized by the mesh table, up to 2^26 of each)
+        return np.full((n_verts, 3), np.nan, np.float32), np.full((n_tris, 3), UNSENT, np.uint32)
+    except MemoryError:
+        _fail("mesh", f"no memory for {n_verts} vertices and {n_tris} triangles")
+
+
+def _sections(payload, at, names):
+    """The section sizes and the sections, which must fill the payload to its end."""
+    if len(payload) - at < 4 * len(names):
+        _fail("section sizes", "ends early")
+    sizes = struct.unpack_from(f"<{len(names)}I", payload, at)
+    at += 4 * len(names)
+    sec = {name: b"" for name in SECTIONS}
+    for name, n in zip(names, sizes):
+        if n > len(payload) - at:
+            _fail(name, "ends early")
+        sec[name] = payload[at:at + n]
+        at += n
+    if at != len(payload):
+        _fail("camera", "trailing bytes")
+    return sec
+
+
+def _add_sources(sec, vertex, tri):
+    """The vertices and triangles sections into copies of the store (the inputs stay as they were)."""
+    n_tris, n_verts = len(tri), len(vertex)
+    vals = _wire.leb128(sec["vertices"], "vertices", _fail)
+    if len(vals) == 0:
+        _fail("vertices", "ends inside a number")
+    n = int(vals[0])
+    if n > n_verts:
+        _fail("vertices", "more than the scene has")
+    if len(vals) != 1 + n:
+        _fail("vertices", "ends early" if len(vals) < 1 + n else "trailing bytes")
+    gv = _gaps(vals[1:], "vertices", n_verts)
+    if len(sec["vertex positions"]) != 12 * n:
+        _fail("vertex positions", "ends early" if len(sec["vertex positions"]) < 12 * n else "trailing bytes")
+    if n:
+        pos = np.frombuffer(sec["vertex positions"], "<f4").reshape(n, 3)
+        bad = np.flatnonzero(~np.isfinite(pos).all(axis=1))
+        if len(bad):
+            _fail(f"vertices {bad[0]}", "not finite")
+        vertex = vertex.copy()
+        vertex[gv] = pos
+    vals = _wire.leb128(sec["triangles"], "triangles", _fail)
+    if len(vals) == 0:
+        _fail("triangles", "ends inside a number")
+    n = int(vals[0])
+    if n > n_tris:
+        _fail("triangles", "more than the scene has")
+    if len(vals) != 1 + 4 * n:
+        _fail("triangles", "ends early" if len(vals) < 1 + 4 * n else "trailing bytes")
+    if n:
+        v = vals[1:].reshape(n, 4)
+        ids = _gaps(v[:, 0].copy(), "triangles", n_tris)
+        d = _wire.unzigzag(v[:, 1:].ravel())
+        if (np.abs(d) >= 1 << 32).any():  # (the running number must stay in [0, 2^28))
+            _fail("triangles", "names a vertex not sent")
+        gvs = np.cumsum(d)
+        if gvs.min() < 0 or gvs.max() >= n_verts or np.isnan(vertex[gvs, 0]).any():
+            _fail("triangles", "names a vertex not sent")
+        tri = tri.copy()
+        tri[ids] = gvs.reshape(n, 3).astype(np.uint32)
+    return vertex, tri
+
+
+def _facing(view, vertex, tv):
+    """DELTA.md's facing of triangles tv (n, 3 global vertex numbers) at view (rows, width, height,
+    quantum): 0 degenerate, 1 positive, 2 negative, 3 a vertex that does not project."""
+    used, inv = np.unique(tv.ravel(), return_inverse=True)
+    gx, gy, ok = project_to_grid(view[0], view[1], view[2], view[3], vertex[used].astype(np.float64))
+    x, y, ok = gx[inv].reshape(-1, 3), gy[inv].reshape(-1, 3), ok[inv].reshape(-1, 3)
+    o = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (y[:, 1] - y[:, 0]) * (x[:, 2] - x[:, 0])
+    f = np.where(o > 0, 1, np.where(o < 0, 2, 0))
+    return np.where(ok.all(axis=1), f, 3)
+
+
+def _flips(before, now, vertex, tri):
+    """Ascending ids of the held triangles whose facing differs between the two views."""
+    known = np.flatnonzero(tri[:, 0] != UNSENT)
+    if len(known) == 0:
+        return known.astype(np.int64)
+    tv = tri[known].astype(np.int64)
+    return known[_facing(before, vertex, tv) != _facing(now, vertex, tv)].astype(np.int64)
+
+
 class DeltaDecoder:
     """The client's side of a delta stream (proto/DELTA.md): decode(bytes) -> DeltaFrame."""
 
     def __init__(self):
+        self._held = None  # hold_scene's (mesh_base, colors, vertex, tri)
         self.reset()
+
+    def hold_scene(self, data):
+        """Keeps the scene of a sources message (DELTA.md, "The held scene"): keyframes flagged held
+        start from it. ValueError when malformed (what was held before stays)."""
+        data = bytes(data) if not isinstance(data, bytes) else data
+        h = _header(data)
+        if not h[3] & SOURCES:
+            _fail("header", "not a sources message")
+        payload = _payload(data, h[8], h[9])
+        mesh_base, colors, n_tris, n_verts, at = _mesh_table(payload, 0, h[7])
+        vertex, tri = _empty_store(n_tris, n_verts)
+        sec = _sections(payload, at, SECTIONS[:3])
+        vertex, tri = _add_sources(sec, vertex, tri)
+        bad = np.flatnonzero(np.isnan(vertex[:, 0]))
+        if len(bad):
+            _fail(f"vertices {bad[0]}", "not sent")
+        self._held = (mesh_base, colors, vertex, tri)
+
+    @property
+    def holds_scene(self):
+        return self._held is not None
 
     def reset(self):
         """Drops the state: the next frame must be a keyframe."""
@@ -177,6 +358,20 @@ class DeltaDecoder:
         self._tri = np.zeros((0, 3), np.uint32)      # per global triangle, UNSENT: not sent
         self._whole = np.zeros(0, np.int64)          # sorted
         self._partial = np.zeros(0, np.int64)        # sorted: the previous frame's polygon sources
+        self._view = None                            # the last frame's (rows, width, height, quantum)
+
+    def _compact(self, data):
+        """A compact frame in a version 2 stream: drawn as it is, the state left alone."""
+        try:
+            c = read_compact(data)
+        except ValueError as e:
+            raise ValueError(f"delta frame: compact frame: {e}") from e
+        if c.shade is None:
+            _fail("compact frame", "no shades")
+        zero = np.zeros(3, np.float64)
+        return DeltaFrame(c.width, c.height, c.quantum, 0, False, c.compression, "perspective", zero,
+                          zero.copy(), np.zeros(12, np.float64), c.xy, c.indices, c.source, c.mesh,
+                          c.shade, c.mesh_base.astype(np.uint32), c.mesh_color.copy(), True)
 
     @property
     def has_state(self):
@@ -192,34 +387,21 @@ class DeltaDecoder:
         the last decoded frame (ask for a keyframe), ValueError when malformed. Both leave the
         state as it was."""
         data = bytes(data) if not isinstance(data, bytes) else data
-        if len(data) < HEADER_BYTES:
-            _fail("header", f"{len(data)} bytes, the header alone is {HEADER_BYTES}")
-        if data[:4] != MAGIC:
-            _fail("header", "magic is not VMDF")
-        version, width, height, flags, quantum, index, base, nm, codec, size, whole_count = \
-            struct.unpack_from("<11I", data, 4)
-        if version != VERSION:
-            _fail("header", f"version {version} (this decoder knows {VERSION})")
-        if flags & ~KEYFRAME:
-            _fail("header", "unknown flag bits")
+        if data[:4] == b"VMCF":
+            return self._compact(data)
+        version, width, height, flags, quantum, index, base, nm, codec, size, whole_count = _header(data)
+        if flags & SOURCES:
+            _fail("header", "a sources message (hold_scene takes it)")
         key = bool(flags & KEYFRAME)
-        if not (1 <= width <= 65536 and 1 <= height <= 65536):
-            _fail("header", "viewport out of range")
-        if not 1 <= quantum <= 256:
-            _fail("header", "quantum out of 1 ... 256")
-        if codec not in COMPRESSION:
-            _fail("header", f"unknown compression {codec}")
-        if nm == 0 or nm > 1 << 24:
-            _fail("header", "mesh count out of range")
+        held = bool(flags & HELD)
+        if held and self._held is None:
+            raise DeltaOutOfSync("delta frame: header: a keyframe of the held scene, and this decoder holds none")
         if not key and not self._have:
             raise DeltaOutOfSync("delta frame: header: no keyframe decoded yet: ask for one")
         if not key and (base != self._last or nm != len(self._base)):
             raise DeltaOutOfSync(f"delta frame: header: based on frame {base}, the last decoded is "
                                  f"{self._last}: ask for a keyframe")
-        z = memoryview(data)[HEADER_BYTES:]
-        if size > MAX_RATIO * len(z) + 4096:
-            _fail("header", "payload size out of proportion")
-        payload = _wire.inflate(codec, z, size, _fail)
+        payload = _payload(data, codec, size)
 
         # Camera.
         if len(payload) < CAMERA_BYTES:
@@ -235,94 +417,46 @@ class DeltaDecoder:
             _fail("camera", "projection not finite")
         at = CAMERA_BYTES
 
-        # The store: a keyframe's mesh table sizes it anew. Nothing of self changes before the end.
+        # The store: a keyframe's mesh table sizes it anew (or names the held scene's). Nothing of
+        # self changes before the end.
         if key:
-            if len(payload) - at < 24 * nm:
-                _fail("mesh", "ends early")
-            table = np.frombuffer(payload, np.dtype([("first", "<u4"), ("tris", "<u4"), ("verts", "<u4"),
-                                                     ("rgb", "<f4", 3)]), nm, at)
-            at += 24 * nm
-            tris_end = np.cumsum(table["tris"].astype(np.uint64))
-            verts_end = np.cumsum(table["verts"].astype(np.uint64))
-            first = np.concatenate([[0], tris_end[:-1]]).astype(np.uint64)
-            bad = np.flatnonzero(table["first"].astype(np.uint64) != first)
-            if len(bad):
-                _fail(f"mesh {bad[0]}", "first ids do not follow the counts")
-            colors = table["rgb"].astype(np.float32)
-            bad = np.flatnonzero(~((colors >= 0) & (colors <= 1)).all(axis=1))
-            if len(bad):
-                _fail(f"mesh {bad[0]}", "color not in [0, 1]")
-            if tris_end[-1] > MAX_SOURCES or verts_end[-1] > MAX_SOURCES:
-                _fail("mesh", "more than 2^26 triangles or vertices")
-            mesh_base = first
-            n_tris, n_verts = int(tris_end[-1]), int(verts_end[-1])
-            try:  # (as C++: the store is sized by the mesh table, up to 2^26 of each)
-                vertex = np.full((n_verts, 3), np.nan, np.float32)
-                tri = np.full((n_tris, 3), UNSENT, np.uint32)
-            except MemoryError:
-                _fail("mesh", f"no memory for {n_verts} vertices and {n_tris} triangles")
+            mesh_base, colors, n_tris, n_verts, at = _mesh_table(payload, at, nm)
+            if held:
+                hb, hc, vertex, tri = self._held
+                if len(hb) != len(mesh_base) or (hb != mesh_base).any() or (hc != colors).any() or \
+                        len(tri) != n_tris or len(vertex) != n_verts:
+                    _fail("mesh", "not the held scene's meshes")
+            else:
+                vertex, tri = _empty_store(n_tris, n_verts)
             whole = np.zeros(0, np.int64)
             partial = np.zeros(0, np.int64)
         else:
             mesh_base, colors = self._base, self._colors
             vertex, tri, whole, partial = self._vertex, self._tri, self._whole, self._partial
             n_tris, n_verts = len(tri), len(vertex)
+        sec = _sections(payload, at, SECTIONS[:10 if version == 1 else 11])
 
-        if len(payload) - at < 40:
-            _fail("section sizes", "ends early")
-        sizes = struct.unpack_from("<10I", payload, at)
-        at += 40
-        sec = {}
-        for name, n in zip(SECTIONS, sizes):
-            if n > len(payload) - at:
-                _fail(name, "ends early")
-            sec[name] = payload[at:at + n]
-            at += n
-        if at != len(payload):
-            _fail("camera", "trailing bytes")
+        # Version 2: the facing flips since the last frame, on the store before this frame's sources.
+        view = (rows, width, height, quantum)
+        flips = np.zeros(0, np.int64)
+        if version >= 2 and not key:
+            flips = _flips(self._view, view, vertex, tri)
+        vertex, tri = _add_sources(sec, vertex, tri)
 
-        # New vertices and triangles (copies of the store: self keeps its own until the end).
-        vals = _wire.leb128(sec["vertices"], "vertices", _fail)
-        if len(vals) == 0:
-            _fail("vertices", "ends inside a number")
-        n = int(vals[0])
-        if n > n_verts:
-            _fail("vertices", "more than the scene has")
-        if len(vals) != 1 + n:
-            _fail("vertices", "ends early" if len(vals) < 1 + n else "trailing bytes")
-        gv = _gaps(vals[1:], "vertices", n_verts)
-        if len(sec["vertex positions"]) != 12 * n:
-            _fail("vertex positions", "ends early" if len(sec["vertex positions"]) < 12 * n else "trailing bytes")
-        if n:
-            pos = np.frombuffer(sec["vertex positions"], "<f4").reshape(n, 3)
-            bad = np.flatnonzero(~np.isfinite(pos).all(axis=1))
-            if len(bad):
-                _fail(f"vertices {bad[0]}", "not finite")
-            vertex = vertex.copy()
-            vertex[gv] = pos
-        vals = _wire.leb128(sec["triangles"], "triangles", _fail)
-        if len(vals) == 0:
-            _fail("triangles", "ends inside a number")
-        n = int(vals[0])
-        if n > n_tris:
-            _fail("triangles", "more than the scene has")
-        if len(vals) != 1 + 4 * n:
-            _fail("triangles", "ends early" if len(vals) < 1 + 4 * n else "trailing bytes")
-        if n:
-            v = vals[1:].reshape(n, 4)
-            ids = _gaps(v[:, 0].copy(), "triangles", n_tris)
-            d = _wire.unzigzag(v[:, 1:].ravel())
-            if (np.abs(d) >= 1 << 32).any():  # (the running number must stay in [0, 2^28))
-                _fail("triangles", "names a vertex not sent")
-            gvs = np.cumsum(d)
-            if gvs.min() < 0 or gvs.max() >= n_verts or np.isnan(vertex[gvs, 0]).any():
-                _fail("triangles", "names a vertex not sent")
-            tri = tri.copy()
-            tri[ids] = gvs.reshape(n, 3).astype(np.uint32)
-
-        # The whole set's change.
+        # The whole set's change: the flips' bits, then the lists of the rest.
+        fin = flips[np.isin(flips, whole)]
+        fout = flips[~np.isin(flips, whole)]
+        bits_in, fat = _flags(sec["flips"], 0, len(fin), "flips")
+        bits_out, fat = _flags(sec["flips"], fat, len(fout), "flips")
+        if fat != len(sec["flips"]):
+            _fail("flips", "trailing bytes")
         removed = _ids(_wire.leb128(sec["removed"], "removed", _fail), "removed", n_tris)
         added = _ids(_wire.leb128(sec["added"], "added", _fail), "added", n_tris)
+        for name, lst in (("removed", removed), ("added", added)):
+            if np.isin(lst, flips).any():
+                _fail(name, "an id the flips cover")
+        removed = np.sort(np.concatenate([fin[bits_in], removed]))
+        added = np.sort(np.concatenate([fout[bits_out], added]))
         at = np.searchsorted(whole, removed)
         if len(removed) and (at.max() >= len(whole) or (whole[np.minimum(at, len(whole) - 1)] != removed).any()):
             _fail("removed", "an id that was not drawn whole")
@@ -337,19 +471,13 @@ class DeltaDecoder:
         # The polygons' sources (DELTA.md, "Polygons section"): flags for the removed ids and for
         # the previous polygon sources, then the others; then the counts.
         psec = sec["polygons"]
-        nflag = (len(removed) + 7) // 8 + (len(partial) + 7) // 8
-        if len(psec) < nflag:
-            _fail("polygons", "ends early")
+        candidates = flips[~np.isin(flips, whole) & ~np.isin(flips, removed) & ~np.isin(flips, partial)]
         order = []
         fat = 0
-        for lst in (removed, partial):
-            nb = (len(lst) + 7) // 8
-            bits = np.unpackbits(np.frombuffer(psec, np.uint8, nb, fat), bitorder="little")
-            fat += nb
-            if bits[len(lst):].any():
-                _fail("polygons", "a flag past the list's end")
-            order.append(lst[bits[:len(lst)].astype(bool)])
-        pv = _wire.leb128(psec[nflag:], "polygons", _fail)
+        for lst in (removed, partial, candidates):
+            bits, fat = _flags(psec, fat, len(lst), "polygons")
+            order.append(lst[bits])
+        pv = _wire.leb128(psec[fat:], "polygons", _fail)
         if len(pv) == 0:
             _fail("polygons", "ends inside a number")
         nr = int(pv[0])
@@ -427,6 +555,9 @@ class DeltaDecoder:
         nx = len(first_verts)  # the next slot
         out_x, out_y = [], []  # slots nx0, nx0 + 1, ...: polygon-only vertices and new points
         point_slot = []        # per new point of the frame: its slot
+        edges = {}             # version 2: (min, max) source edge -> the first points made on it
+        v2 = version >= 2
+        point_ref = POINT_REF2 if v2 else POINT_REF
         point_x, point_y = [], []
         twin = {}
         fan_a, fan_b, fan_c, fan_src = [], [], [], []
@@ -494,6 +625,10 @@ class DeltaDecoder:
                             _fail(f"edge steps {len(point_slot)}", "out of the edge")
                         x = px[a] + (2 * st * dx + ns) // (2 * ns)
                         y = py[a] + (2 * st * dy + ns) // (2 * ns)
+                        if v2:
+                            on = edges.setdefault((a, b) if a < b else (b, a), [])
+                            if len(on) < EDGE_REFS:
+                                on.append(len(point_slot))
                     if x < 0 or y < 0 or x > xmax or y > ymax:
                         _fail(f"points {len(point_slot)}", "outside the viewport")
                     g = n_verts + len(point_slot)
@@ -504,11 +639,19 @@ class DeltaDecoder:
                     out_y.append(y)
                     ring.append(nx)
                     nx += 1
-                else:  # the j-th most recent new point
-                    j = code - POINT_REF
-                    if j >= len(point_slot):
-                        _fail(f"polygons {i}", "point ref out of range")
-                    k = len(point_slot) - 1 - j
+                else:
+                    if code < point_ref:  # version 2: a point made on own edge k's source edge
+                        k, e = (code - EDGE_REF) % 3, (code - EDGE_REF) // 3
+                        a, b = tv[k], tv[(k + 1) % 3]
+                        on = edges.get((a, b) if a < b else (b, a), ())
+                        if e >= len(on):
+                            _fail(f"polygons {i}", "no such point on the edge")
+                        k = on[e]
+                    else:  # the j-th most recent new point
+                        j = code - point_ref
+                        if j >= len(point_slot):
+                            _fail(f"polygons {i}", "point ref out of range")
+                        k = len(point_slot) - 1 - j
                     ring.append(point_slot[k])
                     g = n_verts + k
                     x, y = point_x[k], point_y[k]
@@ -552,7 +695,7 @@ class DeltaDecoder:
         # Commit the state.
         self._base, self._colors = mesh_base, colors
         self._vertex, self._tri, self._whole, self._partial = vertex, tri, whole, partial
-        self._last, self._have = index, True
+        self._last, self._have, self._view = index, True, view
         return DeltaFrame(width, height, quantum, index, key, COMPRESSION[codec],
                           "orthographic" if ortho else "perspective", eye, target, rows, xy, indices,
                           source.astype(np.uint32), mesh, shade.astype(np.uint8),

@@ -12,7 +12,8 @@ try:
 except ImportError:  # the decoders work without it; Session needs it
     websockets = None
 
-PROTOCOL_VERSIONS = (1, 2)  # 2: compact and delta frames (proto/COMPACT.md, proto/DELTA.md)
+# 2: compact and delta frames (proto/COMPACT.md, proto/DELTA.md); 3: delta version 2, hold_scene
+PROTOCOL_VERSIONS = (1, 2, 3)
 PROTOCOL_VERSION = PROTOCOL_VERSIONS[-1]
 FORMATS = ("svg", "bin", "compact", "delta")
 
@@ -48,10 +49,13 @@ class Session:
     the server's stream starts with a keyframe). When a frame does not apply (DeltaOutOfSync: one
     was lost) or is malformed, the session sends `{"type": "keyframe"}`, after which the server's
     next delta frame is a keyframe; frame() then sends its camera once more and returns that
-    keyframe's frame. `keyframes_requested` counts the requests."""
+    keyframe's frame. `keyframes_requested` counts the requests. With hold_scene=True (protocol
+    version 3) the server sends the scene's sources after each scene_ready, which the session
+    gives to the decoder (`sources_bytes`: their size), and frames carry none."""
 
     def __init__(self, url, fmt="svg", width=1024, height=1024, attributes=False, token=None, timeout=60,
-                 retries=0, backoff=0.1, max_backoff=2.0, quantum=None, compression=None, fill=None):
+                 retries=0, backoff=0.1, max_backoff=2.0, quantum=None, compression=None, fill=None,
+                 hold_scene=False):
         """fmt: "svg" (frames as str), "bin" (BinFrame), "compact" (CompactFrame, protocol
         version 2, proto/COMPACT.md) or "delta" (DeltaFrame, protocol version 2, proto/DELTA.md),
         the last two with optional quantum (grid steps per pixel, 1 ... 256) and compression
@@ -64,6 +68,8 @@ class Session:
             raise ValueError("quantum and compression are options of fmt='compact' and 'delta'")
         if fmt == "compact" and attributes:
             raise ValueError("compact frames carry no barycentrics; use fmt='bin' for attributes")
+        if hold_scene and fmt != "delta":
+            raise ValueError("hold_scene is an option of fmt='delta'")
         if fmt == "delta" and attributes:
             raise ValueError("delta frames carry no barycentrics (the client computes them from the "
                              "source triangles it holds: proto/DELTA.md); use fmt='bin' for attributes")
@@ -78,6 +84,10 @@ class Session:
             self.hello["fill"] = fill
         if token is not None:
             self.hello["token"] = token
+        if hold_scene:
+            self.hello["hold_scene"] = True
+        self.hold_scene = hold_scene
+        self.sources_bytes = 0
         self.retries, self.backoff, self.max_backoff = retries, backoff, max_backoff
         self.reconnects = 0
         self.ws = None
@@ -103,6 +113,10 @@ class Session:
             await self.ws.close()
             raise ValueError(f"the server speaks protocol version {self.welcome.get('version')}; "
                              f"{self.fmt} frames need version 2")
+        if self.hold_scene and self.welcome.get("version", 1) < 3:
+            await self.ws.close()
+            raise ValueError(f"the server speaks protocol version {self.welcome.get('version')}; "
+                             "hold_scene needs version 3")
         if self.delta is not None:
             self.delta.reset()  # a new connection is a new stream: it starts with a keyframe
 
@@ -155,13 +169,25 @@ class Session:
         self._scene_source = ("upload", name, data)
         await self.send({"type": "scene", "name": name, "size": len(data)})
         await self.ws.send(data)
-        self.scene = await self.recv_json()
-        return self.scene
+        return await self._scene_ready()
 
     async def library(self, name):
         self._scene_source = ("library", name)
         await self.send({"type": "scene", "library": name})
+        return await self._scene_ready()
+
+    async def _scene_ready(self):
+        """scene_ready; with hold_scene, then the sources message, given to the decoder."""
         self.scene = await self.recv_json()
+        if self.hold_scene and self.scene.get("type") == "scene_ready":
+            header = await self.recv_json()
+            if header.get("type") != "sources":
+                raise ValueError(f"expected the scene's sources, got {header}")
+            data = await self.recv()
+            if not isinstance(data, bytes) or len(data) != header.get("bytes"):
+                raise ValueError("the sources message is not the binary message announced")
+            self.delta.hold_scene(data)
+            self.sources_bytes = len(data)
         return self.scene
 
     async def camera(self, **fields):
