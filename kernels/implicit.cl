@@ -129,6 +129,21 @@ inline size_t vm_choice_off(VmIRegion R, uint r, uint per) {
   return (size_t)per * R.tape_off + (size_t)(r % per) * R.tape_len;
 }
 
+/* The view depth's least and greatest values over R's box grown by g on every side (depth is
+ * affine: its extremes are at corners). */
+inline float2 vm_depth_range(VmIView v, VmIRegion R, float g) {
+  float a = v.depth[3], b = v.depth[3];
+  for (int k = 0; k < 3; ++k) {
+    const float p = v.depth[k] * (R.lo[k] - g), q = v.depth[k] * (R.lo[k] + R.size + g);
+    a += fmin(p, q);
+    b += fmax(p, q);
+  }
+  return (float2)(a, b);
+}
+
+/* The largest leaf side at depth d. */
+inline float vm_leaf_side(VmIView v, float d) { return v.c0 + v.c1 * fmax(d, v.near_d); }
+
 /* Per region: its tape over its box in intervals (the choices of its min/max clauses in its
  * slice of choices) and the result; counts full and empty regions in totals. */
 #define VM_IZERO (-1e-30f) /* see vm_ambiguous */
@@ -136,19 +151,24 @@ __kernel void implicit_intervals(global const VmIRegion* reg, uint n, uint first
                                global const VmIClause* pool,
                                global float2* scratch, uint slots, uint root_slot,
                                global uchar* choices, uint per, global float2* result,
-                               global uint* totals, global const float4* planes, uint nplanes) {
+                               global uint* totals, global const float4* planes, uint nplanes,
+                               VmIView view) {
   const uint r = first + get_global_id(0);
   if (r >= n) return;
   const VmIRegion R = reg[r];
   /* Culling (3D frames): a box wholly on the outer side of one of the view's planes (n.p + w <
-   * 0 over the box, with a margin of a thousandth of the box) cannot be seen; it leaves the
-   * queue as if empty and is counted apart. */
+   * 0 over the box, with a margin of a thousandth of the box) by more than twice the largest
+   * leaf side at its farthest depth, H (and view.margin), cannot be seen: a triangle of a leaf
+   * inside it lies within H of it on every axis (docs/IMPLICIT.md "3D"). It leaves the queue as
+   * if empty and is counted apart. */
+  const float H = nplanes ? view.margin + 2.0f * vm_leaf_side(view, vm_depth_range(view, R, 0.0f).y)
+                          : 0.0f;
   for (uint k = 0; k < nplanes; ++k) {
     const float4 P = planes[k];
     const float hi = P.x * (R.lo[0] + (P.x > 0.0f ? R.size : 0.0f)) +
                      P.y * (R.lo[1] + (P.y > 0.0f ? R.size : 0.0f)) +
                      P.z * (R.lo[2] + (P.z > 0.0f ? R.size : 0.0f)) + P.w;
-    const float margin = 1e-3f * R.size * (fabs(P.x) + fabs(P.y) + fabs(P.z)) +
+    const float margin = (1e-3f * R.size + H) * (fabs(P.x) + fabs(P.y) + fabs(P.z)) +
                          1e-6f * (fabs(P.x * R.lo[0]) + fabs(P.y * R.lo[1]) + fabs(P.z * R.lo[2]) + fabs(P.w));
     if (hi < -margin) {
       result[r] = (float2)(VM_IINF, VM_IINF);
@@ -220,27 +240,42 @@ inline uint vm_shorten(global const VmIClause* pool, VmIRegion R, global const u
  * architecture model's floor) leaves the queue instead of splitting to the last level. */
 inline bool vm_ambiguous(float2 f) { return !(f.y < 0.0f) && !(f.x >= VM_IZERO); }
 
-/* counts[r]: the shortened tape's length of an ambiguous region, else 0; amb[r]: 1 if ambiguous. */
+/* An ambiguous region either splits (its children go to the next round) or becomes a leaf:
+ * in the last round, or once its side is at most the leaf side at its least depth, taken over
+ * the region grown by its side (a triangle of the leaf lies within that, docs/IMPLICIT.md "3D").
+ * Per region: counts[r] and amb[r] (the shortened tape's length and 1) when it splits, leaf_counts[r]
+ * and leaf[r] when it is a leaf, else 0. A last-round leaf larger than its side is counted in
+ * totals (the host refuses the dice). */
 __kernel void implicit_shorten_count(global const VmIRegion* reg, uint n, uint first,
                                    global const VmIClause* pool,
                                    global const uchar* choices, uint per_in,
                                    global const float2* result, global uchar* live, uint slots,
-                                   uint root_slot, global uint* counts, global uint* amb) {
+                                   uint root_slot, global uint* counts, global uint* amb,
+                                   global uint* leaf_counts, global uint* leaf, VmIView view,
+                                   uint last, global uint* totals) {
   const uint r = first + get_global_id(0);
   if (r >= n) return;
-  if (!vm_ambiguous(result[r])) {
-    counts[r] = 0;
-    amb[r] = 0;
-    return;
+  counts[r] = amb[r] = leaf_counts[r] = leaf[r] = 0;
+  if (!vm_ambiguous(result[r])) return;
+  const VmIRegion R = reg[r];
+  const uint len = vm_shorten(pool, R, choices + vm_choice_off(R, r, per_in),
+                              live + (size_t)(r - first) * slots, slots, root_slot, 0, 0);
+  const bool sized = view.c0 + view.c1 > 0.0f;
+  /* The float rounding of the depth is some ulps of depths of tens of units: 1e-5 covers it. */
+  const bool fine =
+      sized && R.size <= vm_leaf_side(view, vm_depth_range(view, R, R.size).x) * (1.0f - 1e-5f);
+  if (last || fine) {
+    leaf_counts[r] = len;
+    leaf[r] = 1;
+    if (sized && !fine) atomic_inc(&totals[VM_ITOTAL_COARSE]);
+  } else {
+    counts[r] = len;
+    amb[r] = 1;
   }
-  counts[r] = vm_shorten(pool, reg[r], choices + vm_choice_off(reg[r], r, per_in), live + (size_t)(r - first) * slots,
-                         slots, root_slot, 0, 0);
-  amb[r] = 1;
 }
 
-/* Writes the shortened tapes at their offsets in the next pool, and for each ambiguous region
- * either its split^dims children (split > 1) or the region itself as a leaf (split == 1), all
- * with the new tape. */
+/* Writes the shortened tapes at their offsets: a splitting region's in the next pool with its
+ * split^dims children (all pointing at it), a leaf's in the leaf pool with the region itself. */
 __kernel void implicit_shorten_fill(global const VmIRegion* reg, uint n, uint first,
                                   global const VmIClause* pool,
                                   global const uchar* choices, uint per_in,
@@ -248,14 +283,24 @@ __kernel void implicit_shorten_fill(global const VmIRegion* reg, uint n, uint fi
                                   uint root_slot, global const uint* counts,
                                   global const uint* offsets, global const uint* amb_off,
                                   global VmIClause* next_pool, global VmIRegion* next, uint split,
-                                  uint dims) {
+                                  uint dims, global const uint* leaf_counts,
+                                  global const uint* leaf_offsets, global const uint* leaf_idx,
+                                  global VmIClause* leaf_pool, global VmIRegion* leaves) {
   const uint r = first + get_global_id(0);
   if (r >= n) return;
-  const uint len = counts[r];
-  if (len == 0) return;
+  const uint len = counts[r], leaf_len = leaf_counts[r];
+  if (len == 0 && leaf_len == 0) return;
   VmIRegion R = reg[r];
-  vm_shorten(pool, R, choices + vm_choice_off(R, r, per_in), live + (size_t)(r - first) * slots, slots, root_slot,
-             next_pool + offsets[r], len);
+  global const uchar* ch = choices + vm_choice_off(R, r, per_in);
+  global uchar* lv = live + (size_t)(r - first) * slots;
+  if (leaf_len) {
+    vm_shorten(pool, R, ch, lv, slots, root_slot, leaf_pool + leaf_offsets[r], leaf_len);
+    R.tape_off = leaf_offsets[r];
+    R.tape_len = leaf_len;
+    leaves[leaf_idx[r]] = R;
+    return;
+  }
+  vm_shorten(pool, R, ch, lv, slots, root_slot, next_pool + offsets[r], len);
   VmIRegion C = R;
   C.tape_off = offsets[r];
   C.tape_len = len;

@@ -55,6 +55,10 @@ struct TessellateStats {
   std::array<uint64_t, 16> implicit_clause_hist{};
   // Host wall time of the region queue, the corners' evaluation and the meshing (with normals).
   double implicit_queue_ms = 0, implicit_points_ms = 0, implicit_mesh_ms = 0;
+  // Implicit leaves by level (level l: 2^l cells per axis of the object's cube; issue 32: each
+  // leaf sized for its own depth), and the least and greatest leaf side (in the object's space).
+  std::array<uint64_t, 17> implicit_leaf_levels{};
+  double implicit_leaf_side_min = 0, implicit_leaf_side_max = 0;
   uint32_t launches = 0, host_syncs = 0;
 };
 
