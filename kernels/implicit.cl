@@ -144,6 +144,157 @@ inline float2 vm_depth_range(VmIView v, VmIRegion R, float g) {
 /* The largest leaf side at depth d. */
 inline float vm_leaf_side(VmIView v, float d) { return v.c0 + v.c1 * fmax(d, v.near_d); }
 
+/* Occlusion (docs/IMPLICIT.md "Hidden regions"). VM_IOCCLUDE_MUTATION 1 (tests only, through
+ * VISMAP_CL_OPTIONS) compares the depth image with a region's farthest depth instead of its
+ * least: an unsound cull that tests/test_implicit3d.cpp must catch. */
+#ifndef VM_IOCCLUDE_MUTATION
+#define VM_IOCCLUDE_MUTATION 0
+#endif
+
+/* Texel coordinates of the object-space point p (x, y) and its view depth (z). */
+inline float3 vm_texel(VmIOcclusion o, float3 p) {
+  const float x = o.proj[0] * p.x + o.proj[1] * p.y + o.proj[2] * p.z + o.proj[3];
+  const float y = o.proj[4] * p.x + o.proj[5] * p.y + o.proj[6] * p.z + o.proj[7];
+  const float w = o.proj[8] * p.x + o.proj[9] * p.y + o.proj[10] * p.z + o.proj[11];
+  return (float3)(x / w, y / w, w);
+}
+
+/* The depth image's texels that R's box grown by g can touch: (x0, y0, x1, y1), inclusive, one
+ * texel wider on every side than the corners' projections (their rounding); x0 > x1 when none. */
+inline int4 vm_footprint(VmIOcclusion o, VmIRegion R, float g) {
+  float x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+  for (int c = 0; c < 8; ++c) {
+    const float3 p = (float3)(R.lo[0] - g + ((c & 1) ? R.size + 2.0f * g : 0.0f),
+                              R.lo[1] - g + ((c & 2) ? R.size + 2.0f * g : 0.0f),
+                              R.lo[2] - g + ((c & 4) ? R.size + 2.0f * g : 0.0f));
+    const float3 t = vm_texel(o, p);
+    x0 = fmin(x0, t.x), x1 = fmax(x1, t.x), y0 = fmin(y0, t.y), y1 = fmax(y1, t.y);
+  }
+  const float W = (float)o.width, H = (float)o.height;
+  if (!(x0 < W + 1.0f && y0 < H + 1.0f && x1 > -1.0f && y1 > -1.0f)) return (int4)(1, 1, 0, 0);
+  return (int4)((int)floor(fmax(x0, -1.0f)) - 1, (int)floor(fmax(y0, -1.0f)) - 1,
+                (int)floor(fmin(x1, W + 1.0f)) + 1, (int)floor(fmin(y1, H + 1.0f)) + 1);
+}
+
+/* The depth image is a pyramid: level 0 the texels, level k + 1 the greatest of each 2 x 2 of
+ * level k (those inside it), so a texel of level k bounds the 2^k x 2^k texels under it. Level
+ * k's width, and its offset in the buffer. */
+inline uint vm_mip_w(uint w, int k) { return (w + (1u << k) - 1) >> k; }
+inline size_t vm_mip_off(VmIOcclusion o, int k) {
+  size_t off = 0;
+  for (int j = 0; j < k; ++j) off += (size_t)vm_mip_w(o.width, j) * vm_mip_w(o.height, j);
+  return off;
+}
+
+/* Is every ray through a point of R's box grown by g, inside the viewport, through a full box at
+ * a depth below the grown box's least depth? The footprint's texels (those outside the viewport
+ * show nothing) all hold a depth below it, read at the pyramid level where the footprint spans at
+ * most 8 x 8 (a level's texel may lag behind level 0 within a round: it is then larger, never
+ * smaller, than the texels under it). */
+inline bool vm_hidden(VmIOcclusion o, global const uint* image, VmIView v, VmIRegion R, float g) {
+  const float2 dr = vm_depth_range(v, R, g);
+  if (!(dr.x > v.near_d)) return false;
+#if VM_IOCCLUDE_MUTATION == 1
+  const float d = dr.y;
+#else
+  const float d = dr.x;
+#endif
+  const float below = d - 1e-5f * d; /* the float rounding of the depth range */
+  const int4 f = vm_footprint(o, R, g);
+  int x0 = max(f.x, 0), y0 = max(f.y, 0);
+  int x1 = min(f.z, (int)o.width - 1), y1 = min(f.w, (int)o.height - 1);
+  if (x0 > x1 || y0 > y1) return false;
+  int k = 0;
+  while ((x1 >> k) - (x0 >> k) > 7 || (y1 >> k) - (y0 >> k) > 7) ++k;
+  x0 >>= k, x1 >>= k, y0 >>= k, y1 >>= k;
+  global const uint* level = image + vm_mip_off(o, k);
+  const uint w = vm_mip_w(o.width, k);
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x)
+      if (!(as_float(level[(size_t)y * w + x]) < below)) return false;
+  return true;
+}
+
+/* Level k + 1 of the depth image's pyramid from level k (one work-item per texel of k + 1). */
+__kernel void implicit_depth_mip(global uint* image, VmIOcclusion o, int k) {
+  const uint w = vm_mip_w(o.width, k + 1), h = vm_mip_w(o.height, k + 1);
+  const uint i = get_global_id(0);
+  if (i >= w * h) return;
+  const uint x = i % w, y = i / w, sw = vm_mip_w(o.width, k), sh = vm_mip_w(o.height, k);
+  global const uint* src = image + vm_mip_off(o, k);
+  uint m = 0; /* positive floats' bits order as the floats */
+  for (uint dy = 0; dy < 2; ++dy)
+    for (uint dx = 0; dx < 2; ++dx)
+      if (2 * x + dx < sw && 2 * y + dy < sh) m = max(m, src[(size_t)(2 * y + dy) * sw + 2 * x + dx]);
+  image[vm_mip_off(o, k + 1) + (size_t)y * w + x] = m;
+}
+
+/* The view depth where the ray eye + t d enters the box [lo, hi] (slabs), or -1 if it misses. */
+inline float vm_ray_entry(float3 O, float3 d, float3 lo, float3 hi) {
+  float tin = 0.0f, tout = INFINITY;
+  const float Oa[3] = {O.x, O.y, O.z}, da[3] = {d.x, d.y, d.z};
+  const float la[3] = {lo.x, lo.y, lo.z}, ha[3] = {hi.x, hi.y, hi.z};
+  for (int k = 0; k < 3; ++k) {
+    if (fabs(da[k]) < 1e-30f) {
+      if (Oa[k] < la[k] || Oa[k] > ha[k]) return -1.0f;
+      continue;
+    }
+    const float t1 = (la[k] - Oa[k]) / da[k], t2 = (ha[k] - Oa[k]) / da[k];
+    tin = fmax(tin, fmin(t1, t2));
+    tout = fmin(tout, fmax(t1, t2));
+  }
+  return tin <= tout ? tin : -1.0f;
+}
+
+inline float vm_texel_entry(VmIOcclusion o, float3 O, float3 lo, float3 hi, float tx, float ty) {
+  const float3 d = (float3)(o.dir[0] + tx * o.dir[4] + ty * o.dir[8],
+                            o.dir[1] + tx * o.dir[5] + ty * o.dir[9],
+                            o.dir[2] + tx * o.dir[6] + ty * o.dir[10]);
+  return vm_ray_entry(O, d, lo, hi);
+}
+
+/* Per full region of the round beyond the near plane: into the depth image, at each texel its
+ * box covers wholly (the rays through the texel's 4 corners all meet it, so every ray through the
+ * texel does: the projection is convex), the greatest of the corners' entry depths. The entry
+ * depth's reciprocal is the least of the entered faces' (each affine over the screen), so over
+ * the texel its greatest is at a corner. The box is shrunk by more than the rays' float error,
+ * and the depth moved up by more than its own: a covered texel is truly covered, and every ray
+ * through it truly meets the box no deeper than the value written. */
+__kernel void implicit_occluders(global const VmIRegion* reg, uint n, uint first,
+                                 global const float2* result, VmIOcclusion o, VmIView v,
+                                 global uint* image) {
+  const uint r = first + get_global_id(0);
+  if (r >= n || !(result[r].y < 0.0f)) return;
+  const VmIRegion R = reg[r];
+  const float2 dr = vm_depth_range(v, R, 0.0f);
+  /* Beyond the near plane, and not itself behind what is drawn (it could lower no texel). */
+  if (!(dr.x > v.near_d) || vm_hidden(o, image, v, R, 0.0f)) return;
+  const float3 O = (float3)(o.eye[0], o.eye[1], o.eye[2]);
+  const float eps = 1e-3f * R.size +
+                    2e-5f * (fmax(fabs(O.x), fmax(fabs(O.y), fabs(O.z))) + dr.y * o.dmax +
+                             fmax(fabs(R.lo[0]), fmax(fabs(R.lo[1]), fabs(R.lo[2]))) + R.size);
+  if (!(2.0f * eps < R.size)) return;
+  const float3 lo = (float3)(R.lo[0] + eps, R.lo[1] + eps, R.lo[2] + eps);
+  const float3 hi = (float3)(R.lo[0] + R.size - eps, R.lo[1] + R.size - eps, R.lo[2] + R.size - eps);
+  const int4 f = vm_footprint(o, R, 0.0f);
+  const int x0 = max(f.x, 0), y0 = max(f.y, 0);
+  const int x1 = min(f.z, (int)o.width - 1), y1 = min(f.w, (int)o.height - 1);
+  for (int y = y0; y <= y1; ++y) {
+    float a = vm_texel_entry(o, O, lo, hi, (float)x0, (float)y);
+    float b = vm_texel_entry(o, O, lo, hi, (float)x0, (float)(y + 1));
+    for (int x = x0; x <= x1; ++x) {
+      const float c = vm_texel_entry(o, O, lo, hi, (float)(x + 1), (float)y);
+      const float e = vm_texel_entry(o, O, lo, hi, (float)(x + 1), (float)(y + 1));
+      if (a >= 0.0f && b >= 0.0f && c >= 0.0f && e >= 0.0f) {
+        const float t = fmax(fmax(a, b), fmax(c, e));
+        atomic_min(&image[(size_t)y * o.width + x], as_uint(t + 1e-5f * t));
+      }
+      a = c;
+      b = e;
+    }
+  }
+}
+
 /* Per region: its tape over its box in intervals (the choices of its min/max clauses in its
  * slice of choices) and the result; counts full and empty regions in totals. */
 #define VM_IZERO (-1e-30f) /* see vm_ambiguous */
@@ -152,7 +303,8 @@ __kernel void implicit_intervals(global const VmIRegion* reg, uint n, uint first
                                global float2* scratch, uint slots, uint root_slot,
                                global uchar* choices, uint per, global float2* result,
                                global uint* totals, global const float4* planes, uint nplanes,
-                               VmIView view) {
+                               VmIView view, VmIOcclusion occ, global const uint* image,
+                               uint occlude) {
   const uint r = first + get_global_id(0);
   if (r >= n) return;
   const VmIRegion R = reg[r];
@@ -175,6 +327,15 @@ __kernel void implicit_intervals(global const VmIRegion* reg, uint n, uint first
       atomic_inc(&totals[VM_ITOTAL_CULLED]);
       return;
     }
+  }
+  /* Hidden (3D frames whose rays start outside the solid): the box grown by H, where every
+   * triangle of a leaf inside it lies, is behind full boxes nearer the eye wherever it projects.
+   * Every ray through the grown box has entered the solid before it, so has crossed the surface
+   * nearer than any of those triangles: leaving them out changes nothing seen. */
+  if (occlude && vm_hidden(occ, image, view, R, H)) {
+    result[r] = (float2)(VM_IINF, VM_IINF);
+    atomic_inc(&totals[VM_ITOTAL_OCCLUDED]);
+    return;
   }
   global float2* s = scratch + (size_t)(r - first) * slots;
   global uchar* ch = choices + vm_choice_off(R, r, per);

@@ -54,6 +54,7 @@ Diced dice(const Scene& s, const Camera& cam, float tol, bool back_faces = true)
   TessellateOptions o;
   o.implicit_tolerance_px = tol;
   o.implicit_back_faces = back_faces;
+  o.implicit_occlusion = false;  // the whole surface (tests/test_implicit_occlusion.cpp: the cull)
   Diced d;
   Scene out = renderer().tessellate(s, cam, o, &d.st);
   d.mesh = out.meshes.at(0);
@@ -420,6 +421,7 @@ TEST(Implicit3D, SceneFileObjectsTransformsAndBadInput) {
   TessellateOptions o;
   o.implicit_tolerance_px = 2;
   o.implicit_back_faces = true;  // closed, for the volume
+  o.implicit_occlusion = false;
   const Scene d = renderer().tessellate(s, cam, o);
   // The ball: radius 2 about (5, 0, 0).
   for (size_t v = 0; v < d.meshes[0].vertex_count(); v += 7) {

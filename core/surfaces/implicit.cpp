@@ -23,7 +23,8 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
                                  float size, uint32_t dims, const std::vector<uint32_t>& splits,
                                  uint64_t max_bytes,
                                  const std::vector<std::array<float, 4>>& planes,
-                                 const std::function<void()>& check_time, const VmIView* view) {
+                                 const std::function<void()>& check_time, const VmIView* view,
+                                 const ImplicitOcclusion* occlusion) {
   ImplicitQueue q;
   const uint32_t syncs0 = rt.host_syncs();
   const uint32_t slots = std::max<uint32_t>(tape.slots, 1), maxlen = uint32_t(tape.size());
@@ -49,10 +50,15 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     pl[k] = cl_float4{{planes[k][0], planes[k][1], planes[k][2], planes[k][3]}};
   cl::Buffer plane_buf = rt.upload(pl, "implicit planes");
   const uint32_t nplanes = uint32_t(planes.size());
+  const cl_uint occlude = occlusion && nplanes ? 1 : 0;
+  const VmIOcclusion occ_map = occlude ? occlusion->map : VmIOcclusion{};
+  cl::Buffer image = occlude ? occlusion->image : totals;  // a stand-in when unused
+  const uint64_t image_bytes = occlude ? occlusion_bytes(occ_map) : 0;
   for (size_t round = 0; round <= splits.size() && n > 0; ++round) {
     const bool last = round == splits.size();
     const uint32_t split = last ? 1 : splits[round];
-    const uint64_t host_held = q.leaves.size() * sizeof(VmIRegion) + q.pool.size() * 4;
+    const uint64_t host_held =
+        q.leaves.size() * sizeof(VmIRegion) + q.pool.size() * 4 + image_bytes;
     // Per region: the result and counts; a choice byte per clause of its own tape; slots of
     // intervals and of liveness for the regions of one chunk at a time (at most 256 MiB: a
     // round of millions of regions on a tape of hundreds of slots runs in pieces).
@@ -75,7 +81,19 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     for (uint32_t first = 0; first < n; first += chunk) {
       const uint32_t m = std::min(chunk, n - first);
       rt.launch(Stage::Implicit, "implicit_intervals", m, regions, n, first, pool, scratch, slots,
-                tape.root_slot, choices, per_in, result, totals, plane_buf, nplanes, sizing);
+                tape.root_slot, choices, per_in, result, totals, plane_buf, nplanes, sizing,
+                occ_map, image, occlude);
+      if (occlude) {  // this chunk's full boxes into the depth image, and its pyramid
+        rt.launch(Stage::Implicit, "implicit_occluders", m, regions, n, first, result, occ_map,
+                  sizing, image);
+        ++q.launches;
+        for (int k = 0; (occ_map.width >> k) > 1 || (occ_map.height >> k) > 1; ++k, ++q.launches) {
+          const uint64_t w = (occ_map.width + (1u << (k + 1)) - 1) >> (k + 1);
+          const uint64_t h = (occ_map.height + (1u << (k + 1)) - 1) >> (k + 1);
+          rt.launch(Stage::Implicit, "implicit_depth_mip", size_t(w * h), image, occ_map,
+                    cl_int(k));
+        }
+      }
       rt.launch(Stage::Implicit, "implicit_shorten_count", m, regions, n, first, pool, choices,
                 per_in, result, live, slots, tape.root_slot, counts, amb, leaf_counts, leaf,
                 sizing, cl_uint(last), totals);
@@ -101,6 +119,7 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     r.full = tot[VM_ITOTAL_FULL];
     r.empty = tot[VM_ITOTAL_EMPTY];
     r.culled = tot[VM_ITOTAL_CULLED];
+    r.occluded = tot[VM_ITOTAL_OCCLUDED];
     r.ambiguous = uint64_t(namb) + nleaf;
     r.leaves = nleaf;
     r.clauses = clauses;

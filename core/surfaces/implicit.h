@@ -20,7 +20,30 @@ struct ImplicitRound {
   uint64_t culled = 0;  // regions wholly outside one of the planes (they leave as if empty)
   uint64_t clauses = 0;  // clauses evaluated in the round (sum of the regions' tape lengths)
   uint64_t leaves = 0;   // ambiguous regions that became leaves (the rest split)
+  uint64_t occluded = 0;  // regions hidden behind full boxes (they leave as if empty)
 };
+
+// A 3D queue's occlusion (docs/IMPLICIT.md "Hidden regions"): the depth image (width x height
+// words, float bits, +inf where nothing covers; kept for the caller) and its mapping. Each
+// round's full boxes beyond the near plane are drawn into it; a region whose box, grown by twice
+// the leaf side at its farthest depth, lies behind it wherever it projects leaves the queue.
+// Only where every ray of the view starts outside the solid (the caller proves it).
+struct ImplicitOcclusion {
+  VmIOcclusion map{};
+  cl::Buffer image;
+};
+
+// The depth image's bytes with its pyramid (level k + 1 the greatest of each 2 x 2 of level k,
+// down to 1 x 1; kernels/implicit.cl vm_mip_off), and level 0's texel count.
+inline uint64_t occlusion_bytes(const VmIOcclusion& m) {
+  uint64_t n = 0;
+  for (int k = 0;; ++k) {
+    const uint64_t w = (uint64_t(m.width) + (uint64_t(1) << k) - 1) >> k;
+    const uint64_t h = (uint64_t(m.height) + (uint64_t(1) << k) - 1) >> k;
+    n += w * h;
+    if (w == 1 && h == 1) return 4 * n;
+  }
+}
 
 // The most a region queue may hold where no memory budget says less (3D dicing and the 2D mode).
 inline constexpr uint64_t kMaxImplicitQueueBytes = uint64_t(4) << 30;
@@ -56,7 +79,8 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
                                  uint64_t max_bytes = 0,
                                  const std::vector<std::array<float, 4>>& planes = {},
                                  const std::function<void()>& check_time = {},
-                                 const VmIView* view = nullptr);
+                                 const VmIView* view = nullptr,
+                                 const ImplicitOcclusion* occlusion = nullptr);
 
 // Plain evaluation on the device of each leaf's tape at its points (m per leaf, xyz per point),
 // in batches that keep the scratch under 256 MiB; the launches made are added to *launches.
