@@ -145,8 +145,9 @@ inline float2 vm_depth_range(VmIView v, VmIRegion R, float g) {
 inline float vm_leaf_side(VmIView v, float d) { return v.c0 + v.c1 * fmax(d, v.near_d); }
 
 /* Occlusion (docs/IMPLICIT.md "Hidden regions"). VM_IOCCLUDE_MUTATION 1 (tests only, through
- * VISMAP_CL_OPTIONS) compares the depth image with a region's farthest depth instead of its
- * least: an unsound cull that tests/test_implicit3d.cpp must catch. */
+ * VISMAP_CL_OPTIONS) draws a full box at its least depth over the whole box instead of its entry
+ * depth at each texel (a ray meets an oblique box deeper than its nearest corner): an unsound
+ * cull that tests/test_implicit_occlusion.cpp must catch. */
 #ifndef VM_IOCCLUDE_MUTATION
 #define VM_IOCCLUDE_MUTATION 0
 #endif
@@ -194,11 +195,7 @@ inline size_t vm_mip_off(VmIOcclusion o, int k) {
 inline bool vm_hidden(VmIOcclusion o, global const uint* image, VmIView v, VmIRegion R, float g) {
   const float2 dr = vm_depth_range(v, R, g);
   if (!(dr.x > v.near_d)) return false;
-#if VM_IOCCLUDE_MUTATION == 1
-  const float d = dr.y;
-#else
   const float d = dr.x;
-#endif
   const float below = d - 1e-5f * d; /* the float rounding of the depth range */
   const int4 f = vm_footprint(o, R, g);
   int x0 = max(f.x, 0), y0 = max(f.y, 0);
@@ -259,38 +256,75 @@ inline float vm_texel_entry(VmIOcclusion o, float3 O, float3 lo, float3 hi, floa
  * depth's reciprocal is the least of the entered faces' (each affine over the screen), so over
  * the texel its greatest is at a corner. The box is shrunk by more than the rays' float error,
  * and the depth moved up by more than its own: a covered texel is truly covered, and every ray
- * through it truly meets the box no deeper than the value written. */
-__kernel void implicit_occluders(global const VmIRegion* reg, uint n, uint first,
-                                 global const float2* result, VmIOcclusion o, VmIView v,
-                                 global uint* image) {
+ * through it truly meets the box no deeper than the value written. The box drawn is the region
+ * grown over its full siblings (the children of one parent, `per` of them: x first, then whole
+ * rows in y, then whole layers in z), one solid box: a texel on the seam between two full
+ * siblings is covered by their union though by neither alone. */
+__kernel void implicit_occluders(global const VmIRegion* reg, uint n, uint first, uint m,
+                                 uint per, global const float2* result, VmIOcclusion o,
+                                 VmIView v, global uint* image) {
   const uint r = first + get_global_id(0);
-  if (r >= n || !(result[r].y < 0.0f)) return;
+  if (r >= n || r >= first + m || !(result[r].y < 0.0f)) return;
   const VmIRegion R = reg[r];
   const float2 dr = vm_depth_range(v, R, 0.0f);
   /* Beyond the near plane, and not itself behind what is drawn (it could lower no texel). */
   if (!(dr.x > v.near_d) || vm_hidden(o, image, v, R, 0.0f)) return;
+  /* Its siblings (in this chunk: their results are known), i = ix + s (iy + s iz). */
+  const uint s = per == 64 ? 4 : per == 8 ? 2 : 1, i = r % per;
+  const uint ix = i % s, iy = (i / s) % s, iz = i / (s * s), base = r - i;
+  uint e[3] = {1, 1, 1};
+#define VM_SIB(a, b, c) (base + (a) + s * ((b) + s * (c)))
+#define VM_FULL(a, b, c) \
+  (VM_SIB(a, b, c) >= first && VM_SIB(a, b, c) < first + m && result[VM_SIB(a, b, c)].y < 0.0f)
+  while (ix + e[0] < s && VM_FULL(ix + e[0], iy, iz)) ++e[0];
+  for (bool grow = true; grow && iy + e[1] < s;) {
+    for (uint x = ix; x < ix + e[0] && grow; ++x) grow = VM_FULL(x, iy + e[1], iz);
+    if (grow) ++e[1];
+  }
+  for (bool grow = true; grow && iz + e[2] < s;) {
+    for (uint y = iy; y < iy + e[1] && grow; ++y)
+      for (uint x = ix; x < ix + e[0] && grow; ++x) grow = VM_FULL(x, y, iz + e[2]);
+    if (grow) ++e[2];
+  }
+#undef VM_FULL
+#undef VM_SIB
   const float3 O = (float3)(o.eye[0], o.eye[1], o.eye[2]);
+  const float far = vm_depth_range(v, R, R.size * (float)(max(e[0], max(e[1], e[2])) - 1)).y;
   const float eps = 1e-3f * R.size +
-                    2e-5f * (fmax(fabs(O.x), fmax(fabs(O.y), fabs(O.z))) + dr.y * o.dmax +
-                             fmax(fabs(R.lo[0]), fmax(fabs(R.lo[1]), fabs(R.lo[2]))) + R.size);
+                    2e-5f * (fmax(fabs(O.x), fmax(fabs(O.y), fabs(O.z))) + far * o.dmax +
+                             fmax(fabs(R.lo[0]), fmax(fabs(R.lo[1]), fabs(R.lo[2]))) +
+                             R.size * (float)(e[0] + e[1] + e[2]));
   if (!(2.0f * eps < R.size)) return;
   const float3 lo = (float3)(R.lo[0] + eps, R.lo[1] + eps, R.lo[2] + eps);
-  const float3 hi = (float3)(R.lo[0] + R.size - eps, R.lo[1] + R.size - eps, R.lo[2] + R.size - eps);
-  const int4 f = vm_footprint(o, R, 0.0f);
-  const int x0 = max(f.x, 0), y0 = max(f.y, 0);
-  const int x1 = min(f.z, (int)o.width - 1), y1 = min(f.w, (int)o.height - 1);
+  const float3 hi = (float3)(R.lo[0] + R.size * (float)e[0] - eps,
+                             R.lo[1] + R.size * (float)e[1] - eps,
+                             R.lo[2] + R.size * (float)e[2] - eps);
+  float fx0 = INFINITY, fy0 = INFINITY, fx1 = -INFINITY, fy1 = -INFINITY;
+  for (int c = 0; c < 8; ++c) {
+    const float3 p = (float3)((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
+    const float3 t = vm_texel(o, p);
+    fx0 = fmin(fx0, t.x), fx1 = fmax(fx1, t.x), fy0 = fmin(fy0, t.y), fy1 = fmax(fy1, t.y);
+  }
+  const float W = (float)o.width, H = (float)o.height;
+  const int x0 = max((int)floor(fmax(fx0, -1.0f)), 0), y0 = max((int)floor(fmax(fy0, -1.0f)), 0);
+  const int x1 = min((int)floor(fmin(fx1, W + 1.0f)), (int)o.width - 1);
+  const int y1 = min((int)floor(fmin(fy1, H + 1.0f)), (int)o.height - 1);
   for (int y = y0; y <= y1; ++y) {
     float a = vm_texel_entry(o, O, lo, hi, (float)x0, (float)y);
     float b = vm_texel_entry(o, O, lo, hi, (float)x0, (float)(y + 1));
     for (int x = x0; x <= x1; ++x) {
       const float c = vm_texel_entry(o, O, lo, hi, (float)(x + 1), (float)y);
-      const float e = vm_texel_entry(o, O, lo, hi, (float)(x + 1), (float)(y + 1));
-      if (a >= 0.0f && b >= 0.0f && c >= 0.0f && e >= 0.0f) {
-        const float t = fmax(fmax(a, b), fmax(c, e));
+      const float d = vm_texel_entry(o, O, lo, hi, (float)(x + 1), (float)(y + 1));
+      if (a >= 0.0f && b >= 0.0f && c >= 0.0f && d >= 0.0f) {
+#if VM_IOCCLUDE_MUTATION == 1
+        const float t = dr.x;
+#else
+        const float t = fmax(fmax(a, b), fmax(c, d));
+#endif
         atomic_min(&image[(size_t)y * o.width + x], as_uint(t + 1e-5f * t));
       }
       a = c;
-      b = e;
+      b = d;
     }
   }
 }
@@ -328,11 +362,14 @@ __kernel void implicit_intervals(global const VmIRegion* reg, uint n, uint first
       return;
     }
   }
-  /* Hidden (3D frames whose rays start outside the solid): the box grown by H, where every
-   * triangle of a leaf inside it lies, is behind full boxes nearer the eye wherever it projects.
-   * Every ray through the grown box has entered the solid before it, so has crossed the surface
-   * nearer than any of those triangles: leaving them out changes nothing seen. */
-  if (occlude && vm_hidden(occ, image, view, R, H)) {
+  /* Hidden (3D frames whose rays start outside the solid): the box grown by the leaf side at
+   * its farthest depth, where every triangle of a leaf inside it lies, is behind full boxes
+   * nearer the eye wherever it projects. Every ray through the grown box has entered the solid
+   * before it, so has crossed the surface nearer than any of those triangles: leaving them out
+   * changes nothing seen. */
+  if (occlude &&
+      vm_hidden(occ, image, view, R,
+                1.001f * vm_leaf_side(view, vm_depth_range(view, R, 0.0f).y) + 1e-3f * R.size)) {
     result[r] = (float2)(VM_IINF, VM_IINF);
     atomic_inc(&totals[VM_ITOTAL_OCCLUDED]);
     return;

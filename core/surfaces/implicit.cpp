@@ -84,13 +84,14 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
                 tape.root_slot, choices, per_in, result, totals, plane_buf, nplanes, sizing,
                 occ_map, image, occlude);
       if (occlude) {  // this chunk's full boxes into the depth image, and its pyramid
-        rt.launch(Stage::Implicit, "implicit_occluders", m, regions, n, first, result, occ_map,
-                  sizing, image);
+        rt.launch(Stage::Implicit, "implicit_occluders", m, regions, n, first, m, per_in, result,
+                  occ_map, sizing, image);
         ++q.launches;
-        for (int k = 0; (occ_map.width >> k) > 1 || (occ_map.height >> k) > 1; ++k, ++q.launches) {
-          const uint64_t w = (occ_map.width + (1u << (k + 1)) - 1) >> (k + 1);
-          const uint64_t h = (occ_map.height + (1u << (k + 1)) - 1) >> (k + 1);
-          rt.launch(Stage::Implicit, "implicit_depth_mip", size_t(w * h), image, occ_map,
+        for (int k = 0;; ++k, ++q.launches) {  // level k + 1 from level k, down to 1 x 1
+          const auto dim = [k](uint64_t n, int up) { return (n + (1u << (k + up)) - 1) >> (k + up); };
+          if (dim(occ_map.width, 0) == 1 && dim(occ_map.height, 0) == 1) break;
+          rt.launch(Stage::Implicit, "implicit_depth_mip",
+                    size_t(dim(occ_map.width, 1) * dim(occ_map.height, 1)), image, occ_map,
                     cl_int(k));
         }
       }
