@@ -171,7 +171,7 @@ TEST(Implicit3D, ShapesWithKnownAnswersAreClosedAndWithinTheBound) {
 }
 
 // Issue 32: leaves sized by their own depth. Long shapes seen end-on from close by (depths from
-// 1 to 9) get leaves of three or more sides; where a smaller leaf meets a larger one the mesh is
+// 1 to 9) get leaves of two to four sides; where a smaller leaf meets a larger one the mesh is
 // still closed, and every vertex within the tolerance at its own depth.
 TEST(Implicit3D, LeavesOfSeveralSidesJoinWithoutCracks) {
   Camera cam;
