@@ -479,7 +479,9 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   plan_rounds(g, splits, sizing, blo, bhi, d_surface);
   const std::array<double, 9> inv = inverse3(xf);  // for the eye's place, the rays, the normals
   std::optional<ImplicitOcclusion> occlusion;
-  if (o.implicit_occlusion)
+  // Only for a camera whose near and far are given: the frame then starts its rays on the same
+  // near plane (the CLI and the server fit them to the scene before dicing).
+  if (o.implicit_occlusion && cam_in.near_plane > 0 && cam_in.far_plane > 0)
     if (const auto map = occlusion_map(v, xf, inv, clipped, blo, bhi, sizing)) {
       occlusion.emplace();
       occlusion->map = *map;
