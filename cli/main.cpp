@@ -340,12 +340,13 @@ void print_surface_stats(const RenderReport& r) {
   if (r.ts.implicit_leaves)
     std::fprintf(stderr,
                  "implicit: %llu cells per axis, %llu leaf cells, clauses per "
-                 "leaf %.1f of %llu (tape shortening), %llu back faces left out; ms: queue "
-                 "%.1f, corners %.1f, mesh %.1f\n",
+                 "leaf %.1f of %llu (tape shortening), %llu regions hidden behind full boxes "
+                 "and %llu back faces left out; ms: queue %.1f, corners %.1f, mesh %.1f\n",
                  static_cast<unsigned long long>(r.ts.implicit_cells),
                  static_cast<unsigned long long>(r.ts.implicit_leaves),
                  double(r.ts.implicit_leaf_clauses) / double(r.ts.implicit_leaves),
                  static_cast<unsigned long long>(r.ts.implicit_clauses_full),
+                 static_cast<unsigned long long>(r.ts.implicit_occluded),
                  static_cast<unsigned long long>(r.ts.implicit_back_faces), r.ts.implicit_queue_ms,
                  r.ts.implicit_points_ms, r.ts.implicit_mesh_ms);
 }

@@ -129,6 +129,206 @@ inline size_t vm_choice_off(VmIRegion R, uint r, uint per) {
   return (size_t)per * R.tape_off + (size_t)(r % per) * R.tape_len;
 }
 
+/* The view depth's least and greatest values over R's box grown by g on every side (depth is
+ * affine: its extremes are at corners). */
+inline float2 vm_depth_range(VmIView v, VmIRegion R, float g) {
+  float a = v.depth[3], b = v.depth[3];
+  for (int k = 0; k < 3; ++k) {
+    const float p = v.depth[k] * (R.lo[k] - g), q = v.depth[k] * (R.lo[k] + R.size + g);
+    a += fmin(p, q);
+    b += fmax(p, q);
+  }
+  return (float2)(a, b);
+}
+
+/* The largest leaf side at depth d. */
+inline float vm_leaf_side(VmIView v, float d) { return v.c0 + v.c1 * fmax(d, v.near_d); }
+
+/* Occlusion (docs/IMPLICIT.md "Hidden regions"). VM_IOCCLUDE_MUTATION 1 (tests only, through
+ * VISMAP_CL_OPTIONS) draws a full box at its least depth over the whole box instead of its entry
+ * depth at each texel (a ray meets an oblique box deeper than its nearest corner): an unsound
+ * cull that tests/test_implicit_occlusion.cpp must catch. */
+#ifndef VM_IOCCLUDE_MUTATION
+#define VM_IOCCLUDE_MUTATION 0
+#endif
+
+/* Texel coordinates of the object-space point p (x, y) and its view depth (z). */
+inline float3 vm_texel(VmIOcclusion o, float3 p) {
+  const float x = o.proj[0] * p.x + o.proj[1] * p.y + o.proj[2] * p.z + o.proj[3];
+  const float y = o.proj[4] * p.x + o.proj[5] * p.y + o.proj[6] * p.z + o.proj[7];
+  const float w = o.proj[8] * p.x + o.proj[9] * p.y + o.proj[10] * p.z + o.proj[11];
+  return (float3)(x / w, y / w, w);
+}
+
+/* The depth image's texels that R's box grown by g can touch: (x0, y0, x1, y1), inclusive, one
+ * texel wider on every side than the corners' projections (their rounding); x0 > x1 when none. */
+inline int4 vm_footprint(VmIOcclusion o, VmIRegion R, float g) {
+  float x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+  for (int c = 0; c < 8; ++c) {
+    const float3 p = (float3)(R.lo[0] - g + ((c & 1) ? R.size + 2.0f * g : 0.0f),
+                              R.lo[1] - g + ((c & 2) ? R.size + 2.0f * g : 0.0f),
+                              R.lo[2] - g + ((c & 4) ? R.size + 2.0f * g : 0.0f));
+    const float3 t = vm_texel(o, p);
+    x0 = fmin(x0, t.x), x1 = fmax(x1, t.x), y0 = fmin(y0, t.y), y1 = fmax(y1, t.y);
+  }
+  const float W = (float)o.width, H = (float)o.height;
+  if (!(x0 < W + 1.0f && y0 < H + 1.0f && x1 > -1.0f && y1 > -1.0f)) return (int4)(1, 1, 0, 0);
+  return (int4)((int)floor(fmax(x0, -1.0f)) - 1, (int)floor(fmax(y0, -1.0f)) - 1,
+                (int)floor(fmin(x1, W + 1.0f)) + 1, (int)floor(fmin(y1, H + 1.0f)) + 1);
+}
+
+/* The depth image is a pyramid: level 0 the texels, level k + 1 the greatest of each 2 x 2 of
+ * level k (those inside it), so a texel of level k bounds the 2^k x 2^k texels under it. Level
+ * k's width, and its offset in the buffer. */
+inline uint vm_mip_w(uint w, int k) { return (w + (1u << k) - 1) >> k; }
+inline size_t vm_mip_off(VmIOcclusion o, int k) {
+  size_t off = 0;
+  for (int j = 0; j < k; ++j) off += (size_t)vm_mip_w(o.width, j) * vm_mip_w(o.height, j);
+  return off;
+}
+
+/* Is every ray through a point of R's box grown by g, inside the viewport, through a full box at
+ * a depth below the grown box's least depth? The footprint's texels (those outside the viewport
+ * show nothing) all hold a depth below it, read at the pyramid level where the footprint spans at
+ * most 8 x 8 (a level's texel may lag behind level 0 within a round: it is then larger, never
+ * smaller, than the texels under it). */
+inline bool vm_hidden(VmIOcclusion o, global const uint* image, VmIView v, VmIRegion R, float g) {
+  const float2 dr = vm_depth_range(v, R, g);
+  if (!(dr.x > v.near_d)) return false;
+  const float d = dr.x;
+  const float below = d - 1e-5f * d; /* the float rounding of the depth range */
+  const int4 f = vm_footprint(o, R, g);
+  int x0 = max(f.x, 0), y0 = max(f.y, 0);
+  int x1 = min(f.z, (int)o.width - 1), y1 = min(f.w, (int)o.height - 1);
+  if (x0 > x1 || y0 > y1) return false;
+  int k = 0;
+  while ((x1 >> k) - (x0 >> k) > 7 || (y1 >> k) - (y0 >> k) > 7) ++k;
+  x0 >>= k, x1 >>= k, y0 >>= k, y1 >>= k;
+  global const uint* level = image + vm_mip_off(o, k);
+  const uint w = vm_mip_w(o.width, k);
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x)
+      if (!(as_float(level[(size_t)y * w + x]) < below)) return false;
+  return true;
+}
+
+/* Level k + 1 of the depth image's pyramid from level k (one work-item per texel of k + 1). */
+__kernel void implicit_depth_mip(global uint* image, VmIOcclusion o, int k) {
+  const uint w = vm_mip_w(o.width, k + 1), h = vm_mip_w(o.height, k + 1);
+  const uint i = get_global_id(0);
+  if (i >= w * h) return;
+  const uint x = i % w, y = i / w, sw = vm_mip_w(o.width, k), sh = vm_mip_w(o.height, k);
+  global const uint* src = image + vm_mip_off(o, k);
+  uint m = 0; /* positive floats' bits order as the floats */
+  for (uint dy = 0; dy < 2; ++dy)
+    for (uint dx = 0; dx < 2; ++dx)
+      if (2 * x + dx < sw && 2 * y + dy < sh) m = max(m, src[(size_t)(2 * y + dy) * sw + 2 * x + dx]);
+  image[vm_mip_off(o, k + 1) + (size_t)y * w + x] = m;
+}
+
+/* The view depth where the ray eye + t d enters the box [lo, hi] (slabs), or -1 if it misses. */
+inline float vm_ray_entry(float3 O, float3 d, float3 lo, float3 hi) {
+  float tin = 0.0f, tout = INFINITY;
+  const float Oa[3] = {O.x, O.y, O.z}, da[3] = {d.x, d.y, d.z};
+  const float la[3] = {lo.x, lo.y, lo.z}, ha[3] = {hi.x, hi.y, hi.z};
+  for (int k = 0; k < 3; ++k) {
+    if (fabs(da[k]) < 1e-30f) {
+      if (Oa[k] < la[k] || Oa[k] > ha[k]) return -1.0f;
+      continue;
+    }
+    const float t1 = (la[k] - Oa[k]) / da[k], t2 = (ha[k] - Oa[k]) / da[k];
+    tin = fmax(tin, fmin(t1, t2));
+    tout = fmin(tout, fmax(t1, t2));
+  }
+  return tin <= tout ? tin : -1.0f;
+}
+
+inline float vm_texel_entry(VmIOcclusion o, float3 O, float3 lo, float3 hi, float tx, float ty) {
+  const float3 d = (float3)(o.dir[0] + tx * o.dir[4] + ty * o.dir[8],
+                            o.dir[1] + tx * o.dir[5] + ty * o.dir[9],
+                            o.dir[2] + tx * o.dir[6] + ty * o.dir[10]);
+  return vm_ray_entry(O, d, lo, hi);
+}
+
+/* Per full region of the round beyond the near plane: into the depth image, at each texel its
+ * box covers wholly (the rays through the texel's 4 corners all meet it, so every ray through the
+ * texel does: the projection is convex), the greatest of the corners' entry depths. The entry
+ * depth's reciprocal is the least of the entered faces' (each affine over the screen), so over
+ * the texel its greatest is at a corner. The box is shrunk by more than the rays' float error,
+ * and the depth moved up by more than its own: a covered texel is truly covered, and every ray
+ * through it truly meets the box no deeper than the value written. The box drawn is the region
+ * grown over its full siblings (the children of one parent, `per` of them: x first, then whole
+ * rows in y, then whole layers in z), one solid box: a texel on the seam between two full
+ * siblings is covered by their union though by neither alone. */
+__kernel void implicit_occluders(global const VmIRegion* reg, uint n, uint first, uint m,
+                                 uint per, global const float2* result, VmIOcclusion o,
+                                 VmIView v, global uint* image) {
+  const uint r = first + get_global_id(0);
+  if (r >= n || r >= first + m || !(result[r].y < 0.0f)) return;
+  const VmIRegion R = reg[r];
+  const float2 dr = vm_depth_range(v, R, 0.0f);
+  /* Beyond the near plane, and not itself behind what is drawn (it could lower no texel). */
+  if (!(dr.x > v.near_d) || vm_hidden(o, image, v, R, 0.0f)) return;
+  /* Its siblings (in this chunk: their results are known), i = ix + s (iy + s iz). */
+  const uint s = per == 64 ? 4 : per == 8 ? 2 : 1, i = r % per;
+  const uint ix = i % s, iy = (i / s) % s, iz = i / (s * s), base = r - i;
+  uint e[3] = {1, 1, 1};
+#define VM_SIB(a, b, c) (base + (a) + s * ((b) + s * (c)))
+#define VM_FULL(a, b, c) \
+  (VM_SIB(a, b, c) >= first && VM_SIB(a, b, c) < first + m && result[VM_SIB(a, b, c)].y < 0.0f)
+  while (ix + e[0] < s && VM_FULL(ix + e[0], iy, iz)) ++e[0];
+  for (bool grow = true; grow && iy + e[1] < s;) {
+    for (uint x = ix; x < ix + e[0] && grow; ++x) grow = VM_FULL(x, iy + e[1], iz);
+    if (grow) ++e[1];
+  }
+  for (bool grow = true; grow && iz + e[2] < s;) {
+    for (uint y = iy; y < iy + e[1] && grow; ++y)
+      for (uint x = ix; x < ix + e[0] && grow; ++x) grow = VM_FULL(x, y, iz + e[2]);
+    if (grow) ++e[2];
+  }
+#undef VM_FULL
+#undef VM_SIB
+  const float3 O = (float3)(o.eye[0], o.eye[1], o.eye[2]);
+  const float far = vm_depth_range(v, R, R.size * (float)(max(e[0], max(e[1], e[2])) - 1)).y;
+  const float eps = 1e-3f * R.size +
+                    2e-5f * (fmax(fabs(O.x), fmax(fabs(O.y), fabs(O.z))) + far * o.dmax +
+                             fmax(fabs(R.lo[0]), fmax(fabs(R.lo[1]), fabs(R.lo[2]))) +
+                             R.size * (float)(e[0] + e[1] + e[2]));
+  if (!(2.0f * eps < R.size)) return;
+  const float3 lo = (float3)(R.lo[0] + eps, R.lo[1] + eps, R.lo[2] + eps);
+  const float3 hi = (float3)(R.lo[0] + R.size * (float)e[0] - eps,
+                             R.lo[1] + R.size * (float)e[1] - eps,
+                             R.lo[2] + R.size * (float)e[2] - eps);
+  float fx0 = INFINITY, fy0 = INFINITY, fx1 = -INFINITY, fy1 = -INFINITY;
+  for (int c = 0; c < 8; ++c) {
+    const float3 p = (float3)((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
+    const float3 t = vm_texel(o, p);
+    fx0 = fmin(fx0, t.x), fx1 = fmax(fx1, t.x), fy0 = fmin(fy0, t.y), fy1 = fmax(fy1, t.y);
+  }
+  const float W = (float)o.width, H = (float)o.height;
+  const int x0 = max((int)floor(fmax(fx0, -1.0f)), 0), y0 = max((int)floor(fmax(fy0, -1.0f)), 0);
+  const int x1 = min((int)floor(fmin(fx1, W + 1.0f)), (int)o.width - 1);
+  const int y1 = min((int)floor(fmin(fy1, H + 1.0f)), (int)o.height - 1);
+  for (int y = y0; y <= y1; ++y) {
+    float a = vm_texel_entry(o, O, lo, hi, (float)x0, (float)y);
+    float b = vm_texel_entry(o, O, lo, hi, (float)x0, (float)(y + 1));
+    for (int x = x0; x <= x1; ++x) {
+      const float c = vm_texel_entry(o, O, lo, hi, (float)(x + 1), (float)y);
+      const float d = vm_texel_entry(o, O, lo, hi, (float)(x + 1), (float)(y + 1));
+      if (a >= 0.0f && b >= 0.0f && c >= 0.0f && d >= 0.0f) {
+#if VM_IOCCLUDE_MUTATION == 1
+        const float t = dr.x;
+#else
+        const float t = fmax(fmax(a, b), fmax(c, d));
+#endif
+        atomic_min(&image[(size_t)y * o.width + x], as_uint(t + 1e-5f * t));
+      }
+      a = c;
+      b = d;
+    }
+  }
+}
+
 /* Per region: its tape over its box in intervals (the choices of its min/max clauses in its
  * slice of choices) and the result; counts full and empty regions in totals. */
 #define VM_IZERO (-1e-30f) /* see vm_ambiguous */
@@ -136,25 +336,43 @@ __kernel void implicit_intervals(global const VmIRegion* reg, uint n, uint first
                                global const VmIClause* pool,
                                global float2* scratch, uint slots, uint root_slot,
                                global uchar* choices, uint per, global float2* result,
-                               global uint* totals, global const float4* planes, uint nplanes) {
+                               global uint* totals, global const float4* planes, uint nplanes,
+                               VmIView view, VmIOcclusion occ, global const uint* image,
+                               uint occlude) {
   const uint r = first + get_global_id(0);
   if (r >= n) return;
   const VmIRegion R = reg[r];
   /* Culling (3D frames): a box wholly on the outer side of one of the view's planes (n.p + w <
-   * 0 over the box, with a margin of a thousandth of the box) cannot be seen; it leaves the
-   * queue as if empty and is counted apart. */
+   * 0 over the box, with a margin of a thousandth of the box) by more than twice the largest
+   * leaf side at its farthest depth, H (and view.margin), cannot be seen: a triangle of a leaf
+   * inside it lies within H of it on every axis (docs/IMPLICIT.md "3D"). It leaves the queue as
+   * if empty and is counted apart. */
+  const float H = nplanes ? view.margin + 2.0f * vm_leaf_side(view, vm_depth_range(view, R, 0.0f).y)
+                          : 0.0f;
   for (uint k = 0; k < nplanes; ++k) {
     const float4 P = planes[k];
     const float hi = P.x * (R.lo[0] + (P.x > 0.0f ? R.size : 0.0f)) +
                      P.y * (R.lo[1] + (P.y > 0.0f ? R.size : 0.0f)) +
                      P.z * (R.lo[2] + (P.z > 0.0f ? R.size : 0.0f)) + P.w;
-    const float margin = 1e-3f * R.size * (fabs(P.x) + fabs(P.y) + fabs(P.z)) +
+    const float margin = (1e-3f * R.size + H) * (fabs(P.x) + fabs(P.y) + fabs(P.z)) +
                          1e-6f * (fabs(P.x * R.lo[0]) + fabs(P.y * R.lo[1]) + fabs(P.z * R.lo[2]) + fabs(P.w));
     if (hi < -margin) {
       result[r] = (float2)(VM_IINF, VM_IINF);
       atomic_inc(&totals[VM_ITOTAL_CULLED]);
       return;
     }
+  }
+  /* Hidden (3D frames whose rays start outside the solid): the box grown by the leaf side at
+   * its farthest depth, where every triangle of a leaf inside it lies, is behind full boxes
+   * nearer the eye wherever it projects. Every ray through the grown box has entered the solid
+   * before it, so has crossed the surface nearer than any of those triangles: leaving them out
+   * changes nothing seen. */
+  if (occlude &&
+      vm_hidden(occ, image, view, R,
+                1.001f * vm_leaf_side(view, vm_depth_range(view, R, 0.0f).y) + 1e-3f * R.size)) {
+    result[r] = (float2)(VM_IINF, VM_IINF);
+    atomic_inc(&totals[VM_ITOTAL_OCCLUDED]);
+    return;
   }
   global float2* s = scratch + (size_t)(r - first) * slots;
   global uchar* ch = choices + vm_choice_off(R, r, per);
@@ -220,27 +438,42 @@ inline uint vm_shorten(global const VmIClause* pool, VmIRegion R, global const u
  * architecture model's floor) leaves the queue instead of splitting to the last level. */
 inline bool vm_ambiguous(float2 f) { return !(f.y < 0.0f) && !(f.x >= VM_IZERO); }
 
-/* counts[r]: the shortened tape's length of an ambiguous region, else 0; amb[r]: 1 if ambiguous. */
+/* An ambiguous region either splits (its children go to the next round) or becomes a leaf:
+ * in the last round, or once its side is at most the leaf side at its least depth, taken over
+ * the region grown by its side (a triangle of the leaf lies within that, docs/IMPLICIT.md "3D").
+ * Per region: counts[r] and amb[r] (the shortened tape's length and 1) when it splits, leaf_counts[r]
+ * and leaf[r] when it is a leaf, else 0. A last-round leaf larger than its side is counted in
+ * totals (the host refuses the dice). */
 __kernel void implicit_shorten_count(global const VmIRegion* reg, uint n, uint first,
                                    global const VmIClause* pool,
                                    global const uchar* choices, uint per_in,
                                    global const float2* result, global uchar* live, uint slots,
-                                   uint root_slot, global uint* counts, global uint* amb) {
+                                   uint root_slot, global uint* counts, global uint* amb,
+                                   global uint* leaf_counts, global uint* leaf, VmIView view,
+                                   uint last, global uint* totals) {
   const uint r = first + get_global_id(0);
   if (r >= n) return;
-  if (!vm_ambiguous(result[r])) {
-    counts[r] = 0;
-    amb[r] = 0;
-    return;
+  counts[r] = amb[r] = leaf_counts[r] = leaf[r] = 0;
+  if (!vm_ambiguous(result[r])) return;
+  const VmIRegion R = reg[r];
+  const uint len = vm_shorten(pool, R, choices + vm_choice_off(R, r, per_in),
+                              live + (size_t)(r - first) * slots, slots, root_slot, 0, 0);
+  const bool sized = view.c0 + view.c1 > 0.0f;
+  /* The float rounding of the depth is some ulps of depths of tens of units: 1e-5 covers it. */
+  const bool fine =
+      sized && R.size <= vm_leaf_side(view, vm_depth_range(view, R, R.size).x) * (1.0f - 1e-5f);
+  if (last || fine) {
+    leaf_counts[r] = len;
+    leaf[r] = 1;
+    if (sized && !fine) atomic_inc(&totals[VM_ITOTAL_COARSE]);
+  } else {
+    counts[r] = len;
+    amb[r] = 1;
   }
-  counts[r] = vm_shorten(pool, reg[r], choices + vm_choice_off(reg[r], r, per_in), live + (size_t)(r - first) * slots,
-                         slots, root_slot, 0, 0);
-  amb[r] = 1;
 }
 
-/* Writes the shortened tapes at their offsets in the next pool, and for each ambiguous region
- * either its split^dims children (split > 1) or the region itself as a leaf (split == 1), all
- * with the new tape. */
+/* Writes the shortened tapes at their offsets: a splitting region's in the next pool with its
+ * split^dims children (all pointing at it), a leaf's in the leaf pool with the region itself. */
 __kernel void implicit_shorten_fill(global const VmIRegion* reg, uint n, uint first,
                                   global const VmIClause* pool,
                                   global const uchar* choices, uint per_in,
@@ -248,14 +481,24 @@ __kernel void implicit_shorten_fill(global const VmIRegion* reg, uint n, uint fi
                                   uint root_slot, global const uint* counts,
                                   global const uint* offsets, global const uint* amb_off,
                                   global VmIClause* next_pool, global VmIRegion* next, uint split,
-                                  uint dims) {
+                                  uint dims, global const uint* leaf_counts,
+                                  global const uint* leaf_offsets, global const uint* leaf_idx,
+                                  global VmIClause* leaf_pool, global VmIRegion* leaves) {
   const uint r = first + get_global_id(0);
   if (r >= n) return;
-  const uint len = counts[r];
-  if (len == 0) return;
+  const uint len = counts[r], leaf_len = leaf_counts[r];
+  if (len == 0 && leaf_len == 0) return;
   VmIRegion R = reg[r];
-  vm_shorten(pool, R, choices + vm_choice_off(R, r, per_in), live + (size_t)(r - first) * slots, slots, root_slot,
-             next_pool + offsets[r], len);
+  global const uchar* ch = choices + vm_choice_off(R, r, per_in);
+  global uchar* lv = live + (size_t)(r - first) * slots;
+  if (leaf_len) {
+    vm_shorten(pool, R, ch, lv, slots, root_slot, leaf_pool + leaf_offsets[r], leaf_len);
+    R.tape_off = leaf_offsets[r];
+    R.tape_len = leaf_len;
+    leaves[leaf_idx[r]] = R;
+    return;
+  }
+  vm_shorten(pool, R, ch, lv, slots, root_slot, next_pool + offsets[r], len);
   VmIRegion C = R;
   C.tape_off = offsets[r];
   C.tape_len = len;

@@ -211,16 +211,49 @@ typedef struct {
   vm_u32 tape_off, tape_len;
   vm_u32 pad[2];
 } VmIRegion;
-/* implicit_intervals' totals: regions found full (f < 0 over the box) and empty (f >= 0), and
- * regions culled outside the view. */
+/* The view a 3D queue sizes its leaves by (docs/IMPLICIT.md "3D"): depth(p) = depth[0..2] . p +
+ * depth[3] is the view depth of a point of the object's space; a region becomes a leaf once its
+ * side is at most c0 + c1 * max(near_d, d), d the least depth over the region grown by its side
+ * on every side. c0 = c1 = 0 (2D, a coarse pass): leaves only in the last round. A region is
+ * culled outside a view plane only beyond margin plus twice that side at its farthest depth. */
+typedef struct {
+  float depth[4];
+  float c0, c1, near_d, margin;
+} VmIView;
+/* A 3D queue's occlusion (docs/IMPLICIT.md "Hidden regions"): a depth image of width x height
+ * texels over the viewport, each the least, over the full boxes covering the whole texel, of the
+ * box's greatest entry depth at the texel's corners. Object-space point p maps to texel
+ * coordinates (x / w, y / w), x = proj[0..3] . (p, 1), y = proj[4..7] . (p, 1), w = proj[8..11] .
+ * (p, 1) (the view depth); the ray through texel coordinates (tx, ty) is eye + t d, d = dir[0..2]
+ * + tx dir[4..6] + ty dir[8..10], at view depth t. */
+typedef struct {
+  float proj[12];
+  float eye[4];
+  float dir[12];
+  vm_u32 width, height;
+  float dmax, pad; /* the largest |d| component over the viewport */
+} VmIOcclusion;
+/* The queue's totals per round: regions found full (f < 0 over the box) and empty (f >= 0),
+ * regions culled outside the view, leaves of the last round larger than their depth allows,
+ * regions hidden behind full boxes; then the four scans' totals (the split regions' tape clauses
+ * and count, the leaves' likewise). */
 #define VM_ITOTAL_FULL 0
 #define VM_ITOTAL_EMPTY 1
 #define VM_ITOTAL_CULLED 2
-#define VM_ITOTAL_SLOTS 3
+#define VM_ITOTAL_COARSE 3
+#define VM_ITOTAL_OCCLUDED 4
+#define VM_ITOTAL_POOL 5
+#define VM_ITOTAL_SPLIT 6
+#define VM_ITOTAL_LEAF_POOL 7
+#define VM_ITOTAL_LEAVES 8
+#define VM_ITOTAL_SLOTS 9
 
 #ifndef __OPENCL_VERSION__
 static_assert(sizeof(VmIClause) == 16, "VmIClause layout");
 static_assert(sizeof(VmIRegion) == 32 && offsetof(VmIRegion, tape_off) == 16, "VmIRegion layout");
+static_assert(sizeof(VmIView) == 32 && offsetof(VmIView, c0) == 16, "VmIView layout");
+static_assert(sizeof(VmIOcclusion) == 128 && offsetof(VmIOcclusion, width) == 112,
+              "VmIOcclusion layout");
 static_assert(sizeof(VmScreenTri) == 64, "VmScreenTri layout");
 static_assert(offsetof(VmScreenTri, q) == 32, "VmScreenTri.q offset");
 static_assert(sizeof(VmEdge) == 32, "VmEdge layout");

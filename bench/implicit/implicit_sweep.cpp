@@ -1,7 +1,7 @@
 // Implicit surface tolerance sweep (issue 19, docs/IMPLICIT.md "3D"): for a scene with one
 // implicit object (its first mesh) and each tolerance, the dicing's time (tessellate, median of
-// 3 warm calls) and its parts (queue, corners, meshing), cells per axis, leaf cells, triangles,
-// back faces left out, the whole warm frame (tessellate + render, median of 3), the largest
+// 3 warm calls) and its parts (queue, corners, meshing), cells per axis (the finest leaves'),
+// leaf cells, triangles, back faces left out, regions left out as hidden behind full boxes, the whole warm frame (tessellate + render, median of 3), the largest
 // |f| / |grad f| at output vertices (world units, and in pixels at the vertex's depth), and the
 // pixel error against a dense reference: rays through sampled pixels of an R x R grid (default
 // 4096, the same view) cast against f by interval bisection along the ray with tape shortening
@@ -206,14 +206,15 @@ int main(int argc, char** argv) {
                 "pixels of %ux%u, 9 rays each, %.1f s; %llu away from edges (%llu on the object)\n",
                 file.c_str(), size, size, load_ms, samples, raster, raster,
                 ms_since(t_ref) / 1000, (unsigned long long)inner, (unsigned long long)inner_hit);
-    std::printf("| tolerance px | cells/axis | leaf cells | triangles | back faces out | "
-                "tessellate ms (queue, corners, mesh) | frame ms | largest abs(f)/abs(grad f) "
-                "px | pixel error | hole pixels |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    std::printf("| tolerance px | cells/axis | leaf cells | triangles | back faces out | hidden "
+                "regions | tessellate ms (queue, corners, mesh) | frame ms | largest "
+                "abs(f)/abs(grad f) px | pixel error | hole pixels |\n"
+                "|---|---|---|---|---|---|---|---|---|---|---|\n");
     FILE* out = csv.empty() ? nullptr : std::fopen(csv.c_str(), "w");
     if (out)
-      std::fprintf(out, "tolerance_px,cells,leaves,triangles,back_faces,tessellate_ms,queue_ms,"
-                        "corners_ms,mesh_ms,frame_ms,max_error_world,max_error_px,pixel_error,"
-                        "hole_pixels\n");
+      std::fprintf(out, "tolerance_px,cells,leaves,triangles,back_faces,hidden_regions,"
+                        "tessellate_ms,queue_ms,corners_ms,mesh_ms,frame_ms,max_error_world,"
+                        "max_error_px,pixel_error,hole_pixels\n");
     Renderer r;
     const Mat4 view = cam.view();
     const double fpx = cam.height / (2 * std::tan(cam.fov_y_deg * M_PI / 360));
@@ -265,11 +266,12 @@ int main(int argc, char** argv) {
         holes += smp.hit && !ours;
       }
       const double pe = double(wrong) / double(std::max<uint64_t>(inner, 1));
-      std::printf("| %.2f | %llu | %llu | %zu | %llu | %.0f (%.0f, %.0f, %.0f) | %.0f | %.4f "
-                  "(%.2f px) | %.2e | %llu |\n",
+      std::printf("| %.2f | %llu | %llu | %zu | %llu | %llu | %.0f (%.0f, %.0f, %.0f) | %.0f | "
+                  "%.4f (%.2f px) | %.2e | %llu |\n",
                   tol, (unsigned long long)st.implicit_cells,
                   (unsigned long long)st.implicit_leaves, m.triangle_count(),
-                  (unsigned long long)st.implicit_back_faces, median(tess), median(queue),
+                  (unsigned long long)st.implicit_back_faces,
+                  (unsigned long long)st.implicit_occluded, median(tess), median(queue),
                   median(corners), median(mesh), median(frame), worst, worst_px, pe,
                   (unsigned long long)holes);
       if (tol == TessellateOptions{}.implicit_tolerance_px) {
@@ -282,10 +284,11 @@ int main(int argc, char** argv) {
         std::printf("; mean %.1f\n", double(st.implicit_leaf_clauses) / double(st.implicit_leaves));
       }
       if (out)
-        std::fprintf(out, "%g,%llu,%llu,%zu,%llu,%.1f,%.1f,%.1f,%.1f,%.1f,%.5f,%.3f,%.3e,%llu\n",
+        std::fprintf(out, "%g,%llu,%llu,%zu,%llu,%llu,%.1f,%.1f,%.1f,%.1f,%.1f,%.5f,%.3f,%.3e,%llu\n",
                      tol, (unsigned long long)st.implicit_cells,
                      (unsigned long long)st.implicit_leaves, m.triangle_count(),
-                     (unsigned long long)st.implicit_back_faces, median(tess), median(queue),
+                     (unsigned long long)st.implicit_back_faces,
+                     (unsigned long long)st.implicit_occluded, median(tess), median(queue),
                      median(corners), median(mesh), median(frame), worst, worst_px, pe,
                      (unsigned long long)holes);
       std::fflush(stdout);

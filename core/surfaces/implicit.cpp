@@ -27,10 +27,12 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
                                  float size, uint32_t dims, const std::vector<uint32_t>& splits,
                                  uint64_t max_bytes,
                                  const std::vector<std::array<float, 4>>& planes,
-                                 const std::function<void()>& check_time) {
+                                 const std::function<void()>& check_time, const VmIView* view,
+                                 const ImplicitOcclusion* occlusion) {
   ImplicitQueue q;
   const uint32_t syncs0 = rt.host_syncs();
   const uint32_t slots = std::max<uint32_t>(tape.slots, 1), maxlen = uint32_t(tape.size());
+  const VmIView sizing = view ? *view : VmIView{};
   VmIRegion root{};
   for (int k = 0; k < 3; ++k) root.lo[k] = lo[k];
   root.size = size;
@@ -43,7 +45,8 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
   uint32_t per_in = 1;        // regions a parent of the last round (kernels: vm_choice_off)
   // What the round starts from and holds throughout: its regions and their tape pool. The caps
   // below count it with the round's own buffers and the next round's, which are all held at
-  // once (issue 35, case 1: each group counted alone let a round hold more than the cap).
+  // once (issue 35, case 1: each group counted alone let a round hold more than the cap), and
+  // the leaves the host holds so far.
   uint64_t held = sizeof(VmIRegion) + uint64_t(maxlen) * sizeof(VmIClause);
   cl::Buffer totals = rt.alloc(VM_ITOTAL_SLOTS * sizeof(cl_uint), "implicit totals");
   std::vector<cl_float4> pl(std::max<size_t>(planes.size(), 1), cl_float4{{0, 0, 0, 1}});
@@ -51,17 +54,23 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     pl[k] = cl_float4{{planes[k][0], planes[k][1], planes[k][2], planes[k][3]}};
   cl::Buffer plane_buf = rt.upload(pl, "implicit planes");
   const uint32_t nplanes = uint32_t(planes.size());
+  const cl_uint occlude = occlusion && nplanes ? 1 : 0;
+  const VmIOcclusion occ_map = occlude ? occlusion->map : VmIOcclusion{};
+  cl::Buffer image = occlude ? occlusion->image : totals;  // a stand-in when unused
+  const uint64_t image_bytes = occlude ? occlusion_bytes(occ_map) : 0;
   for (size_t round = 0; round <= splits.size() && n > 0; ++round) {
     const bool last = round == splits.size();
     const uint32_t split = last ? 1 : splits[round];
+    const uint64_t host_held =
+        q.leaves.size() * sizeof(VmIRegion) + q.pool.size() * 4 + image_bytes;
     // Per region: the result and counts; a choice byte per clause of its own tape; slots of
     // intervals and of liveness for the regions of one chunk at a time (at most 256 MiB: a
     // round of millions of regions on a tape of hundreds of slots runs in pieces).
     const uint64_t mean_len = std::max<uint64_t>(1, clauses / n);
     const uint32_t chunk = uint32_t(std::clamp<uint64_t>(
         std::min<uint64_t>(kChunkBytes / (slots * 9ull), kChunkClauses / mean_len), 1, n));
-    const uint64_t working = uint64_t(n) * (8 + 16) + clauses + uint64_t(chunk) * slots * 9;
-    check_bytes(held + working, max_bytes, round);
+    const uint64_t working = uint64_t(n) * (8 + 32) + clauses + uint64_t(chunk) * slots * 9;
+    check_bytes(held + working + host_held, max_bytes, round);
     cl::Buffer scratch = rt.alloc(size_t(chunk) * slots * sizeof(cl_float2), "implicit slots");
     cl::Buffer live = rt.alloc(size_t(chunk) * slots, "implicit liveness");
     cl::Buffer choices = rt.alloc(std::max<size_t>(clauses, 1), "implicit choices");
@@ -70,6 +79,10 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     cl::Buffer offsets = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit tape offsets");
     cl::Buffer amb = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit ambiguous");
     cl::Buffer amb_off = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit ambiguous offsets");
+    cl::Buffer leaf_counts = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit leaf tape counts");
+    cl::Buffer leaf_offsets = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit leaf tape offsets");
+    cl::Buffer leaf = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit leaf flags");
+    cl::Buffer leaf_idx = rt.alloc(size_t(n) * sizeof(cl_uint), "implicit leaf offsets");
     rt.fill_u32(totals, 0, VM_ITOTAL_SLOTS, Stage::Implicit);
     // Each chunk's launches get its end as their bound: a launch is rounded up to whole work
     // groups, and items past the chunk (but not past n) wrote past the chunk's scratch (issue 35:
@@ -77,9 +90,23 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     for (uint32_t first = 0; first < n; first += chunk) {
       const uint32_t m = std::min(chunk, n - first), end = first + m;
       rt.launch(Stage::Implicit, "implicit_intervals", m, regions, end, first, pool, scratch, slots,
-                tape.root_slot, choices, per_in, result, totals, plane_buf, nplanes);
+                tape.root_slot, choices, per_in, result, totals, plane_buf, nplanes, sizing,
+                occ_map, image, occlude);
+      if (occlude) {  // this chunk's full boxes into the depth image, and its pyramid
+        rt.launch(Stage::Implicit, "implicit_occluders", m, regions, n, first, m, per_in, result,
+                  occ_map, sizing, image);
+        ++q.launches;
+        for (int k = 0;; ++k, ++q.launches) {  // level k + 1 from level k, down to 1 x 1
+          const auto dim = [k](uint64_t n, int up) { return (n + (1u << (k + up)) - 1) >> (k + up); };
+          if (dim(occ_map.width, 0) == 1 && dim(occ_map.height, 0) == 1) break;
+          rt.launch(Stage::Implicit, "implicit_depth_mip",
+                    size_t(dim(occ_map.width, 1) * dim(occ_map.height, 1)), image, occ_map,
+                    cl_int(k));
+        }
+      }
       rt.launch(Stage::Implicit, "implicit_shorten_count", m, regions, end, first, pool, choices,
-                per_in, result, live, slots, tape.root_slot, counts, amb);
+                per_in, result, live, slots, tape.root_slot, counts, amb, leaf_counts, leaf,
+                sizing, cl_uint(last), totals);
       if (first) q.launches += 2;
       if (check_time && first + m < n) {  // wait for the chunk, then look at the clock
         cl_uint done = 0;
@@ -87,37 +114,64 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
         check_time();
       }
     }
-    const uint32_t pool_next = rt.scan(Stage::Implicit, counts, offsets, n);
-    const uint32_t namb = rt.scan(Stage::Implicit, amb, amb_off, n);
-    q.launches += 6;  // the fill, three kernels, two scans (each counted as one)
+    // Four scans, their totals into the totals buffer: one read a round.
+    rt.scan_to(Stage::Implicit, counts, offsets, n, totals, VM_ITOTAL_POOL);
+    rt.scan_to(Stage::Implicit, amb, amb_off, n, totals, VM_ITOTAL_SPLIT);
+    rt.scan_to(Stage::Implicit, leaf_counts, leaf_offsets, n, totals, VM_ITOTAL_LEAF_POOL);
+    rt.scan_to(Stage::Implicit, leaf, leaf_idx, n, totals, VM_ITOTAL_LEAVES);
+    q.launches += 8;  // the fill, three kernels, four scans (each counted as one)
     cl_uint tot[VM_ITOTAL_SLOTS];
     rt.read(Stage::Implicit, totals, 0, sizeof tot, tot);
     if (check_time) check_time();
+    if (tot[VM_ITOTAL_COARSE])
+      throw InputError(InputErrorKind::TooLarge, "", "", "implicit round", int64_t(round),
+                       std::to_string(tot[VM_ITOTAL_COARSE]) +
+                           " leaves of the last level are larger than their depth allows");
+    const uint32_t pool_next = tot[VM_ITOTAL_POOL], namb = tot[VM_ITOTAL_SPLIT];
+    const uint32_t leaf_pool_n = tot[VM_ITOTAL_LEAF_POOL], nleaf = tot[VM_ITOTAL_LEAVES];
     ImplicitRound r;
     r.regions = n;
     r.full = tot[VM_ITOTAL_FULL];
     r.empty = tot[VM_ITOTAL_EMPTY];
     r.culled = tot[VM_ITOTAL_CULLED];
-    r.ambiguous = namb;
+    r.occluded = tot[VM_ITOTAL_OCCLUDED];
+    r.ambiguous = uint64_t(namb) + nleaf;
+    r.leaves = nleaf;
     r.clauses = clauses;
     q.rounds.push_back(r);
     const uint32_t per = split == 1 ? 1 : (dims == 3 ? split * split * split : split * split);
     const uint64_t next_n = uint64_t(namb) * per;
-    if (next_n > 0xffffffffull || pool_next == 0xffffffffu)
+    if (next_n > 0xffffffffull || uint64_t(pool_next) * per > 0xffffffffull ||
+        q.pool.size() / 4 + leaf_pool_n > 0xffffffffull)
       throw InputError(InputErrorKind::TooLarge, "", "", "implicit round", int64_t(round),
                        "more than 2^32 regions");
-    // The next round's inputs; after the last round they are also copied to the host (the leaves).
+    // The next round's inputs, and this round's leaves (copied to the host).
     const uint64_t next_held = uint64_t(pool_next) * sizeof(VmIClause) + next_n * sizeof(VmIRegion);
-    check_bytes(held + working + (last ? 2 : 1) * next_held, max_bytes, round);
+    const uint64_t leaf_bytes =
+        uint64_t(leaf_pool_n) * sizeof(VmIClause) + uint64_t(nleaf) * sizeof(VmIRegion);
+    check_bytes(held + working + next_held + 2 * leaf_bytes + host_held, max_bytes, round);
     cl::Buffer next_pool = rt.alloc(std::max<size_t>(pool_next, 1) * sizeof(VmIClause),
                                     "implicit tape pool");
     cl::Buffer next = rt.alloc(std::max<size_t>(next_n, 1) * sizeof(VmIRegion), "implicit regions");
+    cl::Buffer leaf_pool = rt.alloc(std::max<size_t>(leaf_pool_n, 1) * sizeof(VmIClause),
+                                    "implicit leaf tapes");
+    cl::Buffer leaves = rt.alloc(std::max<size_t>(nleaf, 1) * sizeof(VmIRegion), "implicit leaves");
     for (uint32_t first = 0; first < n; first += chunk) {
       const uint32_t m = std::min(chunk, n - first);
       rt.launch(Stage::Implicit, "implicit_shorten_fill", m, regions, first + m, first, pool,
                 choices, per_in, result, live, slots, tape.root_slot, counts, offsets, amb_off,
-                next_pool, next, split, dims);
+                next_pool, next, split, dims, leaf_counts, leaf_offsets, leaf_idx, leaf_pool,
+                leaves);
       if (first) ++q.launches;
+    }
+    if (nleaf) {
+      const size_t l0 = q.leaves.size(), p0 = q.pool.size();
+      q.leaves.resize(l0 + nleaf);
+      q.pool.resize(p0 + size_t(leaf_pool_n) * 4);
+      rt.read_async(Stage::Implicit, leaves, 0, nleaf * sizeof(VmIRegion), q.leaves.data() + l0);
+      rt.read(Stage::Implicit, leaf_pool, 0, size_t(leaf_pool_n) * sizeof(VmIClause),
+              q.pool.data() + p0);
+      for (size_t i = l0; i < q.leaves.size(); ++i) q.leaves[i].tape_off += uint32_t(p0 / 4);
     }
     regions = next;
     pool = next_pool;
@@ -125,13 +179,6 @@ ImplicitQueue run_implicit_queue(ClRuntime& rt, const implicit::SlotTape& tape, 
     n = uint32_t(next_n);
     clauses = uint64_t(pool_next) * per;
     per_in = per;
-    if (last) {
-      q.leaves.resize(n);
-      q.pool.resize(size_t(pool_next) * 4);
-      if (n) rt.read_async(Stage::Implicit, regions, 0, n * sizeof(VmIRegion), q.leaves.data());
-      if (pool_next)
-        rt.read(Stage::Implicit, pool, 0, size_t(pool_next) * sizeof(VmIClause), q.pool.data());
-    }
   }
   q.host_syncs = rt.host_syncs() - syncs0;
   return q;

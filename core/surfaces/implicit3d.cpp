@@ -1,28 +1,32 @@
-// An implicit surface diced for the camera (issue 19, docs/IMPLICIT.md "3D").
+// An implicit surface diced for the camera (issues 19 and 32, docs/IMPLICIT.md "3D").
 // Device (kernels/implicit.cl): MPR's region queue over the object's cube, in its own space:
 // interval arithmetic culls regions outside the view's planes and those proven full or empty,
-// shortens each ambiguous region's tape and hands it to its children, down to cells of side h;
-// then each leaf cell's 8 corners are evaluated with its shortened tape (the same operations on
-// the same values as the full tape, so a corner shared by cells gets one value).
-// Host: surface nets on the leaf cells (one vertex per cell the surface crosses, placed from the
-// cell's own corner values; one quad per crossing edge between the four cells around it), so
-// every edge of the mesh inside the view is shared and the surface has no cracks; back faces left
-// out where they cannot be seen; vertex normals from the gradient of the cell's shortened tape
-// (forward differentiation).
+// shortens each ambiguous region's tape and hands it to its children; a region becomes a leaf
+// once its side h meets the tolerance at its own depth, so far surfaces get larger leaves than
+// near ones; then each leaf's 8 corners are evaluated with its shortened tape (the same operations
+// on the same values as the full tape, so a corner shared by leaves of any sides gets one value).
+// Host: dual contouring on the leaves as an octree (core/surfaces/implicit_octree.h: a vertex per
+// leaf from its own corner values, a polygon per sign-changing minimal edge joining the leaves
+// around it), so every edge of the mesh inside the view is shared and the surface has no cracks,
+// between leaves of one side or of several; back faces left out where they cannot be seen; vertex
+// normals from the gradient of the leaf's shortened tape (forward differentiation).
 //
-// Error bound: a quad lies in the 2 x 2 x 1 block of cells around its edge, whose corner values
-// differ in sign (f = 0 at a point of the edge), so each of its points is within sqrt(3) h of a
-// point where f = 0. In pixels that is at most sqrt(3) h sigma k_px / d, sigma the transform's
-// largest stretch, k_px the projection's largest pixel scale per unit at depth 1 and d the depth;
-// h is chosen for the nearest depth of the surface in view (a coarse pass of the queue finds it).
+// Error bound: a triangle lies in the leaves around its minimal edge, whose corner values differ
+// in sign (f = 0 at a point of the edge), so each of its points is within sqrt(3) H of a point
+// where f = 0, H the largest of those leaves' sides, and within H of that leaf on every axis. A
+// leaf's side h has sqrt(3) h sigma k_px / d at most the tolerance, sigma the transform's largest
+// stretch, k_px the projection's largest pixel scale per unit at depth 1 and d the least depth of
+// the leaf grown by h on every side: at most the tolerance in pixels at the point's depth.
 // What a grid cannot see (a wall thinner than h, a sign change between corners of one cell that
 // does not reach an edge) is left out.
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "core/error.h"
 #include "core/implicit/implicit.h"
 #include "core/surfaces/implicit.h"
+#include "core/surfaces/implicit_octree.h"
 #include "core/surfaces/internal.h"
 #include "core/util/clock.h"
 #include "core/util/weld.h"
@@ -31,49 +35,9 @@ namespace vismap::stages {
 
 namespace {
 
-constexpr uint64_t kMaxCells = uint64_t(1) << 16;  // cells per axis
+constexpr uint32_t kMaxLevels = 16;  // 2^16 cells per axis at most
 
 using M4 = std::array<double, 16>;  // column-major
-
-// Open addressing from 64-bit keys (never ~0; here grid cells) to 32-bit values.
-class KeyTable {
- public:
-  explicit KeyTable(size_t expect) {
-    size_t cap = 16;
-    while (cap < 2 * expect) cap <<= 1;
-    keys_.assign(cap, ~uint64_t(0));
-    vals_.resize(cap);
-  }
-  // The slot of `key`: inserted (found = false) when absent.
-  uint32_t* find_or_insert(uint64_t key, bool& found) {
-    if (2 * (count_ + 1) > keys_.size()) grow();
-    size_t i = hash(key) & (keys_.size() - 1);
-    while (keys_[i] != ~uint64_t(0) && keys_[i] != key) i = (i + 1) & (keys_.size() - 1);
-    found = keys_[i] == key;
-    if (!found) keys_[i] = key, ++count_;
-    return &vals_[i];
-  }
-
- private:
-  static size_t hash(uint64_t k) {
-    k ^= k >> 31;
-    k *= 0x9E3779B97F4A7C15ull;
-    return size_t(k ^ (k >> 29));
-  }
-  void grow() {
-    std::vector<uint64_t> k = std::move(keys_);
-    std::vector<uint32_t> v = std::move(vals_);
-    keys_.assign(2 * k.size(), ~uint64_t(0));
-    vals_.assign(2 * k.size(), 0);
-    count_ = 0;
-    bool f;
-    for (size_t i = 0; i < k.size(); ++i)
-      if (k[i] != ~uint64_t(0)) *find_or_insert(k[i], f) = v[i];
-  }
-  std::vector<uint64_t> keys_;
-  std::vector<uint32_t> vals_;
-  size_t count_ = 0;
-};
 
 std::array<double, 3> place(const M4& m, const double p[3]) {
   return {m[0] * p[0] + m[4] * p[1] + m[8] * p[2] + m[12],
@@ -150,10 +114,10 @@ ViewScale view_scale(const Mesh& mesh, const Camera& cam_in) {
   return v;
 }
 
-// The view's planes (Gribb-Hartmann rows of the view-projection), in the object's space,
-// moved out by two cells of side `cell`: every cell next to one in view is kept (a quad joins
-// four cells, and one culled would leave a gap at the border). The last is the near plane.
-std::vector<std::array<float, 4>> view_planes(const Mat4& vp, const M4& xf, double cell) {
+// The view's planes (Gribb-Hartmann rows of the view-projection), in the object's space; the
+// queue keeps every region within twice its leaf side of them (a triangle joins the leaves
+// around an edge, and one culled would leave a gap at the border). The last is the near plane.
+std::vector<std::array<float, 4>> view_planes(const Mat4& vp, const M4& xf) {
   std::vector<std::array<float, 4>> planes;
   for (int r = 0; r < 3; ++r)
     for (double sgn : {1.0, -1.0}) {
@@ -164,73 +128,189 @@ std::vector<std::array<float, 4>> view_planes(const Mat4& vp, const M4& xf, doub
       for (int c = 0; c < 4; ++c)
         po[c] = w[0] * xf[4 * c] + w[1] * xf[4 * c + 1] + w[2] * xf[4 * c + 2] +
                 w[3] * xf[4 * c + 3];
-      po[3] += 2 * cell * (std::abs(po[0]) + std::abs(po[1]) + std::abs(po[2]));
       planes.push_back({float(po[0]), float(po[1]), float(po[2]), float(po[3])});
     }
   return planes;
 }
 
-
-// The object's cube and its grid of N cells per axis of side h (corners canonical: lo + i h in
-// double, then float).
-struct CellGrid {
-  float lo[3];
-  float size;
-  uint64_t N = 0;
-  std::vector<uint32_t> splits;  // the queue's rounds: 4^a m cells per axis
-  double h = 0;
-  double at(int k, uint32_t i) const { return lo[k] + double(i) * h; }
-};
-
-// The nearest depth of the surface in view: a coarse pass (16 cells per axis) of the same
-// queue, its leaves' corners' depths (the box's nearest corner is often far nearer than any
-// surface). At least the near plane; 1 for an orthographic view (the scale does not depend on it).
-double nearest_depth(ClRuntime& rt, const implicit::SlotTape& code, const CellGrid& g,
-                     const ViewScale& v, const M4& xf, double side, uint64_t max_bytes,
-                     const TimeCheck& check_time, TessellateStats& st) {
-  if (!v.persp) return 1;
-  const ImplicitQueue coarse =
-      run_implicit_queue(rt, code, g.lo, g.size, 3, {4, 4}, max_bytes,
-                         view_planes(v.cam.view_projection(), xf, side / 16), check_time);
-  st.launches += coarse.launches;
+// What the queue sizes leaves by (VmIView): the view depth of an object-space point, and the
+// largest leaf side h at depth d, from sqrt(3) h sigma k_px / d <= the tolerance (perspective;
+// orthographic: sqrt(3) h sigma k_px <= the tolerance at any depth).
+VmIView sizing_view(const ViewScale& v, const M4& xf, double tol) {
   const Mat4 view = v.cam.view();
-  double d_min = INFINITY;
-  for (const VmIRegion& L : coarse.leaves)
-    for (int c = 0; c < 8; ++c) {
-      const double p[3] = {L.lo[0] + (c & 1 ? L.size : 0.0), L.lo[1] + (c & 2 ? L.size : 0.0),
-                           L.lo[2] + (c & 4 ? L.size : 0.0)};
-      const std::array<double, 3> w = place(xf, p);
-      d_min = std::min(d_min, -(view[2] * w[0] + view[6] * w[1] + view[10] * w[2] + view[14]));
-    }
-  if (coarse.leaves.empty()) d_min = 1;  // nothing in view: the fine pass finds no leaves
-  return std::max(d_min, v.cam.near_plane);
+  VmIView s{};
+  for (int c = 0; c < 4; ++c)  // depth = -(view row 2) . (xf p)
+    s.depth[c] = float(-(view[2] * xf[4 * c] + view[6] * xf[4 * c + 1] +
+                         view[10] * xf[4 * c + 2] + (c == 3 ? view[14] : 0.0)));
+  const double h = tol / (std::sqrt(3.0) * v.sigma * v.k_px);
+  s.c0 = v.persp ? 0.0f : float(h);
+  s.c1 = v.persp ? float(h) : 0.0f;
+  s.near_d = float(v.cam.near_plane);
+  return s;
 }
 
-// Cells per axis: 4^a m (m = 1 .. 6; rounds split 4 ways, the last m ways), the fewest with
-// sqrt(3) h sigma k_px / d_min at most the tolerance.
-void choose_cells(CellGrid& g, double side, double h_max, const Mesh& mesh) {
-  const double need = side / h_max;
-  for (uint64_t p4 = 1, a = 0; p4 <= kMaxCells && !g.N; p4 *= 4, ++a)
-    for (uint32_t m = 1; m <= 6 && !g.N; ++m)
-      if (double(p4 * m) >= need && p4 * m <= kMaxCells) {
-        g.N = p4 * m;
-        g.splits.assign(a, 4);
-        if (m > 1) g.splits.push_back(m);
+// The least and greatest depth over the box [lo - grow, hi + grow], and the leaf side at a depth,
+// as the kernels have them (kernels/implicit.cl vm_depth_range, vm_leaf_side), in double.
+std::array<double, 2> box_depths(const VmIView& s, const double lo[3], const double hi[3],
+                                 double grow) {
+  double a = s.depth[3], b = s.depth[3];
+  for (int k = 0; k < 3; ++k) {
+    const double p = s.depth[k] * (lo[k] - grow), q = s.depth[k] * (hi[k] + grow);
+    a += std::min(p, q);
+    b += std::max(p, q);
+  }
+  return {a, b};
+}
+double leaf_side(const VmIView& s, double d) { return s.c0 + s.c1 * std::max(d, double(s.near_d)); }
+
+// Occlusion (docs/IMPLICIT.md "Hidden regions"): the depth image's mapping for the view, one
+// texel a pixel over the viewport, where every ray of the view starts outside the solid: the near
+// plane's rectangle in view, grown by three leaf sides there (a leaf touching it is no larger),
+// misses the object's box or is proven empty (f >= 0 over it) by interval arithmetic. Then a ray
+// that reaches a full box has crossed the surface before it. Perspective views only.
+std::optional<VmIOcclusion> occlusion_map(const ViewScale& v, const M4& xf,
+                                          const std::array<double, 9>& inv,
+                                          const implicit::Tape& clipped, const double blo[3],
+                                          const double bhi[3], const VmIView& sizing) {
+  if (!v.persp) return std::nullopt;
+  const Camera& cam = v.cam;
+  const Mat4 V = cam.view(), VP = cam.view_projection();
+  const double W = cam.width, Hh = cam.height;
+  const double t = std::tan(cam.fov_y_deg * M_PI / 360), aspect = W / Hh;
+  VmIOcclusion o{};
+  o.width = cam.width;
+  o.height = cam.height;
+  // The ray through texel point (tx, ty): world direction f + x t aspect r + y t u (x, y in
+  // [-1, 1], y up), at view depth 1 per unit; to the object's space by the inverse.
+  const auto to_object = [&](const double w[3], float* out) {
+    for (int r = 0; r < 3; ++r)
+      out[r] = float(inv[3 * r] * w[0] + inv[3 * r + 1] * w[1] + inv[3 * r + 2] * w[2]);
+  };
+  double d0[3], dx[3], dy[3], eo[3];
+  for (int k = 0; k < 3; ++k) {
+    const double r = V[4 * k], u = V[4 * k + 1], f = -V[4 * k + 2];
+    d0[k] = f - t * aspect * r + t * u;
+    dx[k] = 2 * t * aspect / W * r;
+    dy[k] = -2 * t / Hh * u;
+    eo[k] = cam.eye[k] - xf[12 + k];
+  }
+  to_object(d0, o.dir);
+  to_object(dx, o.dir + 4);
+  to_object(dy, o.dir + 8);
+  to_object(eo, o.eye);
+  // Object point p to (x w, y w, w): the viewport's mapping of the view-projection, times xf.
+  for (int c = 0; c < 4; ++c) {
+    const auto row = [&](int i) {
+      return VP[i] * xf[4 * c] + VP[4 + i] * xf[4 * c + 1] + VP[8 + i] * xf[4 * c + 2] +
+             VP[12 + i] * xf[4 * c + 3];
+    };
+    o.proj[c] = float(W / 2 * (row(0) + row(3)));
+    o.proj[4 + c] = float(Hh / 2 * (row(3) - row(1)));
+    o.proj[8 + c] = float(row(3));
+  }
+  for (int c = 0; c < 4; ++c)  // the largest direction component over the viewport
+    for (int k = 0; k < 3; ++k)
+      o.dmax = std::max(o.dmax, float(std::abs(o.dir[k] + (c & 1 ? W : 0) * o.dir[4 + k] +
+                                               (c & 2 ? Hh : 0) * o.dir[8 + k])));
+  // The near rectangle in pieces of the viewport, each a box around its 4 corners there.
+  const double grow = 3 * leaf_side(sizing, cam.near_plane) + 1e-6 * (1 + cam.near_plane);
+  struct Piece {
+    double x0, y0, x1, y1;
+    int depth;
+  };
+  std::vector<Piece> todo{{0, 0, W, Hh, 0}};
+  while (!todo.empty()) {
+    const Piece p = todo.back();
+    todo.pop_back();
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 3; ++k) {
+        const double d = o.dir[k] + (c & 1 ? p.x1 : p.x0) * o.dir[4 + k] +
+                         (c & 2 ? p.y1 : p.y0) * o.dir[8 + k];
+        lo[k] = std::min(lo[k], o.eye[k] + cam.near_plane * d - grow);
+        hi[k] = std::max(hi[k], o.eye[k] + cam.near_plane * d + grow);
       }
-  if (!g.N)
-    throw InputError(InputErrorKind::TooLarge, "", mesh.name, "", -1,
-                     "the tolerance needs more than 2^16 cells per axis (the eye is close to "
-                     "the surface: give a larger implicit tolerance or tighter bounds)");
-  g.h = double(g.size) / double(g.N);
+    bool apart = false;
+    for (int k = 0; k < 3; ++k) apart = apart || hi[k] < blo[k] || lo[k] > bhi[k];
+    if (apart ||
+        implicit::eval_interval(clipped, {lo[0], hi[0]}, {lo[1], hi[1]}, {lo[2], hi[2]}).lo >= 0)
+      continue;
+    if (p.depth == 8) return std::nullopt;  // the near plane meets the solid, or nearly
+    const double xm = (p.x0 + p.x1) / 2, ym = (p.y0 + p.y1) / 2;
+    todo.push_back({p.x0, p.y0, xm, ym, p.depth + 1});
+    todo.push_back({xm, p.y0, p.x1, ym, p.depth + 1});
+    todo.push_back({p.x0, ym, xm, p.y1, p.depth + 1});
+    todo.push_back({xm, ym, p.x1, p.y1, p.depth + 1});
+  }
+  return o;
 }
 
-void count_queue(const ImplicitQueue& q, const implicit::SlotTape& code, uint64_t N,
+// The least depth of the surface in view: a coarse pass of the queue (16 cells per axis, culled
+// to the view with a margin of two of them), its leaves' corners' depths (a box's nearest corner is
+// often far nearer than any surface). At least the near plane.
+double surface_depth(ClRuntime& rt, const implicit::SlotTape& code, const VmIView& s,
+                     const double lo[3], double side, uint64_t max_bytes,
+                     const std::vector<std::array<float, 4>>& planes, const TimeCheck& check_time,
+                     TessellateStats& st) {
+  VmIView coarse_view = s;
+  coarse_view.c0 = coarse_view.c1 = 0;
+  coarse_view.margin = float(side / 8);
+  const float flo[3] = {float(lo[0]), float(lo[1]), float(lo[2])};
+  const ImplicitQueue coarse = run_implicit_queue(rt, code, flo, float(side), 3, {4, 4}, max_bytes,
+                                                  planes, check_time, &coarse_view);
+  st.launches += coarse.launches;
+  double d_min = INFINITY;
+  for (const VmIRegion& L : coarse.leaves) {
+    const double a[3] = {L.lo[0], L.lo[1], L.lo[2]}, b[3] = {a[0] + L.size, a[1] + L.size,
+                                                           a[2] + L.size};
+    d_min = std::min(d_min, box_depths(s, a, b, 0)[0]);
+  }
+  return std::max(d_min, double(s.near_d));
+}
+
+// The queue's cube and rounds. The cube's side is t 2^L, t the leaf side at the least depth of
+// the surface in view (surface_depth) and L the fewest levels that cover the object's box, so the
+// nearest leaves are as large as their depth allows; finer levels follow, down to the leaf side at
+// the box's least depth (grown by it), where the last round makes every ambiguous region a leaf
+// (at most kMaxLevels levels: past that the last round's leaves are checked against their depth).
+// The rounds split 4 ways per axis while a region is over 32 times the largest leaf side (the side
+// at the box's farthest depth), then 2 ways: a leaf is at most twice smaller than its depth
+// allows, an ambiguous region near the leaves has 8 children, not 64 (the architecture model at
+// 4 px: 1.7 million regions in the last round, not 5.4 million), and full boxes one level up
+// hide the next level's regions.
+void plan_rounds(OctreeGrid& g, std::vector<uint32_t>& splits, const VmIView& s, const double lo[3],
+                 const double hi[3], double d_surface) {
+  double side = 0;
+  for (int k = 0; k < 3; ++k) side = std::max(side, hi[k] - lo[k]);
+  const double t0 = leaf_side(s, box_depths(s, lo, hi, 0)[0]);
+  const double t_min = leaf_side(s, box_depths(s, lo, hi, t0)[0]) * (1 - 1e-4);
+  const double t_ref = std::max(t_min, leaf_side(s, d_surface) * (1 - 1e-4));
+  const double far_side = leaf_side(s, box_depths(s, lo, hi, 0)[1]);
+  uint32_t top = 0;  // the level of side t_ref
+  while (top < kMaxLevels && side / double(uint64_t(1) << top) > t_ref) ++top;
+  const double cube = std::max(side, t_ref * double(uint64_t(1) << top) * (1 + 1e-6));
+  uint32_t levels = top;
+  while (levels < kMaxLevels && cube / double(uint64_t(1) << levels) > t_min) ++levels;
+  for (int k = 0; k < 3; ++k) g.lo[k] = float(lo[k]);
+  g.size = float(cube);
+  double at = double(g.size);
+  for (uint32_t level = 0; level < levels;) {
+    const bool four = at / 2 > 16 * far_side && level + 2 <= levels;
+    splits.push_back(four ? 4 : 2);
+    at /= four ? 4 : 2;
+    level += four ? 2 : 1;
+  }
+  g.levels = levels;
+  g.unit = double(g.size) / double(uint64_t(1) << levels);
+}
+
+void count_queue(const ImplicitQueue& q, const implicit::SlotTape& code, uint32_t finest,
                  TessellateStats& st) {
   st.split_rounds += uint32_t(q.rounds.size());
-  for (const ImplicitRound& r : q.rounds) st.culled += r.culled;
+  for (const ImplicitRound& r : q.rounds) st.culled += r.culled, st.implicit_occluded += r.occluded;
   st.launches += q.launches;
   st.pieces += q.leaves.size();
-  st.implicit_cells = std::max<uint64_t>(st.implicit_cells, N);
+  st.implicit_cells = std::max<uint64_t>(st.implicit_cells, uint64_t(1) << finest);
   st.implicit_clauses_full += code.size();
   for (const VmIRegion& l : q.leaves) {
     st.implicit_leaf_clauses += l.tape_len;
@@ -241,135 +321,10 @@ void count_queue(const ImplicitQueue& q, const implicit::SlotTape& code, uint64_
   st.implicit_leaves += q.leaves.size();
 }
 
-// The leaf cells: their grid indices (3 each) and their 8 corners (24 floats each).
-struct LeafCells {
-  std::vector<uint32_t> gi;
-  std::vector<float> xyz;
-};
-
-LeafCells leaf_cells(const ImplicitQueue& q, const CellGrid& g) {
-  const size_t nl = q.leaves.size();
-  LeafCells c{std::vector<uint32_t>(3 * nl), std::vector<float>(24 * nl)};
-  for (size_t l = 0; l < nl; ++l) {
-    for (int k = 0; k < 3; ++k)
-      c.gi[3 * l + k] = uint32_t(std::llround((double(q.leaves[l].lo[k]) - g.lo[k]) / g.h));
-    for (int v = 0; v < 8; ++v)
-      for (int k = 0; k < 3; ++k)
-        c.xyz[24 * l + 3 * v + k] = float(g.at(k, c.gi[3 * l + k] + ((v >> k) & 1)));
-  }
-  return c;
-}
-
-// Surface nets, the vertices: one per leaf cell whose corners differ in sign, at the mean of its
-// edges' crossings (each crossing from the edge's two corner values, so the vertex is a function
-// of the cell's corner values alone).
-struct NetVertices {
-  explicit NetVertices(size_t leaves) : cells(leaves) {}
-  KeyTable cells;            // grid cell -> its vertex
-  std::vector<double> opos;  // object-space vertex positions
-  std::vector<uint32_t> vleaf;  // per vertex: its leaf
-};
-
-uint64_t cell_key(uint64_t N, uint64_t i, uint64_t j, uint64_t k) {
-  const uint64_t N1 = N + 1;
-  return i + N1 * (j + N1 * k);
-}
-
-NetVertices net_vertices(const LeafCells& c, const std::vector<float>& val, const CellGrid& g,
-                         const Mesh& mesh) {
-  static const int kEdges[12][2] = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3},
-                                    {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
-  const size_t nl = c.gi.size() / 3;
-  NetVertices nv(nl);
-  for (size_t l = 0; l < nl; ++l) {
-    const float* f = &val[8 * l];
-    const float* P = &c.xyz[24 * l];
-    int neg = 0;
-    for (int v = 0; v < 8; ++v) {
-      if (std::isnan(f[v]))
-        throw InputError(InputErrorKind::NonFiniteVertex, "", mesh.name, "expression", -1,
-                         "f is not a number at (" + std::to_string(P[3 * v]) + ", " +
-                             std::to_string(P[3 * v + 1]) + ", " + std::to_string(P[3 * v + 2]) +
-                             ")");
-      neg += f[v] < 0;
-    }
-    if (neg == 0 || neg == 8) continue;
-    double acc[3] = {0, 0, 0};
-    int nc = 0;
-    for (const auto& e : kEdges) {
-      const int u = e[0], v = e[1];
-      if ((f[u] < 0) == (f[v] < 0)) continue;
-      const double fa = f[u], fb = f[v], t = fa / (fa - fb);
-      for (int k = 0; k < 3; ++k) {
-        const double a = g.at(k, c.gi[3 * l + k] + ((u >> k) & 1));
-        const double b = g.at(k, c.gi[3 * l + k] + ((v >> k) & 1));
-        acc[k] += a + t * (b - a);
-      }
-      ++nc;
-    }
-    bool found;
-    *nv.cells.find_or_insert(cell_key(g.N, c.gi[3 * l], c.gi[3 * l + 1], c.gi[3 * l + 2]),
-                             found) = uint32_t(nv.vleaf.size());
-    for (int k = 0; k < 3; ++k) nv.opos.push_back(acc[k] / nc);
-    nv.vleaf.push_back(uint32_t(l));
-  }
-  return nv;
-}
-
-// Surface nets, the quads (as two triangles each, into `indices`): the edges from each cell's
-// corner 0 along x, y, z; the four cells around the edge are this one and its neighbours below
-// in the other two axes, ordered counter-clockwise about the axis (a, b the other axes with
-// a x b = the axis), reversed when the edge's low end is outside so the normal points out of
-// the solid.
-void net_quads(const LeafCells& c, const std::vector<float>& val, const CellGrid& g,
-               NetVertices& nv, std::vector<uint32_t>& indices) {
-  const size_t nl = c.gi.size() / 3;
-  const std::vector<double>& opos = nv.opos;
-  for (size_t l = 0; l < nl; ++l) {
-    const float* f = &val[8 * l];
-    const uint32_t i0 = c.gi[3 * l], j0 = c.gi[3 * l + 1], k0 = c.gi[3 * l + 2];
-    for (int ax = 0; ax < 3; ++ax) {
-      if ((f[0] < 0) == (f[1 << ax] < 0)) continue;
-      const int a = (ax + 1) % 3, b = (ax + 2) % 3;
-      uint32_t gc[3] = {i0, j0, k0};
-      if (gc[a] == 0 || gc[b] == 0) continue;  // the cube's faces: f >= 0 there (clipped)
-      uint32_t quad[4];
-      bool ok = true;
-      static const int kAround[4][2] = {{1, 1}, {0, 1}, {0, 0}, {1, 0}};  // (da, db) subtracted
-      for (int k = 0; k < 4 && ok; ++k) {
-        uint32_t q3[3] = {gc[0], gc[1], gc[2]};
-        q3[a] -= kAround[k][0], q3[b] -= kAround[k][1];
-        bool found;
-        uint32_t* slot = nv.cells.find_or_insert(cell_key(g.N, q3[0], q3[1], q3[2]), found);
-        // A neighbour that is not a leaf with a vertex (culled outside the view): no quad.
-        if (!found) *slot = ~0u;
-        ok = found && *slot != ~0u;
-        quad[k] = *slot;
-      }
-      if (!ok) continue;
-      if (!(f[0] < 0)) std::swap(quad[1], quad[3]);
-      // Split along the shorter diagonal.
-      const auto d2 = [&](uint32_t p, uint32_t q) {
-        double s2 = 0;
-        for (int k = 0; k < 3; ++k)
-          s2 += (opos[3 * p + k] - opos[3 * q + k]) * (opos[3 * p + k] - opos[3 * q + k]);
-        return s2;
-      };
-      if (d2(quad[0], quad[2]) <= d2(quad[1], quad[3])) {
-        const uint32_t t[6] = {quad[0], quad[1], quad[2], quad[0], quad[2], quad[3]};
-        indices.insert(indices.end(), t, t + 6);
-      } else {
-        const uint32_t t[6] = {quad[0], quad[1], quad[3], quad[1], quad[2], quad[3]};
-        indices.insert(indices.end(), t, t + 6);
-      }
-    }
-  }
-}
-
 // World positions (float) into out.positions, welded by their bits: edges that meet at a corner
 // where f = 0, or vertices a float apart, become one vertex. Returns per surface-nets vertex its
 // output vertex (remap) and per output vertex its surface-nets vertex (src).
-void weld_world(const NetVertices& nv, const M4& xf, Mesh& out, std::vector<uint32_t>& remap,
+void weld_world(const DualMesh& nv, const M4& xf, Mesh& out, std::vector<uint32_t>& remap,
                 std::vector<uint32_t>& src) {
   const size_t n = nv.vleaf.size();
   remap.resize(n);
@@ -398,7 +353,7 @@ void weld_world(const NetVertices& nv, const M4& xf, Mesh& out, std::vector<uint
 // beyond the near plane (the near plane cuts nothing open).
 bool back_faces_hidden(const ImplicitQueue& q, const implicit::Tape& clipped, const Camera& cam,
                        const M4& xf, const std::array<double, 9>& inv) {
-  const std::array<float, 4> np = view_planes(cam.view_projection(), xf, 0)[4];  // unshifted
+  const std::array<float, 4> np = view_planes(cam.view_projection(), xf)[4];
   bool hidden = true;
   for (size_t l = 0; l < q.leaves.size() && hidden; ++l) {
     const VmIRegion& L = q.leaves[l];
@@ -470,7 +425,7 @@ void drop_unused_vertices(Mesh& out, std::vector<uint32_t>& src) {
 
 // Normals of the vertices kept: the gradient of the cell's own shortened tape at the vertex, to
 // the world by the inverse transpose, unit length.
-void vertex_normals(Mesh& out, const std::vector<uint32_t>& src, const NetVertices& nv,
+void vertex_normals(Mesh& out, const std::vector<uint32_t>& src, const DualMesh& nv,
                     const ImplicitQueue& q, const implicit::SlotTape& code,
                     const std::array<double, 9>& inv) {
   out.normals.resize(out.positions.size());
@@ -503,53 +458,72 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
     throw InputError(InputErrorKind::BadScene, "", mesh.name, "", -1,
                      "the implicit tolerance must be a positive number of pixels");
   const ViewScale v = view_scale(mesh, cam_in);
-  double side = 0;
-  for (int k = 0; k < 3; ++k) side = std::max(side, bhi[k] - blo[k]);
-  CellGrid g;
-  for (int k = 0; k < 3; ++k) g.lo[k] = float(blo[k]);
-  g.size = float(side);
+  const VmIView sizing = sizing_view(v, xf, tol);
   const implicit::Tape clipped = implicit::clipped_to_box(tape, blo, bhi, 3);
   const implicit::SlotTape code = implicit::allocate_slots(clipped);
+  const std::vector<std::array<float, 4>> planes = view_planes(v.cam.view_projection(), xf);
   const uint32_t syncs0 = rt.host_syncs();
   auto t0 = Clock::now();
 
-  // The device: the cell size for the nearest depth in view, the region queue down to it, the
-  // leaf cells' corners.
+  // The device: the region queue, each region split until it is small enough for its own depth,
+  // then the leaves' corners.
   // The queue's buffers under the frame's budget where one is set (issue 35, case 3: its own
   // 4 GiB cap let RSS reach 6.4 GB against a 2 GiB budget), and the time limit per round.
   const uint64_t max_bytes = implicit_queue_cap(o.memory_budget);
-  const double d_min = nearest_depth(rt, code, g, v, xf, side, max_bytes, check_time, st);
-  choose_cells(g, side, tol * d_min / (std::sqrt(3.0) * v.sigma * v.k_px), mesh);
+  double side = 0;
+  for (int k = 0; k < 3; ++k) side = std::max(side, bhi[k] - blo[k]);
+  const double d_surface =
+      v.persp ? surface_depth(rt, code, sizing, blo, side, max_bytes, planes, check_time, st) : 1;
+  OctreeGrid g;
+  std::vector<uint32_t> splits;
+  plan_rounds(g, splits, sizing, blo, bhi, d_surface);
+  const std::array<double, 9> inv = inverse3(xf);  // for the eye's place, the rays, the normals
+  std::optional<ImplicitOcclusion> occlusion;
+  // Only for a camera whose near and far are given: the frame then starts its rays on the same
+  // near plane (the CLI and the server fit them to the scene before dicing).
+  if (o.implicit_occlusion && cam_in.near_plane > 0 && cam_in.far_plane > 0)
+    if (const auto map = occlusion_map(v, xf, inv, clipped, blo, bhi, sizing)) {
+      occlusion.emplace();
+      occlusion->map = *map;
+      const size_t words = size_t(occlusion_bytes(*map) / 4);
+      occlusion->image = rt.alloc(words * 4, "implicit depth image");
+      rt.fill_u32(occlusion->image, 0x7f800000u, words, Stage::Implicit);  // +inf
+    }
   const ImplicitQueue q = [&] {
     try {
-      return run_implicit_queue(rt, code, g.lo, g.size, 3, g.splits, max_bytes,
-                                view_planes(v.cam.view_projection(), xf, g.h), check_time);
+      return run_implicit_queue(rt, code, g.lo, g.size, 3, splits, max_bytes, planes, check_time,
+                                &sizing, occlusion ? &*occlusion : nullptr);
     } catch (const InputError& e) {  // say which object, and what would need less
       throw InputError(e.kind(), e.file(), mesh.name, e.element(), e.index(),
-                       e.detail() + " (" + std::to_string(g.N) +
-                           " cells per axis for the surface's nearest depth in view, " +
-                           std::to_string(d_min) +
-                           ": a larger implicit tolerance or a farther eye needs fewer)");
+                       e.detail() + " (leaves down to " +
+                           std::to_string(uint64_t(1) << g.levels) +
+                           " cells per axis, for the depth of the nearest surface in view: a "
+                           "larger implicit tolerance or a farther eye needs fewer)");
     }
   }();
   st.implicit_queue_ms += ms_since(t0);
   t0 = Clock::now();
-  count_queue(q, code, g.N, st);
-  const LeafCells cells = leaf_cells(q, g);
+  const OctreeLeaves cells = octree_leaves(q, g);
+  count_queue(q, code, cells.finest, st);
+  for (uint8_t l : cells.level) ++st.implicit_leaf_levels[l];
+  for (const VmIRegion& L : q.leaves) {
+    const bool first = st.implicit_leaf_side_max == 0;
+    st.implicit_leaf_side_min = first ? L.size : std::min(st.implicit_leaf_side_min, double(L.size));
+    st.implicit_leaf_side_max = std::max(st.implicit_leaf_side_max, double(L.size));
+  }
   const std::vector<float> val =
       eval_leaf_points(rt, code, q, cells.xyz, 8, &st.launches, check_time);
   st.implicit_points_ms += ms_since(t0);
   t0 = Clock::now();
 
-  // The host: surface nets, welded in the world, back faces out where they cannot be seen.
+  // The host: dual contouring, welded in the world, back faces out where they cannot be seen.
   Mesh out;
   out.name = mesh.name;
   out.color = mesh.color;
-  NetVertices nv = net_vertices(cells, val, g, mesh);
+  DualMesh nv = dual_contour(cells, val, g, mesh.name);
   check_time();
-  net_quads(cells, val, g, nv, out.indices);
+  out.indices = std::move(nv.indices);
   check_time();
-  const std::array<double, 9> inv = inverse3(xf);  // for the eye's place and the normals
   const double det = xf[0] * (xf[5] * xf[10] - xf[9] * xf[6]) -
                      xf[4] * (xf[1] * xf[10] - xf[9] * xf[2]) +
                      xf[8] * (xf[1] * xf[6] - xf[5] * xf[2]);

@@ -40,6 +40,9 @@ struct TessellateOptions {
   // Keep an implicit surface's back faces. By default they are left out where they cannot be
   // seen: the eye outside the solid and the near plane cutting no leaf cell.
   bool implicit_back_faces = false;
+  // Leave out an implicit object's regions hidden behind its own full boxes nearer the eye
+  // (docs/IMPLICIT.md "Hidden regions"): they change nothing seen. Off: for the tests' comparison.
+  bool implicit_occlusion = true;
   // The frame's limits, as RenderOptions' (the CLI and the server pass the same ones); 0: none.
   // memory_budget: a dicer that has counted what it would hold refuses (TooLarge) past it,
   // before it allocates (Bezier patches; issue 35, case 4). time_limit_s: checked before each
@@ -77,6 +80,11 @@ struct TessellateStats {
   std::array<uint64_t, 16> implicit_clause_hist{};
   // Host wall time of the region queue, the corners' evaluation and the meshing (with normals).
   double implicit_queue_ms = 0, implicit_points_ms = 0, implicit_mesh_ms = 0;
+  // Implicit leaves by level (level l: 2^l cells per axis of the object's cube; issue 32: each
+  // leaf sized for its own depth), and the least and greatest leaf side (in the object's space).
+  std::array<uint64_t, 17> implicit_leaf_levels{};
+  double implicit_leaf_side_min = 0, implicit_leaf_side_max = 0;
+  uint64_t implicit_occluded = 0;  // regions left out as hidden behind full boxes
   uint32_t launches = 0, host_syncs = 0;
 };
 
