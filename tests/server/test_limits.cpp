@@ -148,7 +148,7 @@ class Bystander {
 // What a heavy session asks for: a scene (uploaded bytes, or a library name) with hello's extra
 // fields, then one camera if the scene loads.
 struct Heavy {
-  std::string name, bytes, library;
+  std::string name, bytes, library = {};
   json hello = json::object();
 };
 // Its answers: the error code or "scene_ready" / "frame", and their messages.
