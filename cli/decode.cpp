@@ -147,7 +147,7 @@ int cmd_decode(int argc, char** argv) {
               d.index, d.keyframe ? "true" : "false", d.triangle_count(), bytes.size());
       }
       t.format = "delta";
-      t.version = 1, t.width = d.width, t.height = d.height, t.quantum = d.quantum;
+      t.version = d.version, t.width = d.width, t.height = d.height, t.quantum = d.quantum;
       t.vertices = d.xy.size() / 2;
       t.shaded = true;
       add_grid_triangles(t, d);

@@ -1577,7 +1577,7 @@ DeltaFrame compact_frame(const std::string& bytes) {
   CompactFrame c = read_compact(bytes);
   if (!(c.flags & kCompactShade)) malformed("compact frame", -1, "no shades");
   DeltaFrame f;
-  f.width = c.width, f.height = c.height, f.quantum = c.quantum, f.compact = true;
+  f.width = c.width, f.height = c.height, f.quantum = c.quantum, f.compact = true, f.version = 2;
   f.camera.width = c.width, f.camera.height = c.height;
   f.xy = std::move(c.xy);
   f.indices = std::move(c.indices);
@@ -1640,7 +1640,7 @@ DeltaFrame DeltaDecoder::decode(const std::string& bytes) {
 
   DeltaFrame f;
   f.width = h.width, f.height = h.height, f.quantum = h.quantum, f.index = h.index;
-  f.keyframe = h.keyframe;
+  f.version = h.version, f.keyframe = h.keyframe;
   Stream head = head_of(payload, "camera");
   decode_camera(head, f);
   // A keyframe starts from nothing, or from the held scene: its mesh table sizes the store (and

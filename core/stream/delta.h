@@ -94,6 +94,7 @@ std::string encode_delta_sources(const Scene& scene, Compression compression, in
 // The decoded frame: triangles on the grid, as the compact frame's.
 struct DeltaFrame {
   uint32_t width = 0, height = 0, quantum = 0, index = 0;
+  uint32_t version = 0;           // DELTA.md version (2 for a compact frame: only 2 has them)
   bool keyframe = false;
   bool compact = false;           // a compact frame in the stream (no camera, state untouched)
   Camera camera;                  // projection, eye and target (the light of the shade)
