@@ -52,6 +52,8 @@ static void check_deflate(const Config& cfg, const std::string& origin) {
     throw std::runtime_error(origin + ": deflate_window_bits must be 9 ... 15");
   if (cfg.deflate_mem_level < 1 || cfg.deflate_mem_level > 9)
     throw std::runtime_error(origin + ": deflate_mem_level must be 1 ... 9");
+  if (cfg.frame_level < 0 || cfg.frame_level > 19)
+    throw std::runtime_error(origin + ": frame_level must be 0 (the coder's default) ... 19");
 }
 
 void apply_json(Config& cfg, const std::string& text, const std::string& origin) {
@@ -92,6 +94,8 @@ void apply_json(Config& cfg, const std::string& text, const std::string& origin)
       get(j, "deflate_window_bits", cfg.deflate_window_bits, origin);
     else if (k == "deflate_mem_level")
       get(j, "deflate_mem_level", cfg.deflate_mem_level, origin);
+    else if (k == "frame_level")
+      get(j, "frame_level", cfg.frame_level, origin);
     else if (k == "limits") {
       if (!v.is_object()) throw std::runtime_error(origin + ": 'limits' is not an object");
       Limits& l = cfg.limits;

@@ -55,6 +55,10 @@ struct Config {
   int deflate_level = 1;           // 1 (fastest) ... 9
   int deflate_window_bits = 15;    // 9 ... 15: the server's LZ77 window, 2^bits bytes
   int deflate_mem_level = 8;       // 1 ... 9: the deflater's hash memory, 2^(bits+9) bytes
+  // Compact and delta frames' entropy coder level (their own zstd or deflate, not the WebSocket's):
+  // 0 the coder's default (zstd 3, deflate 6), else zstd 1 ... 19 (deflate sessions: at most 9).
+  // Higher: fewer bytes, more encode time (docs/SERVER.md, docs/STREAMING.md).
+  int frame_level = 0;
   std::string log_level = "info";  // info | warn | off
   Limits limits;
 

@@ -1,5 +1,6 @@
 #include "server/frame_encoder.h"
 
+#include <algorithm>
 #include <atomic>
 
 #include "core/lines/lines.h"
@@ -120,7 +121,8 @@ class DeltaFrameEncoder : public FrameEncoder {
 
 }  // namespace
 
-std::unique_ptr<FrameEncoder> make_encoder(const Hello& h) {
+std::unique_ptr<FrameEncoder> make_encoder(const Hello& h, int level) {
+  if (h.compression == Compression::Deflate) level = std::min(level, 9);  // deflate's highest
   switch (h.format) {
     case Format::Svg:
       return std::make_unique<SvgEncoder>(h.fill_id ? Fill::Id : Fill::Shade, LineStyle(h));
@@ -131,6 +133,7 @@ std::unique_ptr<FrameEncoder> make_encoder(const Hello& h) {
       o.quantum = h.quantum;
       o.shade = !h.fill_id;
       o.compression = h.compression;
+      o.level = level;
       return std::make_unique<CompactEncoder>(o);
     }
     case Format::Delta: {
@@ -140,6 +143,7 @@ std::unique_ptr<FrameEncoder> make_encoder(const Hello& h) {
       o.keyframe_every = h.keyframe_every;
       o.version = h.version >= 3 ? 2 : 1;  // DELTA.md version 2 from protocol version 3
       o.client_holds_scene = h.hold_scene;
+      o.level = level;
       return std::make_unique<DeltaFrameEncoder>(o);
     }
   }

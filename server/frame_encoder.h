@@ -41,6 +41,7 @@ class FrameEncoder {
 };
 
 // The encoder for hello's format and options: the one place a format's writer is chosen.
-std::unique_ptr<FrameEncoder> make_encoder(const Hello& hello);
+// level: compact and delta frames' entropy coder level (Config::frame_level; 0: its default).
+std::unique_ptr<FrameEncoder> make_encoder(const Hello& hello, int level = 0);
 
 }  // namespace vismap::server

@@ -280,7 +280,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     srv_.metrics.sessions_total++;
     srv_.log.info("session_open", {{"session", session_}, {"peer", peer_}});
     hello_ = h;
-    encoder_ = make_encoder(h);
+    encoder_ = make_encoder(h, srv_.cfg.frame_level);
     state_ = State::Open;
     hello_timer_.cancel();
     arm_idle();

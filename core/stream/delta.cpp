@@ -1507,8 +1507,7 @@ std::string DeltaEncoder::encode(const PlanarMap& map, const ScreenTriangles& sc
     CompactOptions co;
     co.quantum = options_.quantum;
     co.shade = true;
-    co.compression = options_.compression;
-    co.level = options_.level;
+    co.compression = options_.compression;  // at the coder's default level (DeltaOptions::level)
     compact = write_compact(map, scene_, camera, co);
   }
   const bool beaten = best.empty() || (!compact.empty() && best.size() > compact.size());

@@ -23,7 +23,10 @@ namespace vismap {
 struct DeltaOptions {
   uint32_t quantum = 16;  // grid steps per pixel of the sent points, 1 ... 256
   Compression compression = Compression::Zstd;
-  int level = 0;                // 0: the coder's default
+  // The coder's level for delta frames and keyframes (0: its default); the compact frame a
+  // version 2 stream may send instead stays at the default (coding it at a high level every
+  // frame costs more than its few percent are worth), and is what "never larger" compares with.
+  int level = 0;
   uint32_t keyframe_every = 0;  // 0: only the first frame and on request
   // The format version written (DELTA.md): 2 adds the records predicted from the frame before,
   // sends a frame as its compact frame (COMPACT.md) whenever that is smaller, and lets the client

@@ -68,4 +68,22 @@ TEST(ConfigTest, TokenFileIsTrimmed) {
   EXPECT_EQ(b.token, "s3cret");
 }
 
+// frame_level: 0 (the coder's default) ... 19, from the config file; anything else refused.
+TEST(ConfigTest, FrameLevelIsCheckedAndApplied) {
+  Config a;
+  EXPECT_EQ(a.frame_level, 0);
+  apply_json(a, "{\"frame_level\": 19}", "test");
+  EXPECT_EQ(a.frame_level, 19);
+  for (const char* bad :
+       {"{\"frame_level\": 20}", "{\"frame_level\": -1}", "{\"frame_level\": \"max\"}"}) {
+    Config b;
+    try {
+      apply_json(b, bad, "test");
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("frame_level"), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <tuple>
 
 #include "core/lines/lines.h"
 #include "core/pipeline.h"
@@ -143,6 +144,65 @@ TEST_F(ServerV2Test, CompactFrameEqualsWriteCompactOfTheSameRender) {
     EXPECT_EQ(f.source, g.source);
     EXPECT_EQ(f.shade, g.shade);
   }
+}
+
+// Config::frame_level: compact frames coded at the configured level (here 19; a deflate session
+// at deflate's highest, 9, not refused), byte for byte what write_compact makes at that level,
+// and (zstd) smaller than at the coder's default on this scene; the decoded arrays are the same.
+TEST_F(ServerV2Test, FrameLevelCodesCompactFramesAtThatLevel) {
+  cfg_.frame_level = 19;
+  start();
+  const std::string grid = grid_obj(12);
+  vismap::Scene scene = vismap::load_scene_from_memory("grid.obj", grid);
+  for (const auto& [name, compression, level] :
+       {std::tuple{"zstd", vismap::Compression::Zstd, 19},
+        std::tuple{"deflate", vismap::Compression::Deflate, 9}}) {
+    SCOPED_TRACE(name);
+    WsClient c;
+    hello2(c, "compact", {{"compression", name}});
+    upload(c, "grid.obj", grid);
+    ASSERT_EQ(next(c, 60)["type"], "scene_ready");
+    auto [h, p] = frame(c, 1, 0.7);
+    vismap::Camera cam;
+    vismap::PlanarMap map = render_like_the_server(scene, 0.7, cam);
+    vismap::CompactOptions o;
+    o.shade = true;
+    o.compression = compression;
+    const std::string fast = vismap::write_compact(map, scene, cam, o);
+    o.level = level;
+    const std::string small = vismap::write_compact(map, scene, cam, o);
+    EXPECT_TRUE(p.data == small) << "server " << p.data.size() << " bytes, here " << small.size();
+    if (compression == vismap::Compression::Zstd) {
+      EXPECT_LT(small.size(), fast.size());
+    }
+    EXPECT_LE(small.size(), fast.size());  // (deflate 9 and 6 may tie on a frame this small)
+    EXPECT_EQ(vismap::read_compact(small).indices, vismap::read_compact(fast).indices);
+  }
+  // A delta session (version 3, the scene held): its frames as a DeltaEncoder at level 19 codes
+  // them here, and they decode.
+  WsClient c;
+  hello(c, "delta", {{"version", 3}, {"hold_scene", true}});
+  upload(c, "grid.obj", grid);
+  ASSERT_EQ(next(c, 60)["type"], "scene_ready");
+  ASSERT_EQ(next(c, 60)["type"], "sources");
+  vismap::DeltaDecoder dec;
+  dec.hold_scene(c.read(60).data);
+  vismap::DeltaOptions o, fast_o;
+  o.client_holds_scene = fast_o.client_holds_scene = true;
+  o.level = 19;
+  vismap::DeltaEncoder mine(scene, o), fast(scene, fast_o);
+  size_t sent = 0, at_default = 0;
+  for (int i = 0; i < 3; ++i) {
+    auto [h, p] = frame(c, i, 0.3 * i);
+    EXPECT_GT(dec.decode(p.data).triangle_count(), 0u);
+    vismap::Camera cam;
+    vismap::ScreenTriangles st;
+    const vismap::PlanarMap map = render_like_the_server(scene, 0.3 * i, cam, &st);
+    EXPECT_TRUE(mine.encode(map, st, cam) == p.data) << "frame " << i;
+    sent += p.data.size();
+    at_default += fast.encode(map, st, cam).size();
+  }
+  EXPECT_LT(sent, at_default);
 }
 
 TEST_F(ServerV2Test, CompactOptions) {
