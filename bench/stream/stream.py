@@ -64,7 +64,7 @@ VIDEOS = [
                                              "-x265-params", "log-level=error"]),
 ]
 # Vector encodings in the order the tables show them; others the tool reports follow.
-VECTOR_ORDER = ["svg", "bin", "bin_attr", "compact", "delta", "delta_held", "delta_v1_held"]
+VECTOR_ORDER = ["svg", "bin", "bin_attr", "compact", "delta", "delta_held", "delta_held_z19", "delta_v1_held"]
 
 
 def log(*a):

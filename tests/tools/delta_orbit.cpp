@@ -27,7 +27,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr,
                  "usage: vismap_delta_orbit SCENE OUTDIR [--frames N] [--width W] [--height H] "
                  "[--quantum Q] [--compression zstd|deflate] [--step DEG] [--keyframe-every K] "
-                 "[--version 1|2] [--held 0|1]\n");
+                 "[--version 1|2] [--held 0|1] [--level L]\n");
     return 2;
   }
   int frames = 4;
@@ -51,6 +51,8 @@ int main(int argc, char** argv) {
       opt.version = uint32_t(std::atoi(v.c_str()));
     else if (a == "--step")
       step = std::atof(v.c_str());
+    else if (a == "--level")  // the entropy coder's level (0: its default)
+      opt.level = std::atoi(v.c_str());
     else if (a == "--keyframe-every")
       opt.keyframe_every = uint32_t(std::atoi(v.c_str()));
     else if (a == "--compression" && (v == "zstd" || v == "deflate"))
