@@ -85,19 +85,19 @@ inline bool segment_meets_open_rect(long ax, long ay, long bx, long by, long4 r)
   return edge_fn_extreme(ax, ay, bx, by, r, 1) > 0 && edge_fn_extreme(ax, ay, bx, by, r, 0) < 0;
 }
 
-/* The nearness plane of t over the closed box r (doubles, grid units): its least and greatest
- * value there, at the corners its slopes' signs pick. */
-inline double2 plane_range(const VmScreenTri* t, double4 r) {
-  const DepthPlane p = depth_plane(t);
+/* The nearness plane p (depth_plane, computed once a triangle by the callers) over the closed box r
+ * (doubles, grid units): its least and greatest value there, at the corners its slopes' signs
+ * pick. */
+inline double2 plane_range(DepthPlane p, double4 r) {
   const double xl = p.gx > 0 ? r.x : r.z, yl = p.gy > 0 ? r.y : r.w;
   const double xh = p.gx > 0 ? r.z : r.x, yh = p.gy > 0 ? r.w : r.y;
   return (double2)(plane_at(p, xl, yl), plane_at(p, xh, yh));
 }
 
-/* t's nearness over its part in the closed box r lies in [lo, hi]: the plane's range over the
- * box, cut to the range of its vertices qr (which bound it over the triangle). */
-inline double2 depth_interval(const VmScreenTri* t, double2 qr, double4 r) {
-  const double2 pr = plane_range(t, r);
+/* A triangle's nearness over its part in the closed box r lies in [lo, hi]: its plane's range
+ * over the box, cut to the range of its vertices qr (which bound it over the triangle). */
+inline double2 depth_interval(DepthPlane p, double2 qr, double4 r) {
+  const double2 pr = plane_range(p, r);
   return (double2)(fmax(pr.x, qr.x), fmin(pr.y, qr.y));
 }
 
@@ -143,6 +143,7 @@ __kernel void cull_bin(__global const VmScreenTri* tris, uint ntris, __global co
   for (int e = 0; e < 3; ++e)
     if (cull_edge_sil(3 * t + e, key_sil, partners, slot_sides)) sil_edges |= 1u << e;
   const uint base = T.plane_k == VM_PLANE_FREE ? VM_CULL_FREE : 0u;
+  const DepthPlane p = depth_plane(&T);
   VM_FOR_EACH_LEAF(w, b, g, tile_leaf) {
     const long4 r = leaf_rect(g, w.tx, w.ty, leaf_depth(w.tl), w.lx, w.ly);
     if (!tri_meets_open_rect(&T, b, r)) continue;
@@ -150,9 +151,9 @@ __kernel void cull_bin(__global const VmScreenTri* tris, uint ntris, __global co
     const uint j = leaf_offset[leaf] + atomic_inc(&cursors[leaf]);
     const double4 rd = rect_d(r);
     const bool inside = b.x >= r.x && b.z <= r.z && b.y >= r.y && b.w <= r.w;
-    const double2 d = inside ? qr : depth_interval(&T, qr, rd); /* (inside: its vertices' range) */
+    const double2 d = inside ? qr : depth_interval(p, qr, rd); /* (inside: its vertices' range) */
     iv[j] = (float2)(convert_float_rtn(d.x), convert_float_rtp(d.y));
-    cover[j] = tri_contains_rect(&T, b, r) ? convert_float_rtn(plane_range(&T, rd).x) : -INFINITY;
+    cover[j] = tri_contains_rect(&T, b, r) ? convert_float_rtn(plane_range(p, rd).x) : -INFINITY;
     uint f = base;
     for (int e = 0; e < 3; ++e) {
       if (!((sil_edges >> e) & 1u)) continue;
@@ -239,16 +240,24 @@ __kernel void cull_leaves(uint nleaves, __global const uint* leaf_offset,
   leaf_cull[leaf] = (double2)(top, M);
 }
 
+/* Is T (box tb, depth range qr) hidden in every leaf that the box `walk` touches and whose open
+ * cell T meets? (tri_hidden walks T's own box; hidden_along a silhouette edge's.) */
+inline bool hidden_in_leaves(const VmScreenTri* T, int4 walk, int4 tb, double2 qr, VmGrid g,
+                             __global const uint* tile_leaf, __global const double2* leaf_cull) {
+  const DepthPlane p = depth_plane(T);
+  VM_FOR_EACH_LEAF(w, walk, g, tile_leaf) {
+    const long4 r = leaf_rect(g, w.tx, w.ty, leaf_depth(w.tl), w.lx, w.ly);
+    if (!tri_meets_open_rect(T, tb, r)) continue;
+    const double2 c = leaf_cull[leaf_walk_leaf(&w)];
+    if (!(qr.y + c.y < c.x) && !(depth_interval(p, qr, rect_d(r)).y + c.y < c.x)) return false;
+  }
+  return true;
+}
+
 /* Is t (whose box is b) hidden in every leaf whose open cell it meets? */
 inline bool tri_hidden(const VmScreenTri* T, int4 b, double2 qr, VmGrid g,
                        __global const uint* tile_leaf, __global const double2* leaf_cull) {
-  VM_FOR_EACH_LEAF(w, b, g, tile_leaf) {
-    const long4 r = leaf_rect(g, w.tx, w.ty, leaf_depth(w.tl), w.lx, w.ly);
-    if (!tri_meets_open_rect(T, b, r)) continue;
-    const double2 c = leaf_cull[leaf_walk_leaf(&w)];
-    if (!(qr.y + c.y < c.x) && !(depth_interval(T, qr, rect_d(r)).y + c.y < c.x)) return false;
-  }
-  return true;
+  return hidden_in_leaves(T, b, b, qr, g, tile_leaf, leaf_cull);
 }
 
 /* An empty box: what a culled triangle's box becomes (cull_tris), so that every traversal that
@@ -317,11 +326,5 @@ inline bool hidden_along(const VmScreenTri* T, double2 qr, int4 eb, VmGrid g,
   const int4 b = (int4)(eb.x - 1, eb.y - 1, eb.z, eb.w);
   const int4 tb = (int4)(min(min(T->x[0], T->x[1]), T->x[2]), min(min(T->y[0], T->y[1]), T->y[2]),
                          max(max(T->x[0], T->x[1]), T->x[2]), max(max(T->y[0], T->y[1]), T->y[2]));
-  VM_FOR_EACH_LEAF(w, b, g, tile_leaf) {
-    const long4 r = leaf_rect(g, w.tx, w.ty, leaf_depth(w.tl), w.lx, w.ly);
-    if (!tri_meets_open_rect(T, tb, r)) continue;
-    const double2 c = leaf_cull[leaf_walk_leaf(&w)];
-    if (!(qr.y + c.y < c.x) && !(depth_interval(T, qr, rect_d(r)).y + c.y < c.x)) return false;
-  }
-  return true;
+  return hidden_in_leaves(T, b, tb, qr, g, tile_leaf, leaf_cull);
 }
