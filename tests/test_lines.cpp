@@ -36,12 +36,7 @@ Mesh box(const std::string& name, const double (&lo)[3], const double (&hi)[3]) 
     m.positions.push_back(float(i & 2 ? hi[1] : lo[1]));
     m.positions.push_back(float(i & 4 ? hi[2] : lo[2]));
   }
-  // Quads (counter-clockwise seen from outside), each as two triangles.
-  const uint32_t q[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                            {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& f : q) m.indices.insert(m.indices.end(), {f[0], f[1], f[2], f[0], f[2], f[3]});
-  for (uint32_t t = 0; t < 12; ++t) m.face_ids.push_back(t);
-  m.source_triangles = 12;
+  test_support::add_box_triangles(m);
   return m;
 }
 

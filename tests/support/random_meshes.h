@@ -14,6 +14,7 @@
 
 #include "core/camera.h"
 #include "core/scene.h"
+#include "tests/support/triangle_scene.h"
 
 namespace vismap::randomized {
 
@@ -110,11 +111,7 @@ inline Mesh box(const std::array<double, 3>& c, const std::array<double, 3>& h,
                                            float(r[3] * u + r[4] * v + r[5] * w + c[1]),
                                            float(r[6] * u + r[7] * v + r[8] * w + c[2])});
   }
-  const uint32_t q[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                            {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& f : q) m.indices.insert(m.indices.end(), {f[0], f[1], f[2], f[0], f[2], f[3]});
-  for (uint32_t t = 0; t < 12; ++t) m.face_ids.push_back(t);
-  m.source_triangles = 12;
+  test_support::add_box_triangles(m);
   return m;
 }
 

@@ -23,6 +23,17 @@ inline void add_triangle(Scene& s, const std::string& name, const double (&p)[3]
   s.meshes.push_back(std::move(m));
 }
 
+// The 12 triangles of a box whose 8 corners are m.positions in bit order (bit 0: high x, bit 1:
+// high y, bit 2: high z), counter-clockwise seen from outside, with face ids and the source
+// triangle count.
+inline void add_box_triangles(Mesh& m) {
+  const uint32_t q[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                            {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& f : q) m.indices.insert(m.indices.end(), {f[0], f[1], f[2], f[0], f[2], f[3]});
+  for (uint32_t t = 0; t < 12; ++t) m.face_ids.push_back(t);
+  m.source_triangles = 12;
+}
+
 // Indices of a regular grid of (n + 1) x (n + 1) vertices, row by row: two triangles per cell,
 // with face ids and the source triangle count.
 inline void add_grid_triangles(Mesh& m, int n) {
