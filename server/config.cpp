@@ -52,8 +52,6 @@ static void check_deflate(const Config& cfg, const std::string& origin) {
     throw std::runtime_error(origin + ": deflate_window_bits must be 9 ... 15");
   if (cfg.deflate_mem_level < 1 || cfg.deflate_mem_level > 9)
     throw std::runtime_error(origin + ": deflate_mem_level must be 1 ... 9");
-  if (cfg.frame_level < 0 || cfg.frame_level > 19)
-    throw std::runtime_error(origin + ": frame_level must be 0 (the coder's default) ... 19");
 }
 
 void apply_json(Config& cfg, const std::string& text, const std::string& origin) {
@@ -138,6 +136,8 @@ void apply_json(Config& cfg, const std::string& text, const std::string& origin)
     throw std::runtime_error(
         origin + ": renderers, io_threads, load_threads and encode_threads must be >= 1");
   check_deflate(cfg, origin);
+  if (cfg.frame_level < 0 || cfg.frame_level > 19)
+    throw std::runtime_error(origin + ": frame_level must be 0 (the coder's default) ... 19");
   if (cfg.limits.render_time_limit_s < 0)
     throw std::runtime_error(origin + ": limits.render_time_limit_s must be >= 0");
 }
