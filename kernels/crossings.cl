@@ -211,6 +211,25 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const in
   return count;
 }
 
+/* A triangle's c pairs in order of their partner (insertion sort: a handful each, rarely more).
+ * The order is then the same however the pairs were found (the leaf walk's order depends on the
+ * bins), and the entries, fragments and output that follow from it with it. */
+inline void sort_pairs(uint c, __global uint* o, __global uint* rel, __global VmLine* line) {
+  for (uint i = 1; i < c; ++i) {
+    uint ko = o[i], kr = rel[i];
+    VmLine kl = line[i];
+    uint j = i;
+    for (; j > 0 && o[j - 1] > ko; --j) {
+      o[j] = o[j - 1];
+      rel[j] = rel[j - 1];
+      line[j] = line[j - 1];
+    }
+    o[j] = ko;
+    rel[j] = kr;
+    line[j] = kl;
+  }
+}
+
 /* Each triangle's pairs into its inline slots, their count, and its offset within the
  * work-group with the group's total (scan.cl's fused scan; cross_compact makes the offsets
  * global). */
@@ -263,6 +282,7 @@ __kernel void cross_pairs_fill(__global const VmScreenTri* tris, uint ntris,
   uint o = offsets[t];
   uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start, leaf_list,
                     0xffffffffu, pair_o + o, pair_rel + o, pair_line + o);
+  sort_pairs(c, pair_o + o, pair_rel + o, pair_line + o);
   for (uint k = 0; k < c; ++k) pair_t[o + k] = t;
   for (uint k = 0; k < c; ++k) refine_pair(o + k, tris, pair_t, pair_o, pair_rel, pair_line);
 }
@@ -287,8 +307,9 @@ __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cross_comp
     pair_o[o + k] = scr_o[s + k];
     pair_rel[o + k] = scr_rel[s + k];
     pair_line[o + k] = scr_line[s + k];
-    refine_pair(o + k, tris, pair_t, pair_o, pair_rel, pair_line);
   }
+  sort_pairs(c, pair_o + o, pair_rel + o, pair_line + o);
+  for (uint k = 0; k < c; ++k) refine_pair(o + k, tris, pair_t, pair_o, pair_rel, pair_line);
 }
 
 
