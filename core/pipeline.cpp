@@ -87,10 +87,10 @@ struct Renderer::Impl {
 
   ClRuntime rt;
 
-  // The uploaded scene; re-uploaded when a different scene comes in.
-  const Scene* scene_key = nullptr;
-  size_t key_tris = 0;
-  const float* key_pos = nullptr;
+  // The uploaded scene's fingerprint (Scene::geometry_fingerprint); re-uploaded when a different
+  // scene comes in.
+  uint64_t scene_key = 0;
+  bool uploaded = false;
   stages::SceneBuffers sb;
   LoopPlans loop_plans;  // per Loop control mesh, built on first use
 
@@ -110,12 +110,13 @@ void Renderer::Impl::upload(const Scene& scene, RenderStats& st) {
   if (scene.has_surfaces())
     throw InputError(InputErrorKind::BadScene, scene.source, "", "", -1,
                      "curved surfaces must be diced first (Renderer::tessellate)");
-  // A diced scene is new every frame and may reuse a freed one's addresses: always uploaded.
+  // By content, not by address: a scene freed and another loaded in its place (a server's
+  // sessions, a loop over scenes) may reuse its addresses and its triangle count. A diced scene
+  // is new every frame: always uploaded.
   bool diced = false;
   for (const Mesh& m : scene.meshes) diced = diced || !m.uv.empty();
-  const float* first = scene.meshes.empty() ? nullptr : scene.meshes[0].positions.data();
-  if (!diced && scene_key == &scene && key_tris == scene.triangle_count() && key_pos == first)
-    return;
+  const uint64_t key = scene.geometry_fingerprint();
+  if (!diced && uploaded && scene_key == key) return;
   auto t0 = Clock::now();
   std::vector<float> p;
   std::vector<uint32_t> ix, tm, tl;
@@ -142,9 +143,8 @@ void Renderer::Impl::upload(const Scene& scene, RenderStats& st) {
   sb.bytes = p.size() * sizeof(float) + (ix.size() + tm.size() + tl.size()) * sizeof(uint32_t);
   sb.closed.clear();
   for (const Mesh& mesh : scene.meshes) sb.closed.push_back(closed_orientation(mesh));
-  scene_key = &scene;
-  key_tris = scene.triangle_count();
-  key_pos = first;
+  scene_key = key;
+  uploaded = !diced;
   st.upload_ms = ms_since(t0);
 }
 

@@ -469,3 +469,25 @@ TEST(Stages, LaunchErrorsNameKernelAndStage) {
 }
 
 }  // namespace
+
+namespace {
+
+// The upload is kept by content, not by address: the same Scene object changed in place (the
+// same vectors, the same triangle count, as a scene freed and another loaded in its place can
+// be) is uploaded again, and its frame is the new scene's.
+TEST(Stages, ASceneChangedInPlaceIsUploadedAgain) {
+  using namespace vismap;
+  Scene s;
+  test_support::add_triangle(s, "t", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+  const Camera cam = frame_scene(s, 64, 64);
+  Renderer r;
+  const PlanarMap a = r.render(s, cam);
+  s.meshes[0].positions[3] = 0.5f;  // the second corner moves in place
+  const PlanarMap b = r.render(s, cam);
+  Renderer fresh;
+  const PlanarMap c = fresh.render(s, cam);
+  EXPECT_NE(a.xy, b.xy);
+  EXPECT_EQ(b.xy, c.xy);
+}
+
+}  // namespace
