@@ -5,8 +5,10 @@
 //
 //   vismap_bench SCENE [--width W] [--height H] [--runs N] [--tile-pixels 0,16,32,...]
 //                [--camera auto|bench|frame] [--device NAME] [--writes N] [--budget-s S]
-//                [--no-cull]
+//                [--no-cull] [--no-facts]
 //
+// The scene's facts (RenderOptions::facts: the crossing search skips pairs far apart in 3D) are
+// found with the first render, their time reported as facts_ms; --no-facts renders without.
 // --budget-s: stop a setting's warm runs once they have taken S seconds (at least one run), and
 // skip the extra render for the binary writer's size when one render takes more than S/4: slow
 // scenes stay affordable on a shared machine.
@@ -109,6 +111,7 @@ struct Args {
   double budget_s = 1e9;
   bool width_set = false;
   bool cull = true;  // --no-cull: RenderOptions::cull off (the frame before issue 32's culling)
+  bool facts = true;  // --no-facts: RenderOptions::facts Off (no scene facts for the crossings)
   std::vector<uint32_t> tiles{0};
 };
 
@@ -154,6 +157,8 @@ int main(int argc, char** argv) {
         a.device = value();
       else if (f == "--no-cull")
         a.cull = false;
+      else if (f == "--no-facts")
+        a.facts = false;
       else if (!f.empty() && f[0] == '-')
         return usage();
       else
@@ -192,6 +197,9 @@ int main(int argc, char** argv) {
     RenderOptions first_opts;
     first_opts.tile_pixels = a.tiles[0];
     first_opts.cull = a.cull;
+    // The scene's facts (found once per scene, as a server finds them for a session's scene)
+    // with the first render, so that the warm runs are the steady state; their time is facts_ms.
+    first_opts.facts = a.facts ? RenderOptions::Facts::Now : RenderOptions::Facts::Off;
     RenderStats first;
     auto t3 = Clock::now();
     (void)renderer.render(scene, cam, first_opts, &first);
@@ -203,6 +211,7 @@ int main(int argc, char** argv) {
       RenderOptions opts;
       opts.tile_pixels = tile;
       opts.cull = a.cull;
+      opts.facts = first_opts.facts;
       std::vector<double> pipe, kernels, host;
       std::map<std::string, std::vector<double>> stage_ms, kernel_ms;
       std::vector<std::string> stage_order;
@@ -313,6 +322,10 @@ int main(int argc, char** argv) {
       num("culled_triangles", double(st.culled_triangles));
       num("dropped_fragments", double(st.dropped_fragments));
       num("cull", a.cull ? 1 : 0);
+      num("facts", st.apart_need > 0 ? 1 : 0);  // the crossing search used scene facts
+      num("facts_ms", first.facts_ms);
+      num("facts_isolated", double(first.facts_isolated));
+      num("apart_need", st.apart_need);
       num("clip_rounds", st.clip_rounds);
       num("host_syncs", st.host_syncs);
       num("launches", st.launches);

@@ -40,6 +40,7 @@ const char* kRenderUsage =
     "                [--eye X,Y,Z --target X,Y,Z --up X,Y,Z] [--fov-y DEG | --ortho HEIGHT]\n"
     "                [--near N --far F] [--device NAME] [--memory-budget BYTES]\n"
     "                [--time-limit SECONDS] [--stats] [--tolerance PX] [--implicit-tolerance PX]\n"
+    "                [--no-cull] [--scene-facts]\n"
     "                [--style fill|lines|fill+lines] [--crease-angle DEG] [--line-width PX]\n"
     "                [--line-color KIND=#RRGGBB] [--simplify PX] [--hidden] [--merge]\n"
     "                [--min-length PX | KIND=PX]... [--self-folds] [--crease-smooth on|off]\n"
@@ -101,6 +102,7 @@ struct RenderArgs {
   ViewArgs view;
   bool stats = false;
   bool cull = true;  // --no-cull: clip every triangle in view (RenderOptions::cull)
+  bool facts = false;  // --scene-facts: RenderOptions::facts Now (else Repeat: none in one frame)
   uint64_t memory_budget = 0;
   double time_limit_s = 0;
   uint32_t quantum = 16;  // compact: grid steps per pixel
@@ -254,6 +256,8 @@ RenderArgs parse_render(int argc, char** argv) {
       a.stats = true;
     else if (f == "--no-cull")
       a.cull = false;
+    else if (f == "--scene-facts")
+      a.facts = true;
     else if (f == "--memory-budget")
       a.memory_budget = parse_bytes(f, value());
     else if (f == "--time-limit") {
@@ -392,6 +396,16 @@ void print_frame_stats(const RenderReport& r) {
   if (r.st.entangled_pairs == 0)
     std::fprintf(stderr,
                  "skipped: the crossing lines' sorting and entries (no entangled pair)\n");
+  if (r.st.apart_need > 0)
+    std::fprintf(stderr,
+                 "skipped: the crossing search between triangles farther apart in 3D than %.3g "
+                 "that share no vertex (scene facts: %llu of %llu triangles at their cap, found "
+                 "in %.1f ms)\n",
+                 r.st.apart_need, static_cast<unsigned long long>(r.st.facts_isolated),
+                 static_cast<unsigned long long>(r.st.input_triangles), r.st.facts_ms);
+  else if (r.st.has_facts)
+    std::fprintf(stderr, "scene facts found (%.1f ms) but not used: this view blurs more than "
+                 "their cap, or is orthographic\n", r.st.facts_ms);
   if (r.args.memory_budget)
     std::fprintf(stderr,
                  "memory budget %.1f MB: %u bucket(s), each planned under %.1f MB of work\n",
@@ -470,6 +484,7 @@ int run_render(RenderArgs& a, std::chrono::steady_clock::time_point t0) {
   opts.memory_budget = a.memory_budget;
   opts.time_limit_s = a.time_limit_s;
   opts.cull = a.cull;
+  if (a.facts) opts.facts = RenderOptions::Facts::Now;
   bool tty = ::isatty(2);
   if (tty) {
     opts.progress = [t0, shown = false](double f) mutable {

@@ -92,18 +92,22 @@ struct Renderer::Impl {
   uint64_t scene_key = 0;
   bool uploaded = false;
   stages::SceneBuffers sb;
+  uint32_t scene_frames = 0;  // frames rendered of the uploaded scene
   LoopPlans loop_plans;  // per Loop control mesh, built on first use
 
   void upload(const Scene& scene, RenderStats& st);
+  // The uploaded scene's facts (scene_facts.h), found and uploaded where opts ask for them now.
+  void find_facts(const Scene& scene, const RenderOptions& opts, RenderStats& st);
+  void drop_facts();  // the renderer's own facts released (device buffers and bytes)
   PlanarMap run(const Scene& scene, const Camera& cam, const RenderOptions& opts, RenderStats& st,
                 ScreenTriangles* screen);
   // One region's S screen triangles through every stage into `map`. False when a stage found
   // that the region would pass its budget (budget.needed() says by how much): nothing of it is
   // in the map or the figures then.
   bool render_region(stages::Frame& fr, const cl_int4& region, uint32_t S,
-                     const RenderOptions& opts, const stages::Deadline& deadline,
-                     stages::RegionBudget& budget, RenderStats& st, Tally& tally, PlanarMap& map,
-                     ScreenTriangles* screen);
+                     const RenderOptions& opts, const stages::ApartView& apart,
+                     const stages::Deadline& deadline, stages::RegionBudget& budget,
+                     RenderStats& st, Tally& tally, PlanarMap& map, ScreenTriangles* screen);
 };
 
 void Renderer::Impl::upload(const Scene& scene, RenderStats& st) {
@@ -143,9 +147,63 @@ void Renderer::Impl::upload(const Scene& scene, RenderStats& st) {
   sb.bytes = p.size() * sizeof(float) + (ix.size() + tm.size() + tl.size()) * sizeof(uint32_t);
   sb.closed.clear();
   for (const Mesh& mesh : scene.meshes) sb.closed.push_back(closed_orientation(mesh));
+  sb.facts.reset();  // (the new scene's are found when asked for)
+  sb.facts_tried = sb.facts_given = false;
+  sb.clearance = sb.adj_offset = sb.adj = cl::Buffer();
+  scene_frames = 0;
   scene_key = key;
   uploaded = !diced;
   st.upload_ms = ms_since(t0);
+}
+
+void Renderer::Impl::drop_facts() {
+  if (sb.facts) sb.bytes -= sb.facts->bytes();
+  sb.facts.reset();
+  sb.facts_tried = sb.facts_given = false;
+  sb.clearance = sb.adj_offset = sb.adj = cl::Buffer();
+}
+
+void Renderer::Impl::find_facts(const Scene& scene, const RenderOptions& opts, RenderStats& st) {
+  using F = RenderOptions::Facts;
+  if (!opts.cull || opts.facts == F::Off) {
+    // A frame without them holds none of the renderer's own (their bytes are in the buckets'
+    // plan); given ones are the caller's to keep.
+    if (sb.facts && !sb.facts_given) drop_facts();
+    return;
+  }
+  std::shared_ptr<const stages::SceneFacts> f = opts.scene_facts;
+  if (f && f == sb.facts) return;  // (given, and uploaded already)
+  if (!f) {
+    // Under a memory budget a renderer holds only facts it was asked for (Now, or given): its
+    // own from an earlier frame would change the buckets' plan (their bytes are held), and the
+    // same scene, view and budget give the same buckets every time.
+    if (opts.memory_budget && opts.facts == F::Repeat) {
+      if (sb.facts && !sb.facts_given) drop_facts();
+      return;
+    }
+    if (sb.facts_tried || (opts.facts == F::Repeat && scene_frames == 0)) return;
+    // A scene re-uploaded every frame (diced surfaces) never reaches its second frame. The facts
+    // are tried once per upload: under a memory budget only where their work fits half of it,
+    // and under a time limit within a quarter of it (past that, none: the frames search as
+    // without).
+    sb.facts_tried = true;
+    if (opts.memory_budget && stages::scene_facts_work_bytes(sb.ntri) > opts.memory_budget / 2)
+      return;
+    auto found = std::make_shared<stages::SceneFacts>(
+        stages::find_scene_facts(scene, opts.time_limit_s / 4));
+    st.facts_ms = found->ms;
+    f = std::move(found);
+  }
+  if (f->clearance.size() != sb.ntri || !(f->cap > 0)) return;  // (not this scene's, or none)
+  if (opts.memory_budget && f->bytes() > opts.memory_budget / 4) return;
+  if (sb.facts) sb.bytes -= sb.facts->bytes();
+  sb.facts_given = f == opts.scene_facts;
+  sb.facts = f;
+  sb.facts_tried = true;
+  sb.clearance = rt.upload(f->clearance, "scene clearances");
+  sb.adj_offset = rt.upload(f->adj_offset, "scene adjacency");
+  sb.adj = rt.upload(f->adj, "scene adjacency");
+  sb.bytes += f->bytes();
 }
 
 PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const RenderOptions& opts,
@@ -156,6 +214,9 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   map.height = cam.height;
   map.grid_scale = VM_GRID_SCALE;
   upload(scene, st);
+  const stages::Deadline deadline(opts.time_limit_s, scene.source);  // (the facts count in it)
+  find_facts(scene, opts, st);
+  ++scene_frames;
   st.input_triangles = sb.ntri;
   rt.reset_profile();
   rt.reset_allocated();
@@ -165,10 +226,15 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     *screen = ScreenTriangles{};
     screen->grid_scale = VM_GRID_SCALE;
   }
-  const stages::Deadline deadline(opts.time_limit_s, scene.source);
   Tally tally;
 
   stages::Frame fr = stages::begin_frame(rt, sb, scene, cam, Stage::Transform);
+  const stages::ApartView apart = opts.cull && opts.facts != RenderOptions::Facts::Off
+                                      ? stages::apart_view(sb, cam)
+                                      : stages::ApartView{};
+  st.has_facts = sb.facts != nullptr;
+  st.facts_isolated = sb.facts ? sb.facts->isolated : 0;
+  st.apart_need = apart.on ? apart.need : 0;
   std::vector<cl_int4> todo{fr.full};
   if (opts.memory_budget) todo = stages::plan_buckets(rt, sb, fr, opts.memory_budget, st);
   std::reverse(todo.begin(), todo.end());
@@ -193,7 +259,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
     if (S > 0) {
       stages::RegionBudget budget =
           fr.use_boxes ? stages::RegionBudget(rt, st.bucket_work_bytes) : stages::RegionBudget();
-      if (!render_region(fr, region, S, opts, deadline, budget, st, tally, map, screen)) {
+      if (!render_region(fr, region, S, opts, apart, deadline, budget, st, tally, map, screen)) {
         // Its pairs, candidates or fragments would pass the budget: halve it, down to single
         // pixels, and plan the halves with what it would have needed per triangle. A pixel that
         // cannot fit is an error, not a bucket that goes over.
@@ -255,16 +321,17 @@ double modelled_gpu_floor_ms(const RenderStats& st) {
 }
 
 bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uint32_t S,
-                                   const RenderOptions& opts, const stages::Deadline& deadline,
-                                   stages::RegionBudget& budget, RenderStats& st, Tally& tally,
-                                   PlanarMap& map, ScreenTriangles* screen) {
+                                   const RenderOptions& opts, const stages::ApartView& apart,
+                                   const stages::Deadline& deadline, stages::RegionBudget& budget,
+                                   RenderStats& st, Tally& tally, PlanarMap& map,
+                                   ScreenTriangles* screen) {
   using namespace stages;
   ScreenSet s = fill_screen(rt, sb, fr, region, S, opts.attributes, Stage::Transform);
   cl::Buffer& totals = fr.totals;
 
   Silhouettes sil;
   find_silhouettes(rt, s, totals, sil);
-  snap_depths(rt, fr, s, Stage::Transform);
+  snap_depths(rt, fr, s, Stage::Transform, &sb, apart);
   const Grids grids = choose_grids(opts.tile_pixels, fr.W, fr.H, S);
   st.tile_pixels = grids.tile_px;
   // The leaves' places are the cull's (a rectangle a leaf, a leaf an entry): under a budget only
@@ -279,7 +346,7 @@ bool Renderer::Impl::render_region(stages::Frame& fr, const cl_int4& region, uin
     cull = no_cull_bounds(rt);  // (off, or no room for it under the budget: every triangle kept)
   deadline.check(Stage::Crossings);
   Crossings cx;
-  if (!find_crossings(rt, s, tb, totals, budget, cx)) return false;
+  if (!find_crossings(rt, s, tb, totals, budget, sb, fr, apart.on, cx)) return false;
   ClipEdges ce = emit_silhouettes(rt, s, sil, cx.entries);
   emit_crossings(rt, s, cx, ce);
   const EdgeBins eb = bin_edges(rt, ce, grids.edge);

@@ -11,6 +11,7 @@
 #include "core/camera.h"
 #include "core/device/device.h"
 #include "core/planar_map.h"
+#include "core/stages/scene_facts.h"
 #include "core/render_stats.h"
 #include "core/scene.h"
 #include "core/surfaces/tessellate.h"
@@ -39,6 +40,19 @@ struct RenderOptions {
   // candidates and clip rounds, fragments during them. The visible region of every source is the
   // same either way; off, the frame clips every triangle in view (for comparisons and tests).
   bool cull = true;
+  // With cull, the crossing search skips pairs of triangles that are far apart in 3D and share
+  // no vertex (core/stages/scene_facts.h), from view-independent facts found once per uploaded
+  // scene: when the scene is rendered a second time (Repeat: a single frame, as the CLI renders,
+  // does not pay for them; a server session or an orbit does), at once (Now), or never (Off).
+  // The map is the same either way. Under a memory budget Repeat finds none (the facts' device
+  // bytes would change the buckets' plan from the second frame on): ask for them (Now, or
+  // scene_facts) and every frame has them.
+  enum class Facts { Repeat, Now, Off };
+  Facts facts = Facts::Repeat;
+  // Facts the caller found for this scene (stages::find_scene_facts), used instead of the
+  // renderer's own (unless facts is Off): a server finds them once per session's scene, whichever
+  // renderer draws its frames.
+  std::shared_ptr<const stages::SceneFacts> scene_facts;
 };
 
 // Tells the C allocator to keep freed blocks under 32 MiB for reuse instead of handing them back

@@ -166,48 +166,103 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
  * found once, by its lower triangle t, through the triangle bins (each pair looked at in one tile
  * only), in one traversal: up to VM_PAIRS_INLINE pairs per triangle go to a scratch slot and the
  * rest only raise a status bit, after which cross_pairs_fill traverses again into exact space,
- * for those triangles only. */
+ * for those triangles only.
+ *
+ * With scene facts (core/stages/scene_facts.h), a triangle "apart" in this view (snap_depth_planes)
+ * can be entangled only with triangles it shares a vertex with in 3D: a pair with an apart member
+ * is looked for through the scene's adjacency lists (its source's neighbours above it, each
+ * neighbour's screen triangles from clip_count's offsets), and the bins' walk, which only
+ * triangles that are not apart make, skips apart partners. Each pair is still found once, by its
+ * lower member, with the same relation; sort_pairs makes the order the same. */
 
-inline uint pairs_of(uint t, __global const VmScreenTri* tris, __global const int4* tri_bb,
-                     __global const double2* tri_qr, VmGrid g, __global const uint* tile_leaf,
-                     __global const uint* leaf_offset, __global const uint4* class_start,
-                     __global const uint* leaf_list, uint cap, __global uint* out_o,
-                     __global uint* out_rel, __global VmLine* out_line) {
+/* The screen triangles of source triangle u: [first, end) (clip_count's offsets within their
+ * work-group plus the group's base; the sources' screen triangles are in source order). */
+typedef struct {
+  int on; /* scene facts in use: the rest is read only then */
+  __global const uchar* apart;
+  __global const uint* adj_offset;
+  __global const uint* adj;
+  __global const uint* src_offset;
+  __global const uint* src_base;
+  uint src_groups, nsrc;
+} VmApart;
+
+inline uint source_first(const VmApart* a, uint u) {
+  return (a->src_groups ? a->src_base[u / VM_SCAN_WG] : 0u) + a->src_offset[u];
+}
+
+/* Does t (me, its box tb and nearness range) pair with o? Their relation and line if so. */
+inline bool entangled(const VmScreenTri* me, int4 tb, double qmin, double qmax, uint o,
+                      __global const VmScreenTri* tris, __global const int4* tri_bb,
+                      __global const double2* tri_qr, int* rel, VmLine* line) {
+  int4 ob = tri_bb[o];
+  if (max(tb.x, ob.x) >= min(tb.z, ob.z) || max(tb.y, ob.y) >= min(tb.w, ob.w)) return false;
+  /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
+  double2 oq = tri_qr[o];
+  double band = VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(oq.y)), fmax(fabs(qmin), fabs(oq.x)));
+  if (oq.x > qmax + band || qmin > oq.y + band) return false;
+  VmScreenTri other = tris[o];
+  if (other.mesh == me->mesh && other.tri == me->tri) return false;
+  *rel = pair_relation(me, &other, line, 1);
+  return *rel == VM_REL_CROSS || (*rel & (VM_REL_TIE | VM_REL_TOUCH));
+}
+
+inline uint pairs_of(uint t, __global const VmScreenTri* tris, uint ntris,
+                     __global const int4* tri_bb, __global const double2* tri_qr, VmGrid g,
+                     __global const uint* tile_leaf, __global const uint* leaf_offset,
+                     __global const uint4* class_start, __global const uint* leaf_list,
+                     const VmApart* ap, uint cap, __global uint* out_o, __global uint* out_rel,
+                     __global VmLine* out_line) {
   int4 tb = tri_bb[t];
   VmScreenTri me = tris[t];
   double qmin = fmin(fmin(me.q[0], me.q[1]), me.q[2]), qmax = fmax(fmax(me.q[0], me.q[1]), me.q[2]);
+  const bool use_apart = ap->on != 0;
+  const bool t_apart = use_apart && ap->apart[t];
   uint count = 0;
-  VM_FOR_EACH_LEAF(w, tb, g, tile_leaf) {
-    /* Only the classes of entries whose pairs with t this leaf owns, each (sorted by id) walked
-     * down from its top to its first id not above t: each pair is found once, by its lower
-     * member, and no entry below t is touched but the one that stops the walk. */
-    LeafPartners L;
-    if (!leaf_partners(&w, leaf_offset, class_start, leaf_list, &L)) continue;
-    VM_FOR_EACH_PARTNER_CLASS(L, c) {
-      uint lo = class_begin(L.cs, c);
-      for (uint k = class_begin(L.cs, c + 1); k-- > lo;) {
-        uint o = L.list[k];
-        if (o <= t) break;
-        int4 ob = tri_bb[o];
-        if (max(tb.x, ob.x) >= min(tb.z, ob.z) || max(tb.y, ob.y) >= min(tb.w, ob.w)) continue;
-        /* Depth ranges apart beyond the tie band: neither crossing nor tying. */
-        double2 oq = tri_qr[o];
-        double band = VM_TIE_EPS * fmax(fmax(fabs(qmax), fabs(oq.y)), fmax(fabs(qmin), fabs(oq.x)));
-        if (oq.x > qmax + band || qmin > oq.y + band) continue;
-        VmScreenTri other = tris[o];
-        if (other.mesh == me.mesh && other.tri == me.tri) continue;
-        VmLine line;
-        int rel = pair_relation(&me, &other, &line, 1);
-        if (rel != VM_REL_CROSS && !(rel & (VM_REL_TIE | VM_REL_TOUCH))) continue;
-        if (count < cap) {
-          out_o[count] = o;
-          out_rel[count] = (uint)rel;
-          out_line[count] = line;
+#define VM_KEEP_PAIR(o, rel, line)  \
+  do {                              \
+    if (count < cap) {              \
+      out_o[count] = (o);           \
+      out_rel[count] = (uint)(rel); \
+      out_line[count] = (line);     \
+    }                               \
+    ++count;                        \
+  } while (0)
+  if (!t_apart) {
+    VM_FOR_EACH_LEAF(w, tb, g, tile_leaf) {
+      /* Only the classes of entries whose pairs with t this leaf owns, each (sorted by id) walked
+       * down from its top to its first id not above t: each pair is found once, by its lower
+       * member, and no entry below t is touched but the one that stops the walk. */
+      LeafPartners L;
+      if (!leaf_partners(&w, leaf_offset, class_start, leaf_list, &L)) continue;
+      VM_FOR_EACH_PARTNER_CLASS(L, c) {
+        uint lo = class_begin(L.cs, c);
+        for (uint k = class_begin(L.cs, c + 1); k-- > lo;) {
+          uint o = L.list[k];
+          if (o <= t) break;
+          if (use_apart && ap->apart[o]) continue; /* (through the adjacency below, or none) */
+          VmLine line;
+          int rel;
+          if (entangled(&me, tb, qmin, qmax, o, tris, tri_bb, tri_qr, &rel, &line))
+            VM_KEEP_PAIR(o, rel, line);
         }
-        ++count;
       }
     }
   }
+  if (use_apart && tb.x < tb.z) { /* (a culled triangle's box is empty: no pairs) */
+    for (uint k = ap->adj_offset[me.src]; k < ap->adj_offset[me.src + 1]; ++k) {
+      uint u = ap->adj[k];
+      uint end = u + 1 < ap->nsrc ? source_first(ap, u + 1) : ntris;
+      for (uint o = source_first(ap, u); o < end; ++o) {
+        if (!t_apart && !ap->apart[o]) continue; /* both walk the bins: found there */
+        VmLine line;
+        int rel;
+        if (entangled(&me, tb, qmin, qmax, o, tris, tri_bb, tri_qr, &rel, &line))
+          VM_KEEP_PAIR(o, rel, line);
+      }
+    }
+  }
+#undef VM_KEEP_PAIR
   return count;
 }
 
@@ -233,20 +288,28 @@ inline void sort_pairs(uint c, __global uint* o, __global uint* rel, __global Vm
 /* Each triangle's pairs into its inline slots, their count, and its offset within the
  * work-group with the group's total (scan.cl's fused scan; cross_compact makes the offsets
  * global). */
+#define VM_APART_PARAMS                                                                    \
+  int use_apart, __global const uchar *apart, __global const uint *adj_offset,             \
+      __global const uint *adj, __global const uint *src_offset, __global const uint *src_base, \
+      uint src_groups, uint nsrc
+#define VM_APART_INIT(ap) \
+  VmApart ap = {use_apart, apart, adj_offset, adj, src_offset, src_base, src_groups, nsrc}
+
 __kernel __attribute__((reqd_work_group_size(VM_SCAN_WG, 1, 1))) void cross_pairs(
     __global const VmScreenTri* tris, uint ntris, __global const int4* tri_bb,
     __global const double2* tri_qr, VmGrid g, __global const uint* tile_leaf,
     __global const uint* leaf_offset, __global const uint4* class_start,
-    __global const uint* leaf_list, __global uint* counts, __global uint* offsets,
-    __global uint* group_sums, __global uint* scr_o, __global uint* scr_rel,
-    __global VmLine* scr_line, __global uint* status) {
+    __global const uint* leaf_list, VM_APART_PARAMS, __global uint* counts,
+    __global uint* offsets, __global uint* group_sums, __global uint* scr_o,
+    __global uint* scr_rel, __global VmLine* scr_line, __global uint* status) {
   __local uint tmp[VM_SCAN_WG];
   const uint t = get_global_id(0);
+  VM_APART_INIT(ap);
   uint c = 0;
   if (t < ntris) {
     size_t s = (size_t)t * VM_PAIRS_INLINE;
-    c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start, leaf_list,
-                 VM_PAIRS_INLINE, scr_o + s, scr_rel + s, scr_line + s);
+    c = pairs_of(t, tris, ntris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start,
+                 leaf_list, &ap, VM_PAIRS_INLINE, scr_o + s, scr_rel + s, scr_line + s);
     if (c > VM_PAIRS_INLINE) atomic_or(status, VM_STATUS_PAIRS_OVERFLOW);
   }
   const uint o = vm_group_offset(c, tmp, group_sums);
@@ -273,15 +336,16 @@ __kernel void cross_pairs_fill(__global const VmScreenTri* tris, uint ntris,
                                __global const int4* tri_bb, __global const double2* tri_qr,
                                VmGrid g, __global const uint* tile_leaf,
                                __global const uint* leaf_offset, __global const uint4* class_start,
-                               __global const uint* leaf_list, __global const uint* counts,
-                               __global const uint* offsets, __global uint* pair_t,
-                               __global uint* pair_o, __global uint* pair_rel,
-                               __global VmLine* pair_line) {
+                               __global const uint* leaf_list, VM_APART_PARAMS,
+                               __global const uint* counts, __global const uint* offsets,
+                               __global uint* pair_t, __global uint* pair_o,
+                               __global uint* pair_rel, __global VmLine* pair_line) {
   uint t = get_global_id(0);
   if (t >= ntris || counts[t] <= VM_PAIRS_INLINE) return;
+  VM_APART_INIT(ap);
   uint o = offsets[t];
-  uint c = pairs_of(t, tris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start, leaf_list,
-                    0xffffffffu, pair_o + o, pair_rel + o, pair_line + o);
+  uint c = pairs_of(t, tris, ntris, tri_bb, tri_qr, g, tile_leaf, leaf_offset, class_start,
+                    leaf_list, &ap, 0xffffffffu, pair_o + o, pair_rel + o, pair_line + o);
   sort_pairs(c, pair_o + o, pair_rel + o, pair_line + o);
   for (uint k = 0; k < c; ++k) pair_t[o + k] = t;
   for (uint k = 0; k < c; ++k) refine_pair(o + k, tris, pair_t, pair_o, pair_rel, pair_line);

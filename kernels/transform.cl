@@ -159,10 +159,20 @@ inline bool snap_plane(VmScreenTri* tp, int k) {
   return true;
 }
 
+#ifndef VM_APART_MUTATION
+#define VM_APART_MUTATION 0
+#endif
+
 /* Each screen triangle's plane snapped (snap_plane), then its box and nearness range for the
- * binning (bin.cl), so pair tests can reject by depth before loading it. */
+ * binning (bin.cl), so pair tests can reject by depth before loading it. With scene facts
+ * (use_apart), also whether the triangle is apart in this view (crossings.cl): its source's
+ * clearance passes `need` (core/stages/scene_facts.h) and its plane is not steeper than 16 qmax
+ * per grid unit (the rounding of an overlap's corners moves its depth by less than the margin
+ * the need has for it: docs/NUMERICS.md §2 "Pairs far apart in 3D"). */
 __kernel void snap_depth_planes(__global VmScreenTri* tris, uint n, __global const int* ex,
-                                __global int4* bb, __global double2* qr) {
+                                __global int4* bb, __global double2* qr, int use_apart,
+                                __global const float* clearance, float need, double qmax,
+                                __global uchar* apart) {
   uint i = get_global_id(0);
   if (i >= n) return;
   VmScreenTri t = tris[i];
@@ -170,6 +180,14 @@ __kernel void snap_depth_planes(__global VmScreenTri* tris, uint n, __global con
   bb[i] = (int4)(min(min(t.x[0], t.x[1]), t.x[2]), min(min(t.y[0], t.y[1]), t.y[2]),
                  max(max(t.x[0], t.x[1]), t.x[2]), max(max(t.y[0], t.y[1]), t.y[2]));
   qr[i] = (double2)(fmin(fmin(t.q[0], t.q[1]), t.q[2]), fmax(fmax(t.q[0], t.q[1]), t.q[2]));
+  if (use_apart) {
+    DepthPlane p = depth_plane(&t);
+#if VM_APART_MUTATION == 1 /* (tests/test_cull.cpp: apart without the clearance must be caught) */
+    apart[i] = fabs(p.gx) + fabs(p.gy) <= 16.0 * qmax ? 1 : 0;
+#else
+    apart[i] = clearance[t.src] > need && fabs(p.gx) + fabs(p.gy) <= 16.0 * qmax ? 1 : 0;
+#endif
+  }
 }
 
 #define VM_CLIP_MAXV 9

@@ -401,6 +401,9 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
         std::lock_guard lk(cam_mu_);
         scene_ = scene;
         plans_ = std::make_shared<LoopPlans>();  // the old scene's go with its last frame
+        facts_.reset();
+        facts_tried_ = false;
+        scene_frames_ = 0;
         base_camera_ = cam;
       }
       peak_bytes_ = std::max(peak_bytes_, scene_bytes(*scene));
@@ -457,6 +460,8 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   struct FrameJob {
     std::shared_ptr<const Scene> scene;
     std::shared_ptr<LoopPlans> plans;  // the scene's Loop plans, charged to this session
+    std::shared_ptr<const stages::SceneFacts> facts;
+    bool find_facts = false;  // this frame finds them (the scene's second, facts not tried)
     Camera camera;
     uint64_t seq = 0, skipped = 0;
     double queue_ms = 0;
@@ -477,6 +482,9 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       latest_.reset();
       job.scene = scene_;
       job.plans = plans_;
+      job.facts = facts_;
+      job.find_facts = !facts_tried_ && scene_frames_++ == 1 && !scene_->has_surfaces();
+      if (job.find_facts) facts_tried_ = true;
       job.camera = base_camera_;
       queued = latest_at_;
       job.skipped = skipped_;
@@ -512,11 +520,27 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
         job.scene = std::make_shared<const Scene>(renderer->tessellate(*job.scene, cam, to));
         diced_s = ms_since(t0) / 1000;
       }
+      if (job.find_facts) {
+        // Within a quarter of the frame's time limit, and held only where the session's budget
+        // has room for them beside the scene (else the frames search without, as the first did).
+        const Clock::time_point t0 = Clock::now();
+        auto f = std::make_shared<const stages::SceneFacts>(
+            stages::find_scene_facts(*job.scene, L.render_time_limit_s / 4));
+        diced_s += ms_since(t0) / 1000;
+        if (f->cap > 0 && scene_bytes(*job.scene) + f->bytes() <= L.max_session_bytes) {
+          job.facts = f;
+          std::lock_guard lk(cam_mu_);
+          if (scene_ == job.scene) facts_ = f;
+        }
+      }
       RenderOptions opts;
       opts.attributes = h.attributes && format_spec(h.format).carries_attributes;
       opts.memory_budget = L.render_memory_bytes;
-      // Dicing and rendering share the frame's time limit: the render gets what is left (the
-      // message then names that remainder).
+      // The session's facts, or none (the renderer finds none of its own for a session's scene).
+      opts.scene_facts = job.facts;
+      opts.facts = job.facts ? RenderOptions::Facts::Now : RenderOptions::Facts::Off;
+      // Dicing (or finding the scene's facts) and rendering share the frame's time limit: the
+      // render gets what is left (the message then names that remainder).
       opts.time_limit_s = L.render_time_limit_s;
       if (L.render_time_limit_s > 0 && diced_s > 0)
         opts.time_limit_s = std::max(1e-3, L.render_time_limit_s - diced_s);
@@ -699,6 +723,12 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   std::mutex cam_mu_;
   std::shared_ptr<const Scene> scene_;
   std::shared_ptr<LoopPlans> plans_;  // made with each scene
+  // The scene's view-independent facts (core/stages/scene_facts.h), found on its second frame
+  // (a scene seen once does not pay for them) and kept for its later frames, whichever
+  // renderer draws them; tried once per scene.
+  std::shared_ptr<const stages::SceneFacts> facts_;
+  bool facts_tried_ = false;
+  uint64_t scene_frames_ = 0;
   Camera base_camera_;
   std::optional<CameraRequest> latest_;
   Clock::time_point latest_at_;

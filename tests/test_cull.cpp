@@ -36,6 +36,9 @@ Pair render_both(Renderer& r, const Scene& scene, const Camera& cam, uint64_t bu
   opts.memory_budget = budget;
   Pair p;
   opts.cull = true;
+  // With the scene's facts at once: the culled frame's crossing search also skips pairs far
+  // apart in 3D (scene_facts.h), so every comparison below covers that too.
+  opts.facts = RenderOptions::Facts::Now;
   const PlanarMap a = r.render(scene, cam, opts, &p.on);
   opts.cull = false;
   const PlanarMap b = r.render(scene, cam, opts, &p.off);
@@ -75,12 +78,23 @@ TEST(Cull, MeshScenesInBucketsKeepEverySourcesVisibleRegion) {
 
 // (Their few large triangles seldom cover a whole leaf: what is culled is seldom much.)
 TEST(Cull, RandomTriangleScenesKeepEverySourcesVisibleRegion) {
+  uint32_t with_facts = 0;
   for (uint64_t seed = 0; seed < 120; ++seed) {
     randomized::RandomScene rs = randomized::random_scene(seed);
     Pair p = render_both(renderer(), rs.scene, rs.camera);
     EXPECT_TRUE(p.diff.same()) << "seed " << seed << " (" << randomized::kind_name(rs.kind)
                                << "): " << p.diff.summary();
+    with_facts += p.on.apart_need > 0;
+    // The facts' skip finds the same pairs as the culled frame without it.
+    RenderOptions no_facts;
+    no_facts.facts = RenderOptions::Facts::Off;
+    RenderStats st;
+    (void)renderer().render(rs.scene, rs.camera, no_facts, &st);
+    EXPECT_EQ(p.on.entangled_pairs, st.entangled_pairs) << "seed " << seed;
   }
+  // The facts' skip was on in most of them (off: orthographic views, or views that blur more
+  // than the clearances' cap).
+  EXPECT_GT(with_facts, 60u);
 }
 
 // Dense penetrating soup (bench/soup.sh's, smaller): large triangles, so the cull bins them on
@@ -122,6 +136,21 @@ TEST(Cull, AnUnsoundCullIsCaught) {
     differing += render_both(mutated, rs.scene, rs.camera).diff.differing;
   }
   EXPECT_GT(differing, 0u) << "the mutated cull was not caught";
+}
+
+// A mutation of the facts' premise: every triangle apart, whatever its clearance. Pairs of
+// triangles that penetrate without sharing a vertex are then never looked for, their crossing
+// lines are missing, and the comparison must say so on some seed.
+TEST(Cull, ApartTrianglesWithoutTheirClearanceAreCaught) {
+  setenv("VISMAP_CL_OPTIONS", "-DVM_APART_MUTATION=1", 1);
+  Renderer mutated;
+  unsetenv("VISMAP_CL_OPTIONS");
+  size_t differing = 0;
+  for (uint64_t seed = 0; seed < 120 && differing == 0; ++seed) {
+    randomized::RandomScene rs = randomized::random_scene(seed);
+    differing += render_both(mutated, rs.scene, rs.camera).diff.differing;
+  }
+  EXPECT_GT(differing, 0u) << "the mutated facts were not caught";
 }
 
 }  // namespace

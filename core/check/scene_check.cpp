@@ -20,6 +20,10 @@ SceneFigures check_scene(Renderer& renderer, const Scene& scene, const Camera& c
   ro.keep_screen_triangles = true;
   ro.tile_pixels = o.tile_pixels;
   ro.memory_budget = o.memory_budget;
+  // The scene's facts at once (a single frame would not find them): the culled frame below is
+  // then also the one whose crossing search skips pairs far apart in 3D, and cull_differing
+  // compares it with the frame that does neither.
+  ro.facts = RenderOptions::Facts::Now;
   RenderStats st;
   ScreenTriangles screen;
   PlanarMap map = renderer.render(scene, camera, ro, &st, &screen);

@@ -10,9 +10,17 @@ constexpr uint32_t kRelCross = 3;  // VM_REL_CROSS (kernels/crossings.cl): the p
 }  // namespace
 
 bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, cl::Buffer& totals,
-                    const RegionBudget& budget, Crossings& cx) {
+                    const RegionBudget& budget, const SceneBuffers& sb, const Frame& fr,
+                    bool apart, Crossings& cx) {
   const uint32_t S = s.count;
   const Leaves& lv = tb.leaves;
+  // pairs_of's VmApart (crossings.cl); without facts its buffers are s.apart's placeholder.
+  const cl_int on = apart ? 1 : 0;
+  const cl::Buffer& adj_offset = apart ? sb.adj_offset : s.apart;
+  const cl::Buffer& adj = apart ? sb.adj : s.apart;
+  const cl::Buffer& src_base = apart ? fr.screen_groups.bases : s.apart;
+  const cl::Buffer& src_offset = apart ? fr.offsets : s.apart;
+  const cl_uint src_groups = fr.screen_groups.groups, nsrc = sb.ntri;
   // One traversal finds each pair once (by its lower triangle) into small inline slots; only if
   // a triangle has more pairs than the slots hold is the traversal repeated into exact space.
   cx.pcount = rt.alloc(size_t(S) * 4, "pair counts");
@@ -23,8 +31,9 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
     cl::Buffer scr_line = rt.alloc(size_t(S) * VM_PAIRS_INLINE * sizeof(VmLine), "pair scratch");
     ClRuntime::GroupSums g = rt.group_sums(S, "pair group totals");
     rt.launch_grouped(kStage, "cross_pairs", S, VM_SCAN_WG, s.tris, S, tb.bb, tb.qr, tb.grid,
-                      lv.tile_leaf, lv.offset, lv.class_start, lv.list, cx.pcount, cx.poffset,
-                      g.sums, scr_o, scr_rel, scr_line, totals);
+                      lv.tile_leaf, lv.offset, lv.class_start, lv.list, on, s.apart, adj_offset,
+                      adj, src_offset, src_base, src_groups, nsrc, cx.pcount, cx.poffset, g.sums,
+                      scr_o, scr_rel, scr_line, totals);
     // The pair count (its work-groups' totals) and the overflow flag in one read.
     uint32_t status = 0;
     rt.read_async(kStage, totals, VM_TOTAL_STATUS * 4, 4, &status);
@@ -44,7 +53,8 @@ bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, c
                         cx.pair_rel, cx.pair_line);
     if (status & VM_STATUS_PAIRS_OVERFLOW)
       rt.launch(kStage, "cross_pairs_fill", S, s.tris, S, tb.bb, tb.qr, tb.grid, lv.tile_leaf,
-                lv.offset, lv.class_start, lv.list, cx.pcount, cx.poffset, cx.pair_t, cx.pair_o,
+                lv.offset, lv.class_start, lv.list, on, s.apart, adj_offset, adj, src_offset,
+                src_base, src_groups, nsrc, cx.pcount, cx.poffset, cx.pair_t, cx.pair_o,
                 cx.pair_rel, cx.pair_line);
   }
   const uint32_t P = cx.pairs;

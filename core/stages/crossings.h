@@ -29,8 +29,11 @@ struct Crossings {
 
 // Finds the pairs and sizes each triangle's entries (one status read for the inline slots).
 // False when the pairs or the entries would pass the region's budget (nothing more allocated).
+// With `apart` (the frame's ApartView was on: s.apart written), pairs with an apart member are
+// looked for through sb's adjacency (fr: the region's clip_count offsets) instead of the bins.
 bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, cl::Buffer& totals,
-                    const RegionBudget& budget, Crossings& cx);
+                    const RegionBudget& budget, const SceneBuffers& sb, const Frame& fr,
+                    bool apart, Crossings& cx);
 // Writes the X entries after the silhouette edges of ce (and their partners).
 void emit_crossings(ClRuntime& rt, const ScreenSet& s, const Crossings& cx, ClipEdges& ce);
 // The pairs whose planes cross (VM_REL_CROSS) with their lines, by source triangle, appended

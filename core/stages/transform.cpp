@@ -1,6 +1,7 @@
 #include "core/stages/transform.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace vismap::stages {
 
@@ -77,10 +78,25 @@ ScreenSet fill_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl
   return s;
 }
 
-void snap_depths(ClRuntime& rt, Frame& fr, ScreenSet& s, Stage stage) {
+ApartView apart_view(const SceneBuffers& sb, const Camera& cam) {
+  ApartView v;
+  if (!sb.facts) return v;
+  const double need = crossing_skip_distance(*sb.facts, cam, &v.qmax);
+  if (!std::isfinite(need)) return v;
+  v.need = static_cast<float>(need);
+  if (static_cast<double>(v.need) < need) v.need = std::nextafter(v.need, INFINITY);
+  v.on = std::isfinite(v.need) && std::isfinite(v.qmax);
+  return v;
+}
+
+void snap_depths(ClRuntime& rt, Frame& fr, ScreenSet& s, Stage stage, const SceneBuffers* sb,
+                 const ApartView& apart) {
   s.bb = rt.alloc(std::max<size_t>(s.count, 1) * sizeof(cl_int4), "triangle boxes");
   s.qr = rt.alloc(std::max<size_t>(s.count, 1) * sizeof(cl_double2), "triangle depth ranges");
-  rt.launch(stage, "snap_depth_planes", s.count, s.tris, s.count, fr.depth_ex, s.bb, s.qr);
+  const bool on = apart.on && sb != nullptr;
+  s.apart = rt.alloc(on ? std::max<size_t>(s.count, 4) : 16, "apart triangles");
+  rt.launch(stage, "snap_depth_planes", s.count, s.tris, s.count, fr.depth_ex, s.bb, s.qr,
+            cl_int(on ? 1 : 0), on ? sb->clearance : s.apart, apart.need, apart.qmax, s.apart);
 }
 
 }  // namespace vismap::stages

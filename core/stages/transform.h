@@ -5,10 +5,12 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "core/camera.h"
 #include "core/device/cl_runtime.h"
+#include "core/stages/scene_facts.h"
 #include "core/scene.h"
 
 namespace vismap::stages {
@@ -19,7 +21,23 @@ struct SceneBuffers {
   uint32_t nv = 0, ntri = 0;
   uint64_t bytes = 0;          // device bytes they hold
   std::vector<int8_t> closed;  // per mesh: closed_orientation()
+  // The scene's view-independent facts (scene_facts.h), once found or given: the host's copy
+  // (for each view's need) and the clearances and adjacency on the device.
+  bool facts_tried = false;  // the renderer tried to find them for this upload
+  bool facts_given = false;  // they are RenderOptions::scene_facts (not the renderer's own)
+  std::shared_ptr<const SceneFacts> facts;
+  cl::Buffer clearance, adj_offset, adj;
 };
+
+// Per frame, with scene facts: the clearance a triangle needs in this view to be apart
+// (crossing_skip_distance, rounded up to a float) and the largest nearness for the steepness
+// test. `on` false: no facts, or none apply to this view.
+struct ApartView {
+  bool on = false;
+  float need = 0;
+  double qmax = 0;
+};
+ApartView apart_view(const SceneBuffers& sb, const Camera& cam);
 
 // Per frame, before any region: the camera's matrix and cull modes, the clip-space vertices, the
 // per-input-triangle offsets (within their work-group) and the groups' totals, the whole screen
@@ -45,6 +63,7 @@ struct Frame {
 // (int4, grid units) and nearness ranges (double2), written by snap_depths.
 struct ScreenSet {
   cl::Buffer tris, bary, bb, qr;
+  cl::Buffer apart;  // per triangle, a byte: apart in this view (only with an ApartView on)
   uint32_t count = 0;
 };
 
@@ -63,7 +82,9 @@ ScreenSet fill_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl
                       uint32_t S, bool bary, Stage stage);
 // The depth planes snapped to integers over one 2^k (snap_depth_planes): crossing lines between
 // them are then exact. After the silhouette hash, whose keys are the transformed depths shared by
-// mesh neighbours. Also writes s.bb and s.qr (the binning's boxes and nearness ranges).
-void snap_depths(ClRuntime& rt, Frame& fr, ScreenSet& s, Stage stage);
+// mesh neighbours. Also writes s.bb and s.qr (the binning's boxes and nearness ranges), and
+// with `apart` on, s.apart.
+void snap_depths(ClRuntime& rt, Frame& fr, ScreenSet& s, Stage stage,
+                 const SceneBuffers* sb = nullptr, const ApartView& apart = {});
 
 }  // namespace vismap::stages
