@@ -404,8 +404,9 @@ void print_frame_stats(const RenderReport& r) {
                  r.st.apart_need, static_cast<unsigned long long>(r.st.facts_isolated),
                  static_cast<unsigned long long>(r.st.input_triangles), r.st.facts_ms);
   else if (r.st.has_facts)
-    std::fprintf(stderr, "scene facts found (%.1f ms) but not used: this view blurs more than "
-                 "their cap, or is orthographic\n", r.st.facts_ms);
+    std::fprintf(stderr, "scene facts found (%.1f ms) but not used: in this view fewer than "
+                 "half the triangles are apart (it blurs more than their clearances), or it is "
+                 "orthographic\n", r.st.facts_ms);
   if (r.args.memory_budget)
     std::fprintf(stderr,
                  "memory budget %.1f MB: %u bucket(s), each planned under %.1f MB of work\n",

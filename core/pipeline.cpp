@@ -230,7 +230,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
 
   stages::Frame fr = stages::begin_frame(rt, sb, scene, cam, Stage::Transform);
   const stages::ApartView apart = opts.cull && opts.facts != RenderOptions::Facts::Off
-                                      ? stages::apart_view(sb, cam)
+                                      ? stages::apart_view(sb, cam, opts.min_apart_fraction)
                                       : stages::ApartView{};
   st.has_facts = sb.facts != nullptr;
   st.facts_isolated = sb.facts ? sb.facts->isolated : 0;

@@ -53,6 +53,10 @@ struct RenderOptions {
   // renderer's own (unless facts is Off): a server finds them once per session's scene, whichever
   // renderer draws its frames.
   std::shared_ptr<const stages::SceneFacts> scene_facts;
+  // The facts serve a view only where at least this fraction of the triangles is apart in it
+  // (below, the bins' walk of those not apart plus the adjacency cost about what they save: the
+  // teapot stadium's view has 3 %). 0: whenever they apply (tests).
+  double min_apart_fraction = 0.5;
 };
 
 // Tells the C allocator to keep freed blocks under 32 MiB for reuse instead of handing them back

@@ -39,6 +39,7 @@ Pair render_both(Renderer& r, const Scene& scene, const Camera& cam, uint64_t bu
   // With the scene's facts at once: the culled frame's crossing search also skips pairs far
   // apart in 3D (scene_facts.h), so every comparison below covers that too.
   opts.facts = RenderOptions::Facts::Now;
+  opts.min_apart_fraction = 0;  // (whenever they apply, not only where they pay)
   const PlanarMap a = r.render(scene, cam, opts, &p.on);
   opts.cull = false;
   const PlanarMap b = r.render(scene, cam, opts, &p.off);

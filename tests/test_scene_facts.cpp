@@ -180,6 +180,21 @@ TEST(SceneFacts, AdjacencyAndClearancesAgreeWithBruteForce) {
   }
 }
 
+// The bins count from below: the fraction they give never passes the true one.
+TEST(SceneFacts, ApartFractionIsALowerBound) {
+  for (double gap : {1e-5, 1e-3, 0.05}) {
+    const stages::SceneFacts f = stages::find_scene_facts(folded_scene(gap));
+    for (double need : {0.0, 1e-9, 1e-6, 1e-5, 1e-4, f.cap / 3, f.cap}) {
+      size_t n = 0;
+      for (float c : f.clearance) n += c > need;
+      const double truth = double(n) / f.clearance.size(), bound = stages::apart_fraction(f, need);
+      EXPECT_LE(bound, truth) << gap << " " << need;
+      if (need == 0) EXPECT_EQ(bound, truth) << gap;  // (every clearance here is above cap 2^-63)
+    }
+    EXPECT_EQ(stages::apart_fraction(f, f.cap), 0.0);
+  }
+}
+
 TEST(SceneFacts, NeedFollowsTheViewAndIsOffWhereNotDerived) {
   const Scene s = folded_scene(0.05);
   const stages::SceneFacts f = stages::find_scene_facts(s);

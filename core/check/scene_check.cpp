@@ -24,6 +24,7 @@ SceneFigures check_scene(Renderer& renderer, const Scene& scene, const Camera& c
   // then also the one whose crossing search skips pairs far apart in 3D, and cull_differing
   // compares it with the frame that does neither.
   ro.facts = RenderOptions::Facts::Now;
+  ro.min_apart_fraction = 0;  // (wherever they apply, not only where they pay)
   RenderStats st;
   ScreenTriangles screen;
   PlanarMap map = renderer.render(scene, camera, ro, &st, &screen);

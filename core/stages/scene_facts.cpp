@@ -412,9 +412,20 @@ SceneFacts find_scene_facts(const Scene& scene, double max_seconds) {
     for (unsigned id = 0; id < threads; ++id) m = std::min(m, part[id][t]);
     f.clearance[t] = bad[t] ? 0.0f : m;
     if (!bad[t] && m >= static_cast<float>(f.cap)) ++f.isolated;
+    int k = 63;
+    if (f.clearance[t] > 0) k = std::clamp(int(std::floor(std::log2(f.cap / f.clearance[t]))), 0, 63);
+    ++f.clearance_bins[k];
   }
   f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return f;
+}
+
+double apart_fraction(const SceneFacts& facts, double need) {
+  if (facts.clearance.empty()) return 0;
+  uint64_t n = 0;
+  for (int k = 0; k < 63; ++k)
+    if (std::ldexp(facts.cap, -(k + 1)) >= need) n += facts.clearance_bins[k];
+  return double(n) / double(facts.clearance.size());
 }
 
 double crossing_skip_distance(const SceneFacts& facts, const Camera& cam, double* qmax) {

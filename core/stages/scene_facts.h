@@ -7,6 +7,7 @@
 // cross, tie nor touch on the screen (docs/NUMERICS.md §2 "Pairs far apart in 3D").
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -28,6 +29,9 @@ struct SceneFacts {
   Bounds bounds;   // of the triangles' vertices
   double coordinate_max = 0;  // largest |coordinate| of a vertex (for rounding margins)
   uint64_t isolated = 0;      // triangles whose clearance reached the cap
+  // Triangles by clearance: bin k holds those in (cap 2^-(k+1), cap 2^-k] (the last also 0), so
+  // that a view can count, from below, the triangles apart in it (apart_fraction).
+  std::array<uint32_t, 64> clearance_bins{};
   double ms = 0;              // time taken
   bool timed_out = false;     // gave up past max_seconds (then cap is 0: no facts)
   uint64_t bytes() const {
@@ -52,6 +56,9 @@ inline uint64_t scene_facts_work_bytes(uint64_t triangles) { return triangles * 
 // (orthographic views, no near plane) or the scene has no facts. qmax: the largest nearness
 // (1/w) a screen triangle of this view can have (for the kernels' steepness test).
 double crossing_skip_distance(const SceneFacts& facts, const Camera& cam, double* qmax = nullptr);
+
+// A lower bound on the fraction of triangles whose clearance passes `need` (from the bins).
+double apart_fraction(const SceneFacts& facts, double need);
 
 // The distance between two triangles (corners a[0..2], b[0..2]), to double rounding: 0 where they
 // meet. Degenerate triangles are handled as their edges. (For tests.)

@@ -37,7 +37,8 @@ struct ApartView {
   float need = 0;
   double qmax = 0;
 };
-ApartView apart_view(const SceneBuffers& sb, const Camera& cam);
+// Off where fewer than min_fraction of the triangles are apart (SceneFacts' bins, from below).
+ApartView apart_view(const SceneBuffers& sb, const Camera& cam, double min_fraction);
 
 // Per frame, before any region: the camera's matrix and cull modes, the clip-space vertices, the
 // per-input-triangle offsets (within their work-group) and the groups' totals, the whole screen
