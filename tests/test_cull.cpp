@@ -124,34 +124,35 @@ TEST(Cull, BunnyLeavesOutMostHiddenTriangles) {
   EXPECT_EQ(p.on.visible_fragments > 0, true);
 }
 
+// With the kernels built with `define` (a mutation), the sources that differ between the culled
+// and the unculled map on the first of `seeds` scenes (make(seed)) where any do; 0 if none.
+template <class MakeScene>
+size_t differing_under(const char* define, uint64_t seeds, MakeScene make) {
+  setenv("VISMAP_CL_OPTIONS", define, 1);
+  Renderer mutated;
+  unsetenv("VISMAP_CL_OPTIONS");
+  size_t differing = 0;
+  for (uint64_t seed = 0; seed < seeds && differing == 0; ++seed) {
+    const auto rs = make(seed);
+    differing += render_both(mutated, rs.scene, rs.camera).diff.differing;
+  }
+  return differing;
+}
+
 // A mutation: the cull trusts sheets even where a silhouette (a hole's border, a fold) crosses the
 // cell. Such a sheet need not cover the cell, so triangles seen through its holes are culled, and
 // the comparison must say so on some seed.
 TEST(Cull, AnUnsoundCullIsCaught) {
-  setenv("VISMAP_CL_OPTIONS", "-DVM_CULL_MUTATION=1", 1);
-  Renderer mutated;
-  unsetenv("VISMAP_CL_OPTIONS");
-  size_t differing = 0;
-  for (uint64_t seed = 0; seed < 160 && differing == 0; ++seed) {
-    randomized::RandomMeshScene rs = randomized::random_mesh_scene(seed);
-    differing += render_both(mutated, rs.scene, rs.camera).diff.differing;
-  }
-  EXPECT_GT(differing, 0u) << "the mutated cull was not caught";
+  EXPECT_GT(differing_under("-DVM_CULL_MUTATION=1", 160, randomized::random_mesh_scene), 0u)
+      << "the mutated cull was not caught";
 }
 
 // A mutation of the facts' premise: every triangle apart, whatever its clearance. Pairs of
 // triangles that penetrate without sharing a vertex are then never looked for, their crossing
 // lines are missing, and the comparison must say so on some seed.
 TEST(Cull, ApartTrianglesWithoutTheirClearanceAreCaught) {
-  setenv("VISMAP_CL_OPTIONS", "-DVM_APART_MUTATION=1", 1);
-  Renderer mutated;
-  unsetenv("VISMAP_CL_OPTIONS");
-  size_t differing = 0;
-  for (uint64_t seed = 0; seed < 120 && differing == 0; ++seed) {
-    randomized::RandomScene rs = randomized::random_scene(seed);
-    differing += render_both(mutated, rs.scene, rs.camera).diff.differing;
-  }
-  EXPECT_GT(differing, 0u) << "the mutated facts were not caught";
+  EXPECT_GT(differing_under("-DVM_APART_MUTATION=1", 120, randomized::random_scene), 0u)
+      << "the mutated facts were not caught";
 }
 
 }  // namespace
