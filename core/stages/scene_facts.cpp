@@ -10,6 +10,7 @@
 #include <thread>
 #include <unordered_map>
 
+#include "core/util/vec3.h"
 #include "core/util/weld.h"
 #include "kernels/layout.h"
 
@@ -17,23 +18,20 @@ namespace vismap::stages {
 
 namespace {
 
-using V = std::array<double, 3>;
+using vec3::V;
 using Tri = std::array<V, 3>;
-
-V sub(const V& a, const V& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-double dot(const V& a, const V& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-V cross(const V& a, const V& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
+using vec3::cross;
+using vec3::dot;
+using vec3::sub;
+using vec3::length;
 V along(const V& a, const V& d, double s) { return {a[0] + d[0] * s, a[1] + d[1] * s, a[2] + d[2] * s}; }
-double len(const V& a) { return std::sqrt(dot(a, a)); }
 
 // Distance from p to segment [a, b].
 double point_segment(const V& p, const V& a, const V& b) {
   const V d = sub(b, a);
   const double dd = dot(d, d);
   const double s = dd > 0 ? std::clamp(dot(sub(p, a), d) / dd, 0.0, 1.0) : 0.0;
-  return len(sub(p, along(a, d, s)));
+  return length(sub(p, along(a, d, s)));
 }
 
 // Distance between segments [p1, q1] and [p2, q2] (the closest points of Ericson's Real-Time
@@ -51,7 +49,7 @@ double segment_segment(const V& p1, const V& q1, const V& p2, const V& q2) {
   const double s = std::clamp((b * f - c * e) / denom, 0.0, 1.0);
   const double t = (b * s + f) / e;
   if (t < 0 || t > 1) return best;  // then an endpoint solution is the closest: in `best`
-  return std::min(best, len(sub(along(p1, d1, s), along(p2, d2, t))));
+  return std::min(best, length(sub(along(p1, d1, s), along(p2, d2, t))));
 }
 
 struct Prepared {
@@ -67,10 +65,10 @@ Prepared prepare(const Tri& t) {
   p.v = t;
   const V e1 = sub(t[1], t[0]), e2 = sub(t[2], t[0]), e3 = sub(t[2], t[1]);
   p.n = cross(e1, e2);
-  p.nl = len(p.n);
+  p.nl = length(p.n);
   // sin^2 of the angle at v0 below 2^-40: too thin for its plane to be trusted.
   p.flat = !(dot(p.n, p.n) > std::ldexp(dot(e1, e1) * dot(e2, e2), -40));
-  p.perimeter = len(e1) + len(e2) + len(e3);
+  p.perimeter = length(e1) + length(e2) + length(e3);
   return p;
 }
 
@@ -82,7 +80,7 @@ bool inside(const Prepared& t, const V& x) {
     const V& b = t.v[i == 2 ? 0 : i + 1];
     const V e = sub(b, a), w = sub(x, a);
     const double s = dot(cross(e, w), t.n);
-    const double tol = std::ldexp(len(e) * (len(w) + len(e)) * t.nl, -30);
+    const double tol = std::ldexp(length(e) * (length(w) + length(e)) * t.nl, -30);
     if (s < -tol) return false;
   }
   return true;
@@ -130,7 +128,7 @@ double distance(const Prepared& a, const Prepared& b) {
 // in a mesh are two rings apart and separated by a whole triangle's width).
 bool separated(const Prepared& a, const Prepared& b, double gap) {
   auto apart_along = [&](const V& axis) {
-    const double l = len(axis);
+    const double l = length(axis);
     if (!(l > 0)) return false;
     double amin = INFINITY, amax = -INFINITY, bmin = INFINITY, bmax = -INFINITY;
     for (int i = 0; i < 3; ++i) {
@@ -232,7 +230,7 @@ SceneFacts find_scene_facts(const Scene& scene, double max_seconds) {
   const uint32_t T = static_cast<uint32_t>(tri.size());
   f.clearance.assign(T, 0.0f);
   f.adj_offset.assign(size_t(T) + 1, 0);
-  const double diag = len(sub(f.bounds.hi, f.bounds.lo));
+  const double diag = length(sub(f.bounds.hi, f.bounds.lo));
   if (T == 0 || !(diag > 0) || !std::isfinite(diag)) return f;  // cap 0: no facts
   f.cap = float_below(std::ldexp(diag, -13));  // (a float: clearances are floats not above it)
 
