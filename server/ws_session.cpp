@@ -520,9 +520,12 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
         job.scene = std::make_shared<const Scene>(renderer->tessellate(*job.scene, cam, to));
         diced_s = ms_since(t0) / 1000;
       }
-      if (job.find_facts) {
-        // Within a quarter of the frame's time limit, and held only where the session's budget
-        // has room for them beside the scene (else the frames search without, as the first did).
+      if (job.find_facts &&
+          (!L.render_memory_bytes ||
+           stages::scene_facts_work_bytes(job.scene->triangle_count()) <= L.render_memory_bytes / 2)) {
+        // Where their search fits half the frame's memory, within a quarter of its time limit,
+        // and held only where the session's budget has room for them beside the scene (else the
+        // frames search without, as the first did).
         const Clock::time_point t0 = Clock::now();
         auto f = std::make_shared<const stages::SceneFacts>(
             stages::find_scene_facts(*job.scene, L.render_time_limit_s / 4));

@@ -184,6 +184,10 @@ SceneFacts find_scene_facts(const Scene& scene, double max_seconds) {
     return gave_up.load();
   };
   SceneFacts f;
+  if (scene.triangle_count() > kMaxFactsTriangles) {
+    f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return f;  // (cap 0: none)
+  }
   // Every triangle's corners, and canonical vertex ids by exact position (util/weld.h, across
   // meshes): a vertex's id is the first vertex at its place.
   std::vector<Tri> tri;

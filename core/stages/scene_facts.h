@@ -43,8 +43,12 @@ struct SceneFacts {
 // frame's search (their triangles get clearance 0) instead of listing valence^2 neighbours.
 inline constexpr uint32_t kMaxValence = 64;
 
+// Scenes with more triangles get none (cap 0): their search would hold ~4 GiB.
+inline constexpr uint64_t kMaxFactsTriangles = uint64_t(1) << 23;
+
 // The facts of `scene`'s triangle meshes (every mesh; surfaces must be diced). Uses up to
-// hardware_concurrency threads (at most 8). Past max_seconds (> 0) it gives up: cap 0, no facts.
+// hardware_concurrency threads (at most 8). Past max_seconds (> 0) it gives up: cap 0, no facts;
+// likewise past kMaxFactsTriangles.
 SceneFacts find_scene_facts(const Scene& scene, double max_seconds = 0);
 
 // What find_scene_facts holds on the host while it works, about, for T triangles (its corners,
