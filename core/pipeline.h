@@ -43,7 +43,7 @@ struct RenderOptions {
   // With cull, the crossing search skips pairs of triangles that are far apart in 3D and share
   // no vertex (core/stages/scene_facts.h), from view-independent facts found once per uploaded
   // scene: when the scene is rendered a second time (Repeat: a single frame, as the CLI renders,
-  // does not pay for them; a server session or an orbit does), at once (Now), or never (Off).
+  // does not pay for them; an orbit does), at once (Now), or never (Off); or given (below).
   // The map is the same either way. Under a memory budget Repeat finds none (the facts' device
   // bytes would change the buckets' plan from the second frame on): ask for them (Now, or
   // scene_facts) and every frame has them.

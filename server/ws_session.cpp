@@ -402,8 +402,6 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
         scene_ = scene;
         plans_ = std::make_shared<LoopPlans>();  // the old scene's go with its last frame
         facts_.reset();
-        facts_tried_ = false;
-        scene_frames_ = 0;
         base_camera_ = cam;
       }
       peak_bytes_ = std::max(peak_bytes_, scene_bytes(*scene));
@@ -415,8 +413,37 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       send_text(scene_ready_message(name, scene->meshes.size(), scene->triangle_count(), bounds,
                                     cam, ms));
       if (hello_->hold_scene) send_sources(*scene);
+      find_facts(scene);
     }
     if (state_ == State::Draining && !work_in_flight()) fail(kShuttingDown, {});
+  }
+
+  // The scene's facts on the load pool, beside the frames (which go without them until they are
+  // there): where their search fits half of render_memory_bytes (counted before, 512 B a
+  // triangle), within the load's time limit, and kept where the session's budget has room for
+  // them beside the scene; for a scene still the session's when they are found. A scene diced
+  // every frame (surfaces) has none.
+  void find_facts(const std::shared_ptr<Scene>& scene) {
+    const Limits& L = srv_.cfg.limits;
+    if (scene->has_surfaces() || scene->triangle_count() > stages::kMaxFactsTriangles ||
+        (L.render_memory_bytes &&
+         stages::scene_facts_work_bytes(scene->triangle_count()) > L.render_memory_bytes / 2))
+      return;
+    net::post(srv_.load_pool, [self = shared_from_this(), scene] {
+      const Limits& L = self->srv_.cfg.limits;
+      auto f = std::make_shared<const stages::SceneFacts>(
+          stages::find_scene_facts(*scene, L.render_time_limit_s));
+      if (!(f->cap > 0) || scene_bytes(*scene) + f->bytes() > L.max_session_bytes) return;
+      const double ms = f->ms;
+      {
+        std::lock_guard lk(self->cam_mu_);
+        if (self->scene_ != scene) return;  // (another scene came meanwhile)
+        self->facts_ = std::move(f);
+      }
+      self->srv_.log.info("scene_facts", {{"session", self->session_},
+                                          {"triangles", scene->triangle_count()},
+                                          {"ms", ms}});
+    });
   }
 
   // A delta session whose client holds the scene (protocol version 3, hold_scene): the scene's
@@ -460,8 +487,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   struct FrameJob {
     std::shared_ptr<const Scene> scene;
     std::shared_ptr<LoopPlans> plans;  // the scene's Loop plans, charged to this session
-    std::shared_ptr<const stages::SceneFacts> facts;
-    bool find_facts = false;  // this frame finds them (the scene's second, facts not tried)
+    std::shared_ptr<const stages::SceneFacts> facts;  // the scene's, once found
     Camera camera;
     uint64_t seq = 0, skipped = 0;
     double queue_ms = 0;
@@ -483,8 +509,6 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       job.scene = scene_;
       job.plans = plans_;
       job.facts = facts_;
-      job.find_facts = !facts_tried_ && scene_frames_++ == 1 && !scene_->has_surfaces();
-      if (job.find_facts) facts_tried_ = true;
       job.camera = base_camera_;
       queued = latest_at_;
       job.skipped = skipped_;
@@ -520,30 +544,14 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
         job.scene = std::make_shared<const Scene>(renderer->tessellate(*job.scene, cam, to));
         diced_s = ms_since(t0) / 1000;
       }
-      if (job.find_facts &&
-          (!L.render_memory_bytes ||
-           stages::scene_facts_work_bytes(job.scene->triangle_count()) <= L.render_memory_bytes / 2)) {
-        // Where their search fits half the frame's memory, within a quarter of its time limit,
-        // and held only where the session's budget has room for them beside the scene (else the
-        // frames search without, as the first did).
-        const Clock::time_point t0 = Clock::now();
-        auto f = std::make_shared<const stages::SceneFacts>(
-            stages::find_scene_facts(*job.scene, L.render_time_limit_s / 4));
-        diced_s += ms_since(t0) / 1000;
-        if (f->cap > 0 && scene_bytes(*job.scene) + f->bytes() <= L.max_session_bytes) {
-          job.facts = f;
-          std::lock_guard lk(cam_mu_);
-          if (scene_ == job.scene) facts_ = f;
-        }
-      }
       RenderOptions opts;
       opts.attributes = h.attributes && format_spec(h.format).carries_attributes;
       opts.memory_budget = L.render_memory_bytes;
       // The session's facts, or none (the renderer finds none of its own for a session's scene).
       opts.scene_facts = job.facts;
       opts.facts = job.facts ? RenderOptions::Facts::Now : RenderOptions::Facts::Off;
-      // Dicing (or finding the scene's facts) and rendering share the frame's time limit: the
-      // render gets what is left (the message then names that remainder).
+      // Dicing and rendering share the frame's time limit: the render gets what is left (the
+      // message then names that remainder).
       opts.time_limit_s = L.render_time_limit_s;
       if (L.render_time_limit_s > 0 && diced_s > 0)
         opts.time_limit_s = std::max(1e-3, L.render_time_limit_s - diced_s);
@@ -726,12 +734,9 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   std::mutex cam_mu_;
   std::shared_ptr<const Scene> scene_;
   std::shared_ptr<LoopPlans> plans_;  // made with each scene
-  // The scene's view-independent facts (core/stages/scene_facts.h), found on its second frame
-  // (a scene seen once does not pay for them) and kept for its later frames, whichever
-  // renderer draws them; tried once per scene.
+  // The scene's view-independent facts (core/stages/scene_facts.h), found on the load pool
+  // after scene_ready and given to every frame from then on, whichever renderer draws it.
   std::shared_ptr<const stages::SceneFacts> facts_;
-  bool facts_tried_ = false;
-  uint64_t scene_frames_ = 0;
   Camera base_camera_;
   std::optional<CameraRequest> latest_;
   Clock::time_point latest_at_;
