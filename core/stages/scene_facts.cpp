@@ -282,9 +282,9 @@ SceneFacts find_scene_facts(const Scene& scene, double max_seconds) {
   };
 
   // The grids: level k has cells of h 4^k (h about a triangle's size, at least 2 caps), and
-  // each triangle sits in the finest level where its box spans at most kMaxCells cells. A pair
-  // within the cap is found once: by the finer member looking through its own level and every
-  // coarser one, or, in one level, by the lower one.
+  // each triangle sits in the finest level where its grown box spans at most kMaxCells cells. A
+  // pair within the cap is found once: in one level by the cell that owns it, across levels by
+  // the finer member looking through the coarser levels' cells.
   std::vector<Box> box(T);
   std::vector<double> extent(T);
   for (uint32_t t = 0; t < T; ++t) {
@@ -316,26 +316,34 @@ SceneFacts find_scene_facts(const Scene& scene, double max_seconds) {
     return (uint64_t(level) << 60) | (uint64_t(x + (1 << 19)) << 40) |
            (uint64_t(y + (1 << 19)) << 20) | uint64_t(z + (1 << 19));
   };
+  // Each triangle is in every cell of its level that its box grown by half the cap meets: two
+  // triangles within the cap of each other meet in a cell, and one cell owns their pair (the
+  // one holding the low corner of their grown boxes' overlap: the larger of their start cells).
+  const double half = f.cap / 2;
   std::vector<std::pair<uint64_t, uint32_t>> entries;
   std::vector<uint8_t> level(T, 0);
+  std::vector<std::array<int64_t, 3>> start(T);
   int top = 0;
   for (uint32_t t = 0; t < T; ++t) {
     std::array<int64_t, 6> r;
     int k = 0;
-    while (k + 1 < kLevels && cell_range(box[t], 0, k, r) > kMaxCells) ++k;
-    cell_range(box[t], 0, k, r);
+    while (k + 1 < kLevels && cell_range(box[t], half, k, r) > kMaxCells) ++k;
+    cell_range(box[t], half, k, r);
     level[t] = static_cast<uint8_t>(k);
+    start[t] = {r[0], r[1], r[2]};
     top = std::max(top, k);
     for (int64_t x = r[0]; x <= r[3]; ++x)
       for (int64_t y = r[1]; y <= r[4]; ++y)
         for (int64_t z = r[2]; z <= r[5]; ++z) entries.push_back({key_of(k, x, y, z), t});
   }
   std::sort(entries.begin(), entries.end());
-  std::unordered_map<uint64_t, uint32_t> cell_of;  // key -> index into cell_first
+  // key -> index into cell_first, for the cells above level 0 (the only ones looked up: across
+  // levels, a finer triangle looks through the coarser levels' cells).
+  std::unordered_map<uint64_t, uint32_t> cell_of;
   std::vector<uint32_t> cell_first;
   for (size_t i = 0; i < entries.size(); ++i)
     if (i == 0 || entries[i].first != entries[i - 1].first) {
-      cell_of.emplace(entries[i].first, static_cast<uint32_t>(cell_first.size()));
+      if (entries[i].first >> 60) cell_of.emplace(entries[i].first, uint32_t(cell_first.size()));
       cell_first.push_back(static_cast<uint32_t>(i));
     }
   cell_first.push_back(static_cast<uint32_t>(entries.size()));
@@ -358,18 +366,46 @@ SceneFacts find_scene_facts(const Scene& scene, double max_seconds) {
     return std::max(0.0, d - std::ldexp(prep[a].perimeter + prep[b].perimeter, -19) - coord_margin);
   };
 
-  // In parallel over t; each thread keeps its own minima, merged after.
+  // In parallel over cells, then over t; each thread keeps its own minima, merged after.
   const unsigned threads = std::max(1u, std::min(8u, std::thread::hardware_concurrency()));
   std::vector<std::vector<float>> part(threads, std::vector<float>(T, static_cast<float>(f.cap)));
+  auto consider = [&](std::vector<float>& c, uint32_t t, uint32_t u) {
+    const double bd = box_distance(box[t], box[u]);
+    if (bd > f.cap || (bd >= c[t] && bd >= c[u]) || shares_vertex(t, u) ||
+        separated(prep[t], prep[u], std::max(c[t], c[u]) + coord_margin))
+      return;
+    const float d = float_below(lower_bound(t, u));
+    c[t] = std::min(c[t], d);
+    c[u] = std::min(c[u], d);
+  };
+  const size_t cells = cell_first.size() - 1;
   auto work = [&](unsigned id) {
     std::vector<float>& c = part[id];
+    // Pairs of one level: each cell's, where the cell owns them.
+    for (size_t ci = id; ci < cells; ci += threads) {
+      if ((ci & 1023) == id && over_time()) return;
+      const uint32_t b = cell_first[ci], e = cell_first[ci + 1];
+      if (e - b > kCrowdedCell) continue;  // (its triangles are bad)
+      const uint64_t key = entries[b].first;
+      const int64_t cell[3] = {int64_t((key >> 40) & 0xFFFFF) - (1 << 19),
+                               int64_t((key >> 20) & 0xFFFFF) - (1 << 19),
+                               int64_t(key & 0xFFFFF) - (1 << 19)};
+      for (uint32_t i = b; i < e; ++i)
+        for (uint32_t j = i + 1; j < e; ++j) {
+          const uint32_t t = entries[i].second, u = entries[j].second;
+          bool owner = true;
+          for (int d = 0; d < 3 && owner; ++d) owner = std::max(start[t][d], start[u][d]) == cell[d];
+          if (owner) consider(c, t, u);
+        }
+    }
+    // Pairs across levels: each triangle looks through the coarser levels' cells.
     std::vector<uint32_t> stamp(T, 0xffffffffu);
     for (uint32_t t = id; t < T; t += threads) {
       if ((t & 1023) == 0 && over_time()) return;
-      for (int k = level[t]; k <= top; ++k) {
+      for (int k = level[t] + 1; k <= top; ++k) {
         if (!level_used[k]) continue;
         std::array<int64_t, 6> r;
-        cell_range(box[t], f.cap, k, r);
+        cell_range(box[t], half, k, r);
         for (int64_t x = r[0]; x <= r[3]; ++x)
           for (int64_t y = r[1]; y <= r[4]; ++y)
             for (int64_t z = r[2]; z <= r[5]; ++z) {
@@ -382,15 +418,9 @@ SceneFacts find_scene_facts(const Scene& scene, double max_seconds) {
               }
               for (uint32_t i = cell_first[ci]; i < cell_first[ci + 1]; ++i) {
                 const uint32_t u = entries[i].second;
-                if (u == t || (k == level[t] && u < t) || stamp[u] == t) continue;
+                if (stamp[u] == t) continue;
                 stamp[u] = t;
-                const double bd = box_distance(box[t], box[u]);
-                if (bd > f.cap || (bd >= c[t] && bd >= c[u]) || shares_vertex(t, u) ||
-                    separated(prep[t], prep[u], std::max(c[t], c[u]) + coord_margin))
-                  continue;
-                const float d = float_below(lower_bound(t, u));
-                c[t] = std::min(c[t], d);
-                c[u] = std::min(c[u], d);
+                consider(c, t, u);
               }
             }
       }
