@@ -127,16 +127,23 @@ def div_round(q, n):
     return (2 * q + n) // (2 * n)
 
 
-def _ids(vals, part, limit):
-    """An id list: a count, then that many ascending gaps (every gap after the first >= 1), each
-    id below `limit`; as int64. `vals` are the section's numbers."""
+def _count(vals, part, limit, per=1, too_many="more than the scene has"):
+    """A section's count n (its first number, at most `limit`), checked against its length:
+    n records of `per` numbers follow, exactly."""
     if len(vals) == 0:
         _fail(part, "ends inside a number")
     n = int(vals[0])
     if n > limit:
-        _fail(part, "more ids than the scene has")
-    if len(vals) != 1 + n:
-        _fail(part, "ends early" if len(vals) < 1 + n else "trailing bytes")
+        _fail(part, too_many)
+    if len(vals) != 1 + per * n:
+        _fail(part, "ends early" if len(vals) < 1 + per * n else "trailing bytes")
+    return n
+
+
+def _ids(vals, part, limit):
+    """An id list: a count, then that many ascending gaps (every gap after the first >= 1), each
+    id below `limit`; as int64. `vals` are the section's numbers."""
+    _count(vals, part, limit, too_many="more ids than the scene has")
     return _gaps(vals[1:], part, limit)
 
 
@@ -261,13 +268,7 @@ def _add_sources(sec, vertex, tri):
     """The vertices and triangles sections into copies of the store (the inputs stay as they were)."""
     n_tris, n_verts = len(tri), len(vertex)
     vals = _wire.leb128(sec["vertices"], "vertices", _fail)
-    if len(vals) == 0:
-        _fail("vertices", "ends inside a number")
-    n = int(vals[0])
-    if n > n_verts:
-        _fail("vertices", "more than the scene has")
-    if len(vals) != 1 + n:
-        _fail("vertices", "ends early" if len(vals) < 1 + n else "trailing bytes")
+    n = _count(vals, "vertices", n_verts)
     gv = _gaps(vals[1:], "vertices", n_verts)
     if len(sec["vertex positions"]) != 12 * n:
         _fail("vertex positions", "ends early" if len(sec["vertex positions"]) < 12 * n else "trailing bytes")
@@ -279,13 +280,7 @@ def _add_sources(sec, vertex, tri):
         vertex = vertex.copy()
         vertex[gv] = pos
     vals = _wire.leb128(sec["triangles"], "triangles", _fail)
-    if len(vals) == 0:
-        _fail("triangles", "ends inside a number")
-    n = int(vals[0])
-    if n > n_tris:
-        _fail("triangles", "more than the scene has")
-    if len(vals) != 1 + 4 * n:
-        _fail("triangles", "ends early" if len(vals) < 1 + 4 * n else "trailing bytes")
+    n = _count(vals, "triangles", n_tris, per=4)
     if n:
         v = vals[1:].reshape(n, 4)
         ids = _gaps(v[:, 0].copy(), "triangles", n_tris)
