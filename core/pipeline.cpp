@@ -187,8 +187,7 @@ void Renderer::Impl::find_facts(const Scene& scene, const RenderOptions& opts, R
     // and under a time limit within a quarter of it (past that, none: the frames search as
     // without).
     sb.facts_tried = true;
-    if (opts.memory_budget && stages::scene_facts_work_bytes(sb.ntri) > opts.memory_budget / 2)
-      return;
+    if (!stages::scene_facts_fit(sb.ntri, opts.memory_budget)) return;
     auto found = std::make_shared<stages::SceneFacts>(
         stages::find_scene_facts(scene, opts.time_limit_s / 4));
     st.facts_ms = found->ms;

@@ -207,6 +207,17 @@ inline bool entangled(const VmScreenTri* me, int4 tb, double qmin, double qmax, 
   return *rel == VM_REL_CROSS || (*rel & (VM_REL_TIE | VM_REL_TOUCH));
 }
 
+/* The count-th pair into the slots where they hold it (cap); counted either way. */
+inline void keep_pair(uint* count, uint cap, __global uint* out_o, __global uint* out_rel,
+                      __global VmLine* out_line, uint o, int rel, VmLine line) {
+  if (*count < cap) {
+    out_o[*count] = o;
+    out_rel[*count] = (uint)rel;
+    out_line[*count] = line;
+  }
+  ++*count;
+}
+
 inline uint pairs_of(uint t, __global const VmScreenTri* tris, uint ntris,
                      __global const int4* tri_bb, __global const double2* tri_qr, VmGrid g,
                      __global const uint* tile_leaf, __global const uint* leaf_offset,
@@ -219,15 +230,6 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, uint ntris,
   const bool use_apart = ap->on != 0;
   const bool t_apart = use_apart && ap->apart[t];
   uint count = 0;
-#define VM_KEEP_PAIR(o, rel, line)  \
-  do {                              \
-    if (count < cap) {              \
-      out_o[count] = (o);           \
-      out_rel[count] = (uint)(rel); \
-      out_line[count] = (line);     \
-    }                               \
-    ++count;                        \
-  } while (0)
   if (!t_apart) {
     VM_FOR_EACH_LEAF(w, tb, g, tile_leaf) {
       /* Only the classes of entries whose pairs with t this leaf owns, each (sorted by id) walked
@@ -244,7 +246,7 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, uint ntris,
           VmLine line;
           int rel;
           if (entangled(&me, tb, qmin, qmax, o, tris, tri_bb, tri_qr, &rel, &line))
-            VM_KEEP_PAIR(o, rel, line);
+            keep_pair(&count, cap, out_o, out_rel, out_line, o, rel, line);
         }
       }
     }
@@ -258,11 +260,10 @@ inline uint pairs_of(uint t, __global const VmScreenTri* tris, uint ntris,
         VmLine line;
         int rel;
         if (entangled(&me, tb, qmin, qmax, o, tris, tri_bb, tri_qr, &rel, &line))
-          VM_KEEP_PAIR(o, rel, line);
+          keep_pair(&count, cap, out_o, out_rel, out_line, o, rel, line);
       }
     }
   }
-#undef VM_KEEP_PAIR
   return count;
 }
 

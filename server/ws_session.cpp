@@ -425,9 +425,8 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   // every frame (surfaces) has none.
   void find_facts(const std::shared_ptr<Scene>& scene) {
     const Limits& L = srv_.cfg.limits;
-    if (scene->has_surfaces() || scene->triangle_count() > stages::kMaxFactsTriangles ||
-        (L.render_memory_bytes &&
-         stages::scene_facts_work_bytes(scene->triangle_count()) > L.render_memory_bytes / 2))
+    if (scene->has_surfaces() ||
+        !stages::scene_facts_fit(scene->triangle_count(), L.render_memory_bytes))
       return;
     net::post(srv_.load_pool, [self = shared_from_this(), scene] {
       const Limits& L = self->srv_.cfg.limits;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <numbers>
 #include <thread>
 #include <unordered_map>
 
@@ -481,7 +482,7 @@ double crossing_skip_distance(const SceneFacts& facts, const Camera& cam, double
   }
   const double wmin = std::max(wlo, n), wmax = std::min(whi, far);
   if (!(wmax >= wmin)) return kOff;  // nothing of the scene in depth range
-  const double cot = 1.0 / std::tan(cam.fov_y_deg * 3.14159265358979323846 / 360.0);
+  const double cot = 1.0 / std::tan(cam.fov_y_deg * std::numbers::pi / 360.0);
   const double aspect = double(cam.width) / double(cam.height);
   // Grid units per unit of tangent (square pixels), and the longest ray per unit of depth
   // within the frustum (the screen triangles are clipped to it).

@@ -54,6 +54,12 @@ SceneFacts find_scene_facts(const Scene& scene, double max_seconds = 0);
 // What find_scene_facts holds on the host while it works, about, for T triangles (its corners,
 // boxes, grid entries and per-thread minima; measured ~300-400 bytes a triangle).
 inline uint64_t scene_facts_work_bytes(uint64_t triangles) { return triangles * 512; }
+// Whether finding the facts of a scene of this many triangles is worth trying: at most
+// kMaxFactsTriangles, and within half of a memory budget (0: none).
+inline bool scene_facts_fit(uint64_t triangles, uint64_t memory_budget) {
+  return triangles <= kMaxFactsTriangles &&
+         (memory_budget == 0 || scene_facts_work_bytes(triangles) <= memory_budget / 2);
+}
 
 // The clearance (world units) a triangle needs in this view for the crossing search to skip its
 // pairs with triangles it shares no vertex with; +infinity where the bound is not derived
