@@ -7,8 +7,11 @@
 
 #include "core/error.h"
 #include "core/util/vec3.h"
+#include "kernels/layout.h"
 
 namespace vismap {
+
+static_assert(kMaxViewport == VM_MAX_VIEWPORT, "core/camera.h and kernels/layout.h agree");
 
 namespace {
 
@@ -38,16 +41,6 @@ Mat4 identity() {
   return m;
 }
 
-Mat4 multiply(const Mat4& a, const Mat4& b) {
-  Mat4 r{};
-  for (int c = 0; c < 4; ++c)
-    for (int row = 0; row < 4; ++row) {
-      double s = 0;
-      for (int k = 0; k < 4; ++k) s += a[k * 4 + row] * b[c * 4 + k];
-      r[c * 4 + row] = s;
-    }
-  return r;
-}
 
 [[noreturn]] void bad_camera(const std::string& msg) {
   throw InputError(InputErrorKind::BadCamera, "", "", "camera", -1, msg);
@@ -201,6 +194,17 @@ void fit_near_far(Camera& c, const Bounds& b) {
   }
   c.near_plane = near;
   c.far_plane = far;
+}
+
+Mat4 multiply(const Mat4& a, const Mat4& b) {
+  Mat4 r{};
+  for (int c = 0; c < 4; ++c)
+    for (int row = 0; row < 4; ++row) {
+      double s = 0;
+      for (int k = 0; k < 4; ++k) s += a[k * 4 + row] * b[c * 4 + k];
+      r[c * 4 + row] = s;
+    }
+  return r;
 }
 
 }  // namespace vismap

@@ -16,6 +16,9 @@ inline constexpr uint32_t kMaxViewport = 16384;
 using Vec3 = std::array<double, 3>;
 using Mat4 = std::array<double, 16>;  // column-major, as OpenGL
 
+// a * b (column-major): the one 4x4 product of the camera and the loaders' node transforms.
+Mat4 multiply(const Mat4& a, const Mat4& b);
+
 struct Camera {
   enum class Projection { Perspective, Orthographic };
   Projection projection = Projection::Perspective;

@@ -9,11 +9,7 @@
  * Pairs that do not cross are ordered once for their whole overlap: by the sign of the depth
  * difference where it leaves the tie band, else by the tie rule. */
 
-#define VM_REL_NONE 0    /* footprints do not overlap with positive area */
-#define VM_REL_A_FRONT 1 /* a is in front of b over the whole overlap */
-#define VM_REL_B_FRONT 2
-#define VM_REL_CROSS 3
-#define VM_REL_TIE 4 /* or'ed in: decided by the tie rule (the planes agree within the band) */
+/* VM_REL_NONE ... VM_REL_TIE: kernels/layout.h (the host reads the relations too). */
 /* or'ed into A_FRONT / B_FRONT: the planes come within the band somewhere in the overlap (the
  * surfaces touch there), and the two share no vertex. Such a pair is entangled like a tying one:
  * each is clipped by the other's edges. Where a surface passes from in front of a triangle x to
@@ -168,7 +164,7 @@ inline int pair_relation(const VmScreenTri* a, const VmScreenTri* b, VmLine* lin
  * rest only raise a status bit, after which cross_pairs_fill traverses again into exact space,
  * for those triangles only.
  *
- * With scene facts (core/stages/scene_facts.h), a triangle "apart" in this view (snap_depth_planes)
+ * With scene facts (core/facts/scene_facts.h), a triangle "apart" in this view (snap_depth_planes)
  * can be entangled only with triangles it shares a vertex with in 3D: a pair with an apart member
  * is looked for through the scene's adjacency lists (its source's neighbours above it, each
  * neighbour's screen triangles from clip_count's offsets), and the bins' walk, which only

@@ -29,6 +29,13 @@ typedef uint64_t vm_u64;
 /* Relative depth difference under which two surfaces tie (the fixed tie rule decides). */
 #define VM_TIE_EPS 1e-6
 
+/* A pair of screen triangles' relation (crossings.cl: pair_relation; the host reads it back). */
+#define VM_REL_NONE 0    /* footprints do not overlap with positive area */
+#define VM_REL_A_FRONT 1 /* a is in front of b over the whole overlap */
+#define VM_REL_B_FRONT 2
+#define VM_REL_CROSS 3
+#define VM_REL_TIE 4 /* or'ed in: decided by the tie rule (the planes agree within the band) */
+
 /* Per-mesh cull mode (host decides; only closed meshes seen from outside are culled). */
 #define VM_CULL_NONE 0
 #define VM_CULL_POSITIVE 1 /* drop triangles whose snapped grid orientation is > 0 */

@@ -25,17 +25,18 @@ enum class Stage : uint8_t {
   Tessellate,   // curved surfaces diced for the camera (before a frame; TessellateStats)
   Implicit,     // implicit surfaces: the interval region queue with tape shortening
 };
-constexpr size_t kStageCount = 13;
+constexpr size_t kStageCount = size_t(Stage::Implicit) + 1;  // (Implicit is the last)
 // The stages a frame reports in RenderStats, in order.
 constexpr Stage kFrameStages[] = {Stage::Transform, Stage::Silhouettes, Stage::Bin,
                                   Stage::Cull,      Stage::Crossings, Stage::Candidates,  Stage::Clip,
                                   Stage::Occlusion, Stage::Emit};
 
 constexpr const char* stage_name(Stage s) {
-  constexpr const char* names[kStageCount] = {"transform",  "silhouettes", "bin",       "cull",  "crossings",
+  constexpr const char* names[] = {"transform",  "silhouettes", "bin",       "cull",  "crossings",
                                               "candidates", "clip",        "occlusion", "emit",
                                               "raster",     "test",        "tessellate",
                                               "implicit"};
+  static_assert(sizeof(names) / sizeof(names[0]) == kStageCount, "a name for every Stage");
   return names[static_cast<size_t>(s)];
 }
 

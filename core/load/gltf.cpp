@@ -22,13 +22,6 @@ M4 identity() {
   return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
 }
 
-M4 mul(const M4& a, const M4& b) {
-  M4 r{};
-  for (int c = 0; c < 4; ++c)
-    for (int row = 0; row < 4; ++row)
-      for (int k = 0; k < 4; ++k) r[c * 4 + row] += a[k * 4 + row] * b[c * 4 + k];
-  return r;
-}
 
 M4 local_matrix(const tinygltf::Node& n) {
   if (n.matrix.size() == 16) {
@@ -217,7 +210,7 @@ struct Loader {
              "node reached twice (a cycle, or more than one parent: the node hierarchy must be "
              "a forest)");
       const tinygltf::Node& n = model.nodes[ni];
-      M4 w = mul(parent, local_matrix(n));
+      M4 w = multiply(parent, local_matrix(n));
       if (n.camera >= 0 && !scene.camera && n.camera < int(model.cameras.size()))
         add_camera(model.cameras[n.camera], w);
       if (n.mesh >= 0) {

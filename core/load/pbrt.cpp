@@ -26,16 +26,6 @@ using M4 = std::array<double, 16>;  // column-major, as core/camera.h
 
 M4 identity() { return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}; }
 
-M4 mul(const M4& a, const M4& b) {
-  M4 r{};
-  for (int c = 0; c < 4; ++c)
-    for (int rr = 0; rr < 4; ++rr) {
-      double s = 0;
-      for (int k = 0; k < 4; ++k) s += a[4 * k + rr] * b[4 * c + k];
-      r[4 * c + rr] = s;
-    }
-  return r;
-}
 
 // Gauss-Jordan with partial pivoting; false when singular.
 bool invert(const M4& m, M4& out) {
@@ -270,7 +260,7 @@ class PbrtReader {
     return nullptr;
   }
 
-  void apply(const M4& m) { st_.ctm = mul(st_.ctm, m); }
+  void apply(const M4& m) { st_.ctm = multiply(st_.ctm, m); }
 
   void directive(File& f, const Token& t, int depth) {
     std::string_view d = t.text;

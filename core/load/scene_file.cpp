@@ -13,13 +13,6 @@ namespace {
 using json = nlohmann::json;
 using M4 = std::array<double, 16>;  // column-major
 
-M4 mul(const M4& a, const M4& b) {
-  M4 r{};
-  for (int c = 0; c < 4; ++c)
-    for (int row = 0; row < 4; ++row)
-      for (int k = 0; k < 4; ++k) r[c * 4 + row] += a[k * 4 + row] * b[c * 4 + k];
-  return r;
-}
 const M4 kIdentity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
 
 // Rotation by `deg` degrees about unit axis (x,y,z), right-handed.
@@ -103,7 +96,7 @@ M4 entry_transform(const Checker& ck, const json& e, const std::string& path) {
     ck.bad(path + ".rotate_axis_angle", "give either 'rotate_deg' or 'rotate_axis_angle'");
   if (e.contains("rotate_deg")) {  // about x, then y, then z (world axes)
     Vec3 a = ck.vec3(e["rotate_deg"], path + ".rotate_deg");
-    r = mul(rotation(0, 0, 1, a[2]), mul(rotation(0, 1, 0, a[1]), rotation(1, 0, 0, a[0])));
+    r = multiply(rotation(0, 0, 1, a[2]), multiply(rotation(0, 1, 0, a[1]), rotation(1, 0, 0, a[0])));
   }
   if (e.contains("rotate_axis_angle")) {
     auto a = ck.numbers(e["rotate_axis_angle"], path + ".rotate_axis_angle", 4);
@@ -119,7 +112,7 @@ M4 entry_transform(const Checker& ck, const json& e, const std::string& path) {
     if (v[0] == 0 || v[1] == 0 || v[2] == 0) ck.bad(path + ".scale", "scale must not be zero");
     s[0] = v[0], s[5] = v[1], s[10] = v[2];
   }
-  return mul(t, mul(r, s));
+  return multiply(t, multiply(r, s));
 }
 
 Camera read_camera(const Checker& ck, const json& j) {
@@ -314,7 +307,7 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
         }
       }
       // An implicit object is placed by its matrix: f is evaluated in its own space.
-      if (mesh.implicit) mesh.implicit_xform = mul(m, mesh.implicit_xform);
+      if (mesh.implicit) mesh.implicit_xform = multiply(m, mesh.implicit_xform);
       // Bezier control points move with the surface: a patch is affine-invariant.
       for (size_t v = 0; v < mesh.patches.size(); v += 3) {
         double x = mesh.patches[v], y = mesh.patches[v + 1], z = mesh.patches[v + 2];

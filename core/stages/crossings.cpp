@@ -6,7 +6,6 @@ namespace vismap::stages {
 
 namespace {
 constexpr Stage kStage = Stage::Crossings;
-constexpr uint32_t kRelCross = 3;  // VM_REL_CROSS (kernels/crossings.cl): the planes cross
 }  // namespace
 
 bool find_crossings(ClRuntime& rt, const ScreenSet& s, const TriangleBins& tb, cl::Buffer& totals,
@@ -107,7 +106,7 @@ void keep_crossing_lines(ClRuntime& rt, const Crossings& cx, const std::vector<V
   rt.read_async(kStage, cx.pair_line, 0, size_t(P) * sizeof(VmLine), line.data());
   rt.read(kStage, cx.pair_rel, 0, size_t(P) * 4, rel.data());  // in order: all four are read
   for (uint32_t p = 0; p < P; ++p) {
-    if (rel[p] != kRelCross) continue;
+    if (rel[p] != VM_REL_CROSS) continue;
     const VmScreenTri &x = tris[t[p]], &y = tris[o[p]];
     out.push_back({{x.mesh, y.mesh}, {x.tri, y.tri}, line[p].a, line[p].b, line[p].c});
   }

@@ -39,7 +39,6 @@ constexpr uint32_t kSources = 4;  // version 2: the sources message (encode_delt
 constexpr uint32_t kNoBase = 0xFFFFFFFFu;
 constexpr uint64_t kMaxRatio = 256;
 constexpr uint64_t kMaxSourceCount = 1ull << 26;  // triangles, and vertices, a client holds
-constexpr double kOnEdge = 1e-6;                  // as core/util/conform.cpp
 constexpr size_t kCameraBytes = 4 + 18 * 8;
 constexpr size_t kMeshEntryBytes = 24;
 // Polygon corner codes (proto/DELTA.md, "Polygons").

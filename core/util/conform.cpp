@@ -14,11 +14,6 @@ namespace vismap {
 
 namespace {
 
-// A vertex lies on an edge when it is within this distance (pixels) of the edge's line, strictly
-// between its ends. The planar map's vertices are exact points rounded once to a 2^-20 grid-unit
-// lattice (core/stages/map_build.h), so a vertex that is exactly on an edge is within ~1e-9 px of
-// it.
-constexpr double kOnEdge = 1e-6;
 constexpr double kCell = 4.0;  // pixels per cell of the candidate grid
 
 [[noreturn]] void bad(const char* what, size_t f) {

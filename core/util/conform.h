@@ -20,6 +20,12 @@
 
 namespace vismap {
 
+// A vertex lies on an edge when it is within this distance (pixels) of the edge's line, strictly
+// between its ends. The planar map's vertices are exact points rounded once to a 2^-20 grid-unit
+// lattice (core/stages/map_build.h), so a vertex that is exactly on an edge is within ~1e-9 px of
+// it. (The compact and delta coders decide on-edge alike.)
+inline constexpr double kOnEdge = 1e-6;
+
 struct GridMesh {
   uint32_t quantum = 0;            // grid steps per pixel
   std::vector<int32_t> xy;         // 2 per vertex, grid steps, y down
