@@ -7,8 +7,8 @@
 //                [--camera auto|bench|frame] [--device NAME] [--writes N] [--budget-s S]
 //                [--no-cull] [--no-facts]
 //
-// The scene's facts (RenderOptions::facts: the crossing search skips pairs far apart in 3D) are
-// found with the first render, their time reported as facts_ms; --no-facts renders without.
+// The scene's facts (core/facts/scene_facts.h: the crossing search skips pairs far apart in 3D)
+// are found before the first render, their time reported as facts_ms; --no-facts renders without.
 // --budget-s: stop a setting's warm runs once they have taken S seconds (at least one run), and
 // skip the extra render for the binary writer's size when one render takes more than S/4: slow
 // scenes stay affordable on a shared machine.
@@ -31,6 +31,7 @@
 
 #include "core/camera.h"
 #include "core/error.h"
+#include "core/facts/scene_facts.h"
 #include "core/pipeline.h"
 #include "core/scene.h"
 #include "core/write/output.h"
@@ -111,7 +112,7 @@ struct Args {
   double budget_s = 1e9;
   bool width_set = false;
   bool cull = true;  // --no-cull: RenderOptions::cull off (the frame before issue 32's culling)
-  bool facts = true;  // --no-facts: RenderOptions::facts Off (no scene facts for the crossings)
+  bool facts = true;  // --no-facts: no scene facts for the crossings (RenderOptions::scene_facts)
   std::vector<uint32_t> tiles{0};
 };
 
@@ -198,11 +199,19 @@ int main(int argc, char** argv) {
     first_opts.tile_pixels = a.tiles[0];
     first_opts.cull = a.cull;
     // The scene's facts (found once per scene, as a server finds them for a session's scene)
-    // with the first render, so that the warm runs are the steady state; their time is facts_ms.
-    first_opts.facts = a.facts ? RenderOptions::Facts::Now : RenderOptions::Facts::Off;
+    // before the first render, so that the warm runs are the steady state; their time is
+    // facts_ms.
+    double facts_ms = 0;
+    if (a.facts && facts::scene_facts_fit(scene.triangle_count(), 0)) {
+      const auto tf = Clock::now();
+      first_opts.scene_facts =
+          std::make_shared<const facts::SceneFacts>(facts::find_scene_facts(scene));
+      facts_ms = ms_between(tf, Clock::now());
+    }
     RenderStats first;
     auto t3 = Clock::now();
     (void)renderer.render(scene, cam, first_opts, &first);
+    first.facts_ms = facts_ms;
     auto t4 = Clock::now();
     const double first_ms = ms_between(t3, t4);
     const double upload_ms = first.upload_ms;
@@ -211,7 +220,7 @@ int main(int argc, char** argv) {
       RenderOptions opts;
       opts.tile_pixels = tile;
       opts.cull = a.cull;
-      opts.facts = first_opts.facts;
+      opts.scene_facts = first_opts.scene_facts;
       std::vector<double> pipe, kernels, host;
       std::map<std::string, std::vector<double>> stage_ms, kernel_ms;
       std::vector<std::string> stage_order;

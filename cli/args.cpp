@@ -137,17 +137,6 @@ void validate_view(const ViewArgs& a) {
   if (a.fov_y && a.ortho) throw UsageError("--fov-y and --ortho exclude each other");
 }
 
-Scene dice_for_view(Renderer& renderer, Scene scene, const Camera& cam, const ViewArgs& a,
-                    TessellateStats* st, uint64_t memory_budget, double time_limit_s) {
-  if (!scene.has_surfaces()) return scene;
-  TessellateOptions o;
-  o.tolerance_px = float(a.tolerance_px);
-  o.implicit_tolerance_px = float(a.implicit_tolerance_px);
-  o.memory_budget = memory_budget;
-  o.time_limit_s = time_limit_s;
-  return renderer.tessellate(scene, cam, o, st);
-}
-
 Camera make_camera(const Scene& scene, const ViewArgs& a) {
   uint32_t w = a.width.value_or(scene.camera ? scene.camera->width : 1024);
   uint32_t h = a.height.value_or(scene.camera ? scene.camera->height : 1024);

@@ -10,8 +10,7 @@
 
 #include "core/camera.h"
 #include "core/error.h"
-#include "core/lines/lines.h"
-#include "core/pipeline.h"
+#include "core/frame/frame.h"
 #include "core/scene.h"
 
 namespace vismap::cli {
@@ -62,12 +61,6 @@ bool parse_line_flag(const std::string& flag, const std::function<std::string()>
 
 // The camera: the scene's own (or a framing one), then the flags on top.
 Camera make_camera(const Scene& scene, const ViewArgs& a);
-
-// The scene with its curved surfaces diced for `cam` (the scene itself when it has none), under
-// the render's memory budget and time limit (0: none).
-Scene dice_for_view(Renderer& renderer, Scene scene, const Camera& cam, const ViewArgs& a,
-                    TessellateStats* st = nullptr, uint64_t memory_budget = 0,
-                    double time_limit_s = 0);
 
 // Writes through a temporary file in the same folder and renames it: no half-written output.
 void write_atomically(const std::string& path, const std::string& bytes);

@@ -4,13 +4,13 @@
 #include "cli/check.h"
 
 #include <cstdio>
+#include <memory>
 #include <string>
 
 #include "cli/args.h"
+#include "core/check/line_figures.h"
 #include "core/check/scene_check.h"
-#include "core/lines/line_check.h"
-#include "core/lines/lines.h"
-#include "core/lines/svg_lines.h"
+#include "core/frame/frame.h"
 
 namespace vismap::cli {
 
@@ -74,46 +74,19 @@ CheckArgs parse_check(int argc, char** argv) {
   if (pixels_given && !force_reference) a.opts.reference = false;
   return a;
 }
-}  // namespace
 
-namespace {
-int run_check(const CheckArgs& a);
-
-// --lines-image: where the drawing and the reference agree, one colour per pixel. Red: a
-// reference point with no line near (missed); magenta: a drawn line with no reference point
-// near (unsupported); black: a drawn line with one; light green: reference points, all near a
-// line; white: nothing.
-void write_line_check_image(const std::string& path, const std::vector<uint8_t>& img,
-                            uint32_t width, uint32_t height) {
-  std::string ppm = "P6\n" + std::to_string(width) + " " + std::to_string(height) + "\n255\n";
-  for (uint8_t v : img) {
-    uint8_t c[3] = {255, 255, 255};
-    if (v & kRefMissed)
-      c[0] = 230, c[1] = 0, c[2] = 0;
-    else if (v & kDrawnUnsupported)
-      c[0] = 220, c[1] = 0, c[2] = 220;
-    else if (v & kDrawn)
-      c[0] = c[1] = c[2] = 0;
-    else if (v & kRefPoint)
-      c[0] = 150, c[1] = 220, c[2] = 150;
-    ppm.append(reinterpret_cast<const char*>(c), 3);
-  }
-  write_atomically(path, ppm);
-}
-}  // namespace
-
-int cmd_check(int argc, char** argv) {
-  const CheckArgs a = parse_check(argc, argv);
-  return naming_scene(a.scene, [&] { return run_check(a); });
-}
-
-namespace {
-
+// The scene diced for the view through the front door (core/frame), then every check.
 int run_check(const CheckArgs& a) {
-  Scene scene = load_scene(a.scene);
-  Camera cam = make_camera(scene, a.view);
+  auto loaded = std::make_shared<const Scene>(load_scene(a.scene));
+  frame::FrameSpec spec;
+  spec.camera = make_camera(*loaded, a.view);
+  spec.scene = std::make_shared<frame::SceneState>(loaded);
+  spec.tolerance_px = a.view.tolerance_px;
+  spec.implicit_tolerance_px = a.view.implicit_tolerance_px;
+  spec.memory_budget = a.opts.memory_budget;
+  const Camera& cam = spec.camera;
   Renderer renderer(a.view.device);
-  scene = dice_for_view(renderer, std::move(scene), cam, a.view, nullptr, a.opts.memory_budget);
+  Scene scene = *frame::dice_for_view(renderer, spec);
   check::ReversedScene rev;
   if (a.reverse) {
     rev = check::reverse_order(scene);
@@ -128,49 +101,24 @@ int run_check(const CheckArgs& a) {
   j["reversed"] = a.reverse;
   std::vector<std::string> bad = check::over_tolerance(f, a.tol);
   if (a.lines) {
-    // The drawing `vismap render --style lines` makes, against the id raster of the same view.
-    // With --lines-from, another tool's drawing read from SVG (core/lines/svg_lines.h) instead.
-    LineSet lines;
-    if (!a.lines_from.empty()) {
-      lines = read_svg_lines_file(a.lines_from, cam.width, cam.height);
-    } else {
-      RenderOptions ro;
-      ro.keep_screen_triangles = true;
-      ro.memory_budget = a.opts.memory_budget;
-      ScreenTriangles screen;
-      const PlanarMap map = renderer.render(scene, cam, ro, nullptr, &screen);
-      lines = extract_lines(map, screen, scene, cam, a.line_opts);
-    }
-    // The reference: the id raster at 4 x 4 samples per pixel (the same view, finer).
-    constexpr uint32_t kFactor = 4;
-    Camera fine = cam;
-    fine.width *= kFactor;
-    fine.height *= kFactor;
-    std::vector<uint32_t> ids;
-    renderer.raster_ids(scene, fine, &ids);
-    std::vector<uint8_t> img;
-    const LineCheck lc = check_lines(lines, ids, cam.width, cam.height, kFactor, scene, 1.5,
-                                     a.lines_image.empty() ? nullptr : &img);
-    if (!a.lines_image.empty()) write_line_check_image(a.lines_image, img, cam.width, cam.height);
-    nlohmann::ordered_json l;
-    if (!a.lines_from.empty()) l["from"] = a.lines_from;
-    l["chains"] = lines.chain_count();
-    for (size_t k = 0; k < kLineKinds; ++k)
-      l[std::string(line_kind_name(LineKind(k))) + "_edges"] = lines.edges[k];
-    l["unplaced_edges"] = lines.unplaced;
-    l["samples_per_pixel"] = kFactor * kFactor;
-    l["radius_px"] = lc.radius;
-    l["reference_points"] = lc.reference_points;
-    l["recall"] = lc.recall();
-    l["line_px"] = lc.line_px;
-    l["precision"] = lc.precision();
-    j["lines"] = l;
+    check::LineFigureOptions lo;
+    lo.lines = a.line_opts;
+    lo.from_svg = a.lines_from;
+    lo.memory_budget = a.opts.memory_budget;
+    lo.image = !a.lines_image.empty();
+    const check::LineFigures lf = check::check_line_drawing(renderer, scene, cam, lo);
+    if (lo.image) write_atomically(a.lines_image, lf.ppm);
+    j["lines"] = lf.json;
   }
   j["over_tolerance"] = bad;
   std::printf("%s\n", j.dump().c_str());
   return bad.empty() ? 0 : 4;
 }
-
 }  // namespace
+
+int cmd_check(int argc, char** argv) {
+  const CheckArgs a = parse_check(argc, argv);
+  return naming_scene(a.scene, [&] { return run_check(a); });
+}
 
 }  // namespace vismap::cli

@@ -26,6 +26,8 @@ const char* to_string(InputErrorKind k) {
       return "too_large";
     case InputErrorKind::TimeLimit:
       return "time_limit";
+    case InputErrorKind::Cancelled:
+      return "cancelled";
   }
   return "unknown";
 }

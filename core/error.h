@@ -21,6 +21,7 @@ enum class InputErrorKind {
   BadCamera,
   TooLarge,
   TimeLimit,  // a render or load passed its time limit (RenderOptions, LoadOptions::time_limit_s)
+  Cancelled,  // its caller cancelled the frame (RenderOptions::cancel, core/frame's FrameSpec)
 };
 
 const char* to_string(InputErrorKind k);

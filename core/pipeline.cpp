@@ -92,13 +92,13 @@ struct Renderer::Impl {
   uint64_t scene_key = 0;
   bool uploaded = false;
   stages::SceneBuffers sb;
-  uint32_t scene_frames = 0;  // frames rendered of the uploaded scene
   LoopPlans loop_plans;  // per Loop control mesh, built on first use
 
   void upload(const Scene& scene, RenderStats& st);
-  // The uploaded scene's facts (scene_facts.h), found and uploaded where opts ask for them now.
-  void find_facts(const Scene& scene, const RenderOptions& opts, RenderStats& st);
-  void drop_facts();  // the renderer's own facts released (device buffers and bytes)
+  // The facts given for the uploaded scene (RenderOptions::scene_facts) uploaded, or the ones
+  // held released where none (or none usable) are given.
+  void take_facts(const RenderOptions& opts);
+  void drop_facts();  // the facts held released (device buffers and bytes)
   PlanarMap run(const Scene& scene, const Camera& cam, const RenderOptions& opts, RenderStats& st,
                 ScreenTriangles* screen);
   // One region's S screen triangles through every stage into `map`. False when a stage found
@@ -147,10 +147,8 @@ void Renderer::Impl::upload(const Scene& scene, RenderStats& st) {
   sb.bytes = p.size() * sizeof(float) + (ix.size() + tm.size() + tl.size()) * sizeof(uint32_t);
   sb.closed.clear();
   for (const Mesh& mesh : scene.meshes) sb.closed.push_back(closed_orientation(mesh));
-  sb.facts.reset();  // (the new scene's are found when asked for)
-  sb.facts_tried = sb.facts_given = false;
+  sb.facts.reset();  // (the new scene's come with its frames)
   sb.clearance = sb.adj_offset = sb.adj = cl::Buffer();
-  scene_frames = 0;
   scene_key = key;
   uploaded = !diced;
   st.upload_ms = ms_since(t0);
@@ -159,46 +157,19 @@ void Renderer::Impl::upload(const Scene& scene, RenderStats& st) {
 void Renderer::Impl::drop_facts() {
   if (sb.facts) sb.bytes -= sb.facts->bytes();
   sb.facts.reset();
-  sb.facts_tried = sb.facts_given = false;
   sb.clearance = sb.adj_offset = sb.adj = cl::Buffer();
 }
 
-void Renderer::Impl::find_facts(const Scene& scene, const RenderOptions& opts, RenderStats& st) {
-  using F = RenderOptions::Facts;
-  if (!opts.cull || opts.facts == F::Off) {
-    // A frame without them holds none of the renderer's own (their bytes are in the buckets'
-    // plan); given ones are the caller's to keep.
-    if (sb.facts && !sb.facts_given) drop_facts();
+void Renderer::Impl::take_facts(const RenderOptions& opts) {
+  const std::shared_ptr<const facts::SceneFacts>& f = opts.scene_facts;
+  if (!opts.cull || !f || f->clearance.size() != sb.ntri || !(f->cap > 0) ||
+      (opts.memory_budget && f->bytes() > opts.memory_budget / 4)) {
+    if (sb.facts) drop_facts();  // (none given, not this scene's, none found, or too large)
     return;
   }
-  std::shared_ptr<const stages::SceneFacts> f = opts.scene_facts;
-  if (f && f == sb.facts) return;  // (given, and uploaded already)
-  if (!f) {
-    // Under a memory budget a renderer holds only facts it was asked for (Now, or given): its
-    // own from an earlier frame would change the buckets' plan (their bytes are held), and the
-    // same scene, view and budget give the same buckets every time.
-    if (opts.memory_budget && opts.facts == F::Repeat) {
-      if (sb.facts && !sb.facts_given) drop_facts();
-      return;
-    }
-    if (sb.facts_tried || (opts.facts == F::Repeat && scene_frames == 0)) return;
-    // A scene re-uploaded every frame (diced surfaces) never reaches its second frame. The facts
-    // are tried once per upload: under a memory budget only where their work fits half of it,
-    // and under a time limit within a quarter of it (past that, none: the frames search as
-    // without).
-    sb.facts_tried = true;
-    if (!stages::scene_facts_fit(sb.ntri, opts.memory_budget)) return;
-    auto found = std::make_shared<stages::SceneFacts>(
-        stages::find_scene_facts(scene, opts.time_limit_s / 4));
-    st.facts_ms = found->ms;
-    f = std::move(found);
-  }
-  if (f->clearance.size() != sb.ntri || !(f->cap > 0)) return;  // (not this scene's, or none)
-  if (opts.memory_budget && f->bytes() > opts.memory_budget / 4) return;
+  if (f == sb.facts) return;  // (uploaded already)
   if (sb.facts) sb.bytes -= sb.facts->bytes();
-  sb.facts_given = f == opts.scene_facts;
   sb.facts = f;
-  sb.facts_tried = true;
   sb.clearance = rt.upload(f->clearance, "scene clearances");
   sb.adj_offset = rt.upload(f->adj_offset, "scene adjacency");
   sb.adj = rt.upload(f->adj, "scene adjacency");
@@ -213,9 +184,8 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   map.height = cam.height;
   map.grid_scale = VM_GRID_SCALE;
   upload(scene, st);
-  const stages::Deadline deadline(opts.time_limit_s, scene.source);  // (the facts count in it)
-  find_facts(scene, opts, st);
-  ++scene_frames;
+  const stages::Deadline deadline(opts.time_limit_s, scene.source, opts.started, opts.cancel);
+  take_facts(opts);
   st.input_triangles = sb.ntri;
   rt.reset_profile();
   rt.reset_allocated();
@@ -228,9 +198,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   Tally tally;
 
   stages::Frame fr = stages::begin_frame(rt, sb, scene, cam, Stage::Transform);
-  const stages::ApartView apart = opts.cull && opts.facts != RenderOptions::Facts::Off
-                                      ? stages::apart_view(sb, cam, opts.min_apart_fraction)
-                                      : stages::ApartView{};
+  const stages::ApartView apart = stages::apart_view(sb, cam, opts.min_apart_fraction);
   st.has_facts = sb.facts != nullptr;
   st.facts_isolated = sb.facts ? sb.facts->isolated : 0;
   st.apart_need = apart.on ? apart.need : 0;
@@ -471,7 +439,7 @@ Scene Renderer::tessellate(const Scene& scene, const Camera& camera, const Tesse
     out.dropped_degenerate = scene.dropped_degenerate;
     out.source = scene.source;
     out.meshes.reserve(scene.meshes.size());
-    const stages::Deadline deadline(opts.time_limit_s, scene.source);
+    const stages::Deadline deadline(opts.time_limit_s, scene.source, opts.started, opts.cancel);
     const stages::TimeCheck check_time = [&] { deadline.check(Stage::Tessellate); };
     for (const Mesh& m : scene.meshes) {
       check_time();
@@ -493,8 +461,8 @@ Scene Renderer::tessellate(const Scene& scene, const Camera& camera, const Tesse
 
 implicit::Regions2D Renderer::implicit_2d(const implicit::Tape& tape, const implicit::View2D& view,
                                           double tolerance_px, double time_limit_s,
-                                          uint64_t memory_budget) {
-  const stages::Deadline deadline(time_limit_s, "");
+                                          uint64_t memory_budget, Clock::time_point started) {
+  const stages::Deadline deadline(time_limit_s, "", started);
   return device_errors(impl_->rt, [&] {
     return implicit::contour_2d(
         impl_->rt, tape, view, tolerance_px, [&] { deadline.check(Stage::Implicit); },

@@ -3,6 +3,8 @@
 // per-element work.
 #pragma once
 
+#include <atomic>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
@@ -11,12 +13,15 @@
 #include "core/camera.h"
 #include "core/device/device.h"
 #include "core/planar_map.h"
-#include "core/stages/scene_facts.h"
 #include "core/render_stats.h"
 #include "core/scene.h"
 #include "core/surfaces/tessellate.h"
 
 namespace vismap {
+
+namespace facts {  // core/facts/scene_facts.h
+struct SceneFacts;
+}
 
 namespace implicit {  // core/surfaces/implicit2d.h, for Renderer::implicit_2d's callers
 struct Tape;
@@ -33,26 +38,23 @@ struct RenderOptions {
   // is rendered in buckets (rectangles of whole pixels, each clipped exactly), one at a time.
   uint64_t memory_budget = 0;
   std::function<void(double)> progress;  // called with a fraction in [0,1], if set
-  // Seconds of host wall time the render may take; 0: no limit. Checked between launches: past
-  // it the render stops with InputError TimeLimit and nothing is returned.
+  // Seconds of host wall time the render may take, counted from `started` (the default: the
+  // render's start; a caller whose limit covers more, as core/frame's whole frame does, gives
+  // when it began); 0: no limit. Checked between launches: past it the render stops with
+  // InputError TimeLimit and nothing is returned. Likewise, once *cancel is true, with InputError
+  // Cancelled.
   double time_limit_s = 0;
+  std::chrono::steady_clock::time_point started{};
+  const std::atomic<bool>* cancel = nullptr;
   // Leave out what is provably hidden (core/stages/cull.h): triangles before the crossings,
   // candidates and clip rounds, fragments during them. The visible region of every source is the
   // same either way; off, the frame clips every triangle in view (for comparisons and tests).
   bool cull = true;
   // With cull, the crossing search skips pairs of triangles that are far apart in 3D and share
-  // no vertex (core/stages/scene_facts.h), from view-independent facts found once per uploaded
-  // scene: when the scene is rendered a second time (Repeat: a single frame, as the CLI renders,
-  // does not pay for them; an orbit does), at once (Now), or never (Off); or given (below).
-  // The map is the same either way. Under a memory budget Repeat finds none (the facts' device
-  // bytes would change the buckets' plan from the second frame on): ask for them (Now, or
-  // scene_facts) and every frame has them.
-  enum class Facts { Repeat, Now, Off };
-  Facts facts = Facts::Repeat;
-  // Facts the caller found for this scene (stages::find_scene_facts), used instead of the
-  // renderer's own (unless facts is Off): a server finds them once per session's scene, whichever
-  // renderer draws its frames.
-  std::shared_ptr<const stages::SceneFacts> scene_facts;
+  // no vertex, from this scene's view-independent facts (core/facts/scene_facts.h), found once
+  // per scene by whoever keeps the scene (core/frame's SceneState) and given to each frame. The
+  // map is the same with or without them. Null: none.
+  std::shared_ptr<const facts::SceneFacts> scene_facts;
   // The facts serve a view only where at least this fraction of the triangles is apart in it
   // (below, the bins' walk of those not apart plus the adjacency cost about what they save: the
   // teapot stadium's view has 3 %). 0: whenever they apply (tests).
@@ -100,7 +102,8 @@ class Renderer {
   // within the time limit and memory budget given (0: none), as a frame's.
   implicit::Regions2D implicit_2d(const implicit::Tape& tape, const implicit::View2D& view,
                                   double tolerance_px, double time_limit_s = 0,
-                                  uint64_t memory_budget = 0);
+                                  uint64_t memory_budget = 0,
+                                  std::chrono::steady_clock::time_point started = {});
   PlanarMap render(const Scene& scene, const Camera& camera, const RenderOptions& opts = {},
                    RenderStats* stats = nullptr, ScreenTriangles* screen = nullptr);
   // One sample per pixel centre (row-major, y down): the global input triangle index

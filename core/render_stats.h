@@ -37,7 +37,7 @@ struct RenderStats {
   uint64_t culled_triangles = 0, dropped_fragments = 0;
   uint64_t back_faces = 0;        // back faces of closed meshes seen from outside (transform)
   uint64_t pruned_candidates = 0;  // silhouette edges along which a triangle is proven hidden
-  // The scene's view-independent facts (core/stages/scene_facts.h): found in this frame in
+  // The scene's view-independent facts (core/facts/scene_facts.h): found in this frame in
   // facts_ms (0: earlier, or not at all); scene triangles whose clearance reached its cap
   // (facts_isolated); the clearance this view needs for a triangle to skip the crossing search
   // with all but its neighbours (apart_need, world units; 0: the skip was off this frame).

@@ -166,7 +166,7 @@ inline bool snap_plane(VmScreenTri* tp, int k) {
 /* Each screen triangle's plane snapped (snap_plane), then its box and nearness range for the
  * binning (bin.cl), so pair tests can reject by depth before loading it. With scene facts
  * (use_apart), also whether the triangle is apart in this view (crossings.cl): its source's
- * clearance passes `need` (core/stages/scene_facts.h) and its plane is not steeper than 16 qmax
+ * clearance passes `need` (core/facts/scene_facts.h) and its plane is not steeper than 16 qmax
  * per grid unit (the rounding of an overlap's corners moves its depth by less than the margin
  * the need has for it: docs/NUMERICS.md §2 "Pairs far apart in 3D"). */
 __kernel void snap_depth_planes(__global VmScreenTri* tris, uint n, __global const int* ex,

@@ -15,6 +15,8 @@
 
 #include "core/camera.h"
 #include "core/error.h"
+#include "core/frame/encoders.h"
+#include "core/frame/formats.h"
 #include "core/stream/compact.h"
 
 namespace vismap::server {
@@ -50,28 +52,38 @@ struct ProtoError : std::runtime_error {
   bool fatal;
 };
 
-// The frame formats, one row each in kFormats. Adding one is a row there and its encoder in
-// frame_encoder.cpp (make_encoder); the hello parser, welcome.formats, the frame header's
-// `format`, the payload's message type and the per-format metrics all follow the table.
+// The frame formats a session may ask for, one row each in kFormats: the rows of core/frame's
+// table (core/frame/formats.h: name, binary, attributes; the encoders) that a stream carries,
+// with what the protocol adds. Adding one is a row there and here; the hello parser,
+// welcome.formats, the frame header's `format`, the payload's message type and the per-format
+// metrics all follow the table.
 enum class Format : uint8_t { Svg, Bin, Compact, Delta };
 
 struct FormatSpec {
   Format format;
-  const char* name;           // hello.format, frame.format, the metrics' format label
-  int since_version;          // the protocol version that introduced it
-  bool binary;                // payload as a binary WebSocket message (else text)
-  bool carries_attributes;    // hello.attributes: true puts barycentrics and 1/w in the frame
-  const char* no_attributes;  // why attributes: true is refused; nullptr: accepted (or ignored)
+  frame::OutputFormat output;  // its row in core/frame/formats.h
+  const char* name;            // hello.format, frame.format, the metrics' format label
+  int since_version;           // the protocol version that introduced it
+  bool binary;                 // payload as a binary WebSocket message (else text)
+  bool carries_attributes;     // hello.attributes: true puts barycentrics and 1/w in the frame
+  const char* no_attributes;   // why attributes: true is refused; nullptr: accepted (or ignored)
 };
 
+constexpr FormatSpec stream_format(Format f, frame::OutputFormat o, int since_version,
+                                   const char* no_attributes) {
+  const frame::FormatRow& r = frame::format_row(o);
+  return {f, o, r.name, since_version, r.binary, r.carries_attributes, no_attributes};
+}
+
 inline constexpr std::array<FormatSpec, 4> kFormats{{
-    {Format::Svg, "svg", 1, false, false, nullptr},  // v1 ignores attributes with svg: kept
-    {Format::Bin, "bin", 1, true, true, nullptr},
-    {Format::Compact, "compact", 2, true, false,
-     "compact frames carry no barycentrics; use format \"bin\" for attributes"},
-    {Format::Delta, "delta", 2, true, false,
-     "delta frames carry no barycentrics: the client computes them from the source triangles "
-     "it holds (proto/DELTA.md)"},
+    // v1 ignores attributes with svg: kept
+    stream_format(Format::Svg, frame::OutputFormat::Svg, 1, nullptr),
+    stream_format(Format::Bin, frame::OutputFormat::Bin, 1, nullptr),
+    stream_format(Format::Compact, frame::OutputFormat::Compact, 2,
+                  "compact frames carry no barycentrics; use format \"bin\" for attributes"),
+    stream_format(Format::Delta, frame::OutputFormat::Delta, 2,
+                  "delta frames carry no barycentrics: the client computes them from the source "
+                  "triangles it holds (proto/DELTA.md)"),
 }};
 
 static_assert(
@@ -158,6 +170,10 @@ void check_control_message(const std::string& text, uint64_t max_control_bytes);
 // ran check_control_message on this text already).
 Request parse_request(const std::string& text, uint64_t max_scene_bytes, uint32_t max_viewport,
                       bool checked_depth = false);
+
+// How a session's frames are written (core/frame/encoders.h), from its hello. level: compact and
+// delta frames' entropy coder level (Config::frame_level; 0: its default).
+frame::OutputSpec output_spec(const Hello& hello, int level = 0);
 
 // The code for a core input error: to_string(kind).
 std::string error_code(const vismap::InputError& e);

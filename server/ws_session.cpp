@@ -9,13 +9,11 @@
 #include <deque>
 #include <nlohmann/json.hpp>
 
-#include "core/pipeline.h"
+#include "core/frame/frame.h"
 #include "core/scene.h"
 #include "core/stream/delta.h"
 #include "core/util/clock.h"
-#include "core/write/output.h"
 #include "server/error_reply.h"
-#include "server/frame_encoder.h"
 #include "server/protocol.h"
 
 namespace vismap::server {
@@ -27,13 +25,7 @@ using nlohmann::json;
 
 namespace {
 
-uint64_t scene_bytes(const Scene& s) {
-  uint64_t b = sizeof(Scene);
-  for (const Mesh& m : s.meshes)
-    b += sizeof(Mesh) + m.name.size() +
-         4 * (m.positions.size() + m.indices.size() + m.face_ids.size());
-  return b;
-}
+using frame::scene_bytes;
 
 websocket::close_code close_code_for(const std::string& c) {
   if (c == code::busy) return websocket::close_code::try_again_later;
@@ -280,7 +272,8 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     srv_.metrics.sessions_total++;
     srv_.log.info("session_open", {{"session", session_}, {"peer", peer_}});
     hello_ = h;
-    encoder_ = make_encoder(h, srv_.cfg.frame_level);
+    output_ = output_spec(h, srv_.cfg.frame_level);
+    encoder_ = frame::make_encoder(output_);
     state_ = State::Open;
     hello_timer_.cancel();
     arm_idle();
@@ -388,20 +381,12 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     if (err) {
       fail(*err, {});
     } else {
-      Camera cam;
-      if (scene->camera) {
-        cam = *scene->camera;
-        cam.width = hello_->width;
-        cam.height = hello_->height;
-      } else {
-        cam = frame_scene(*scene, hello_->width, hello_->height);
-      }
+      const Camera cam = frame::scene_camera(*scene, hello_->width, hello_->height);
       auto bounds = scene_bounds(*scene);
-      {
+      auto state = std::make_shared<frame::SceneState>(scene);  // (the old one's facts and
+      {                                                           // plans go with its last frame)
         std::lock_guard lk(cam_mu_);
-        scene_ = scene;
-        plans_ = std::make_shared<LoopPlans>();  // the old scene's go with its last frame
-        facts_.reset();
+        scene_ = state;
         base_camera_ = cam;
       }
       peak_bytes_ = std::max(peak_bytes_, scene_bytes(*scene));
@@ -413,7 +398,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       send_text(scene_ready_message(name, scene->meshes.size(), scene->triangle_count(), bounds,
                                     cam, ms));
       if (hello_->hold_scene) send_sources(*scene);
-      find_facts(scene);
+      find_facts(state);
     }
     if (state_ == State::Draining && !work_in_flight()) fail(kShuttingDown, {});
   }
@@ -421,27 +406,22 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   // The scene's facts on the load pool, beside the frames (which go without them until they are
   // there): where their search fits half of render_memory_bytes (counted before, 512 B a
   // triangle), within the load's time limit, and kept where the session's budget has room for
-  // them beside the scene; for a scene still the session's when they are found. A scene diced
-  // every frame (surfaces) has none.
-  void find_facts(const std::shared_ptr<Scene>& scene) {
-    const Limits& L = srv_.cfg.limits;
-    if (scene->has_surfaces() ||
-        !stages::scene_facts_fit(scene->triangle_count(), L.render_memory_bytes))
-      return;
-    net::post(srv_.load_pool, [self = shared_from_this(), scene] {
+  // them beside the scene (frame::SceneState::find_facts). A scene diced every frame (surfaces)
+  // has none.
+  void find_facts(const std::shared_ptr<frame::SceneState>& state) {
+    if (state->scene()->has_surfaces()) return;
+    net::post(srv_.load_pool, [self = shared_from_this(), state] {
       const Limits& L = self->srv_.cfg.limits;
-      auto f = std::make_shared<const stages::SceneFacts>(
-          stages::find_scene_facts(*scene, L.render_time_limit_s));
-      if (!(f->cap > 0) || scene_bytes(*scene) + f->bytes() > L.max_session_bytes) return;
-      const double ms = f->ms;
+      const Clock::time_point t0 = Clock::now();
+      if (!state->find_facts(L.render_memory_bytes, L.render_time_limit_s, L.max_session_bytes))
+        return;
       {
         std::lock_guard lk(self->cam_mu_);
-        if (self->scene_ != scene) return;  // (another scene came meanwhile)
-        self->facts_ = std::move(f);
+        if (self->scene_ != state) return;  // (another scene came meanwhile)
       }
       self->srv_.log.info("scene_facts", {{"session", self->session_},
-                                          {"triangles", scene->triangle_count()},
-                                          {"ms", ms}});
+                                          {"triangles", state->scene()->triangle_count()},
+                                          {"ms", ms_since(t0)}});
     });
   }
 
@@ -484,80 +464,66 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
 
   // What a frame carries from the render worker to the encoder and the strand.
   struct FrameJob {
-    std::shared_ptr<const Scene> scene;
-    std::shared_ptr<LoopPlans> plans;  // the scene's Loop plans, charged to this session
-    std::shared_ptr<const stages::SceneFacts> facts;  // the scene's, once found
-    Camera camera;
+    frame::FrameSpec spec;
     uint64_t seq = 0, skipped = 0;
     double queue_ms = 0;
-    RenderStats stats;
-    PlanarMap map;
-    ScreenTriangles screen;  // kept when the encoder needs them (delta)
+    frame::RenderedFrame rendered;
   };
 
+  // The frame's spec: the session's scene and camera, its hello's output and tolerances, the
+  // server's limits (one time limit for the frame from here: core/frame/frame.h).
+  frame::FrameSpec frame_spec(std::shared_ptr<frame::SceneState> state, Camera cam) const {
+    const Hello& h = *hello_;
+    const Limits& L = srv_.cfg.limits;
+    frame::FrameSpec spec;
+    spec.started = Clock::now();
+    spec.camera = cam;
+    spec.output = output_;
+    spec.tolerance_px = h.tolerance_px;
+    spec.implicit_tolerance_px = h.implicit_tolerance_px;
+    spec.time_limit_s = L.render_time_limit_s;
+    spec.memory_budget = L.render_memory_bytes;
+    // The session's Loop plans hold at most what max_session_bytes leaves besides the scene
+    // (issue 35, case 6: six sessions' plans took the server from 2.6 to 8.6 GB for good).
+    const uint64_t held = state->scene_bytes();
+    spec.loop_plan_bytes = L.max_session_bytes > held ? L.max_session_bytes - held : 1;
+    // The facts found on the load pool, or none (a frame never searches for them).
+    spec.facts = frame::FactsPolicy::Found;
+    spec.before_render = srv_.cfg.before_render;
+    spec.scene = std::move(state);
+    return spec;
+  }
+
   // Runs on a render worker. Returns as soon as the planar map is built: the Renderer goes back
-  // to the queue and the SVG or bin is written on the encode pool.
+  // to the queue and the lines and the encoding are done on the encode pool.
   void render(Renderer* renderer) {
     FrameJob job;
     CameraRequest req;
     Clock::time_point queued;
+    std::shared_ptr<frame::SceneState> state;
+    Camera cam;
     {
       std::lock_guard lk(cam_mu_);
       req = *latest_;
       latest_.reset();
-      job.scene = scene_;
-      job.plans = plans_;
-      job.facts = facts_;
-      job.camera = base_camera_;
+      state = scene_;
+      cam = base_camera_;
       queued = latest_at_;
       job.skipped = skipped_;
       skipped_ = 0;
     }
     job.seq = req.seq;
     job.queue_ms = ms_since(queued);
-    const Hello& h = *hello_;
-    const Limits& L = srv_.cfg.limits;
-    const std::string scene_name = job.scene->source;
-    double diced_s = 0;  // the frame's dicing, which shares the time limit with the render
+    const std::string scene_name = state->scene()->source;
     try {
       if (!renderer) throw DeviceError("no render device: " + srv_.queue.device_error());
-      Camera& cam = job.camera;
       bool keep_near_far = req.near_plane || req.far_plane;
       req.apply_to(cam);
       if (!keep_near_far) cam.near_plane = cam.far_plane = 0;
-      fit_near_far(cam, *job.scene);
+      fit_near_far(cam, *state->scene());
       cam.validate();
-      if (job.scene->has_surfaces()) {  // diced for this view; the frame keeps the diced scene
-        TessellateOptions to;
-        to.tolerance_px = float(h.tolerance_px);
-        to.implicit_tolerance_px = float(h.implicit_tolerance_px);
-        to.memory_budget = L.render_memory_bytes;
-        to.time_limit_s = L.render_time_limit_s;
-        // The session's Loop plans hold at most what max_session_bytes leaves besides the scene
-        // (issue 35, case 6: six sessions' plans took the server from 2.6 to 8.6 GB for good).
-        const uint64_t held = scene_bytes(*job.scene);
-        to.loop_plans = job.plans.get();
-        to.loop_plan_cache_bytes = to.loop_plan_max_bytes =
-            L.max_session_bytes > held ? L.max_session_bytes - held : 1;
-        const Clock::time_point t0 = Clock::now();
-        job.scene = std::make_shared<const Scene>(renderer->tessellate(*job.scene, cam, to));
-        diced_s = ms_since(t0) / 1000;
-      }
-      RenderOptions opts;
-      opts.attributes = h.attributes && format_spec(h.format).carries_attributes;
-      opts.memory_budget = L.render_memory_bytes;
-      // The session's facts, or none (the renderer finds none of its own for a session's scene).
-      opts.scene_facts = job.facts;
-      opts.facts = job.facts ? RenderOptions::Facts::Now : RenderOptions::Facts::Off;
-      // Dicing and rendering share the frame's time limit: the render gets what is left (the
-      // message then names that remainder).
-      opts.time_limit_s = L.render_time_limit_s;
-      if (L.render_time_limit_s > 0 && diced_s > 0)
-        opts.time_limit_s = std::max(1e-3, L.render_time_limit_s - diced_s);
-      opts.keep_screen_triangles = encoder_->needs_screen();
-      if (srv_.cfg.before_render) srv_.cfg.before_render(opts);
-      job.map = renderer->render(*job.scene, cam, opts, &job.stats,
-                                 opts.keep_screen_triangles ? &job.screen : nullptr);
+      job.spec = frame_spec(std::move(state), cam);
+      job.rendered = frame::render_frame(*renderer, job.spec);
     } catch (...) {
       return frame_failed(error_reply(std::current_exception(), "rendering", nullptr, scene_name),
                           job.seq);
@@ -572,29 +538,29 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   // Runs on the encode pool; the session's encoder is used by one frame at a time.
   void encode(FrameJob job) {
     const Format format = hello_->format;
-    auto frame = std::make_shared<std::string>();
+    auto payload = std::make_shared<std::string>();
     std::string header;
+    uint64_t held = 0;
     try {
-      auto t0 = Clock::now();
-      EncodedFrame enc = encoder_->encode(job.map, job.scene, job.camera,
-                                          encoder_->needs_screen() ? &job.screen : nullptr);
-      double encode_ms = ms_since(t0);
-      *frame = std::move(enc.bytes);
-      header = frame_message({job.seq, format, frame->size(), job.stats.pipeline_ms, encode_ms,
-                              job.queue_ms, job.stats.input_triangles, job.map.fragment_count(),
-                              job.stats.buckets, job.skipped},
-                             enc.header);
-      srv_.metrics.render_ms(job.stats.pipeline_ms + encode_ms);
+      frame::Frame f = frame::finish_frame(std::move(job.rendered), job.spec, *encoder_);
+      const double encode_ms = f.lines_ms + f.encode_ms;  // (the lines count as encoding)
+      const RenderStats& st = f.rendered.stats;
+      *payload = std::move(f.encoded.bytes);
+      header = frame_message({job.seq, format, payload->size(), st.pipeline_ms, encode_ms,
+                              job.queue_ms, st.input_triangles, f.rendered.map.fragment_count(),
+                              st.buckets, job.skipped},
+                             f.encoded.header);
+      srv_.metrics.render_ms(st.pipeline_ms + encode_ms);
       srv_.metrics.encode_ms(format, encode_ms);
+      held = st.peak_device_bytes;
     } catch (...) {
       return frame_failed(error_reply(std::current_exception(), "encoding the frame"), job.seq);
     }
-    const uint64_t held = job.stats.peak_device_bytes;
     job = {};  // the map's memory goes before the frame is queued for writing
     net::post(ws_.get_executor(),
-              [self = shared_from_this(), frame, header = std::move(header), held] {
+              [self = shared_from_this(), payload, header = std::move(header), held] {
                 self->peak_bytes_ = std::max(self->peak_bytes_, held);
-                self->on_frame_ready(frame, header);
+                self->on_frame_ready(payload, header);
               });
   }
 
@@ -719,9 +685,10 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   uint64_t connection_ = 0;    // Server::Impl registry id, once upgraded
   uint64_t session_ = 0;       // RenderQueue session id; non-zero: holds a session slot
   std::optional<Hello> hello_;
-  // The format's encoder, made at hello; used on the encode pool by one frame at a time (its
-  // state, if any, is bounded: FrameEncoder).
-  std::unique_ptr<FrameEncoder> encoder_;
+  // How frames are written, and the format's encoder, made at hello; used on the encode pool by
+  // one frame at a time (its state, if any, is bounded: frame::FrameEncoder).
+  frame::OutputSpec output_;
+  std::unique_ptr<frame::FrameEncoder> encoder_;
   std::optional<SceneRequest> upload_;
   std::deque<Out> out_;
   std::optional<uint64_t> discarded_;  // bytes of an over-limit message being dropped
@@ -731,11 +698,10 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
 
   // Shared with the render worker.
   std::mutex cam_mu_;
-  std::shared_ptr<const Scene> scene_;
-  std::shared_ptr<LoopPlans> plans_;  // made with each scene
-  // The scene's view-independent facts (core/stages/scene_facts.h), found on the load pool
-  // after scene_ready and given to every frame from then on, whichever renderer draws it.
-  std::shared_ptr<const stages::SceneFacts> facts_;
+  // The session's scene and what is found once for it: its facts (found on the load pool after
+  // scene_ready and given to every frame from then on, whichever renderer draws it) and its
+  // Loop plans (charged to this session).
+  std::shared_ptr<frame::SceneState> scene_;
   Camera base_camera_;
   std::optional<CameraRequest> latest_;
   Clock::time_point latest_at_;

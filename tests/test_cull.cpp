@@ -11,6 +11,7 @@
 #include <string>
 
 #include "core/check/map_diff.h"
+#include "core/facts/scene_facts.h"
 #include "core/pipeline.h"
 #include "tests/support/random_meshes.h"
 #include "tests/support/random_scene.h"
@@ -36,9 +37,10 @@ Pair render_both(Renderer& r, const Scene& scene, const Camera& cam, uint64_t bu
   opts.memory_budget = budget;
   Pair p;
   opts.cull = true;
-  // With the scene's facts at once: the culled frame's crossing search also skips pairs far
-  // apart in 3D (scene_facts.h), so every comparison below covers that too.
-  opts.facts = RenderOptions::Facts::Now;
+  // With the scene's facts: the culled frame's crossing search also skips pairs far apart in 3D
+  // (core/facts/scene_facts.h), so every comparison below covers that too.
+  if (facts::scene_facts_fit(scene.triangle_count(), budget))
+    opts.scene_facts = std::make_shared<const facts::SceneFacts>(facts::find_scene_facts(scene));
   opts.min_apart_fraction = 0;  // (whenever they apply, not only where they pay)
   const PlanarMap a = r.render(scene, cam, opts, &p.on);
   opts.cull = false;
@@ -88,7 +90,6 @@ TEST(Cull, RandomTriangleScenesKeepEverySourcesVisibleRegion) {
     with_facts += p.on.apart_need > 0;
     // The facts' skip finds the same pairs as the culled frame without it.
     RenderOptions no_facts;
-    no_facts.facts = RenderOptions::Facts::Off;
     RenderStats st;
     (void)renderer().render(rs.scene, rs.camera, no_facts, &st);
     EXPECT_EQ(p.on.entangled_pairs, st.entangled_pairs) << "seed " << seed;

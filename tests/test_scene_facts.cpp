@@ -1,4 +1,4 @@
-// The scene's view-independent facts (core/stages/scene_facts.h): the triangle distance they are
+// The scene's view-independent facts (core/facts/scene_facts.h): the triangle distance they are
 // built on against dense sampling, the adjacency against a brute-force scan, every clearance a
 // lower bound of the true distance to every triangle not sharing a vertex, and the per-view
 // need. (That a frame using them keeps every map the same: tests/test_cull.cpp.)
@@ -9,7 +9,7 @@
 #include <random>
 #include <set>
 
-#include "core/stages/scene_facts.h"
+#include "core/facts/scene_facts.h"
 
 namespace {
 
@@ -52,7 +52,7 @@ TEST(SceneFacts, TriangleDistanceAgreesWithSampling) {
   int meeting = 0;
   for (int k = 0; k < 150; ++k) {
     const Tri a = random_tri(rng, 0.4), b = random_tri(rng, 0.4);
-    const double d = stages::triangle_distance(a, b), s = sampled_distance(a, b, 40);
+    const double d = facts::triangle_distance(a, b), s = sampled_distance(a, b, 40);
     // Never above a true distance (the sample's is one), and near it (spacing 1/40 of edges
     // about 1 long).
     EXPECT_LE(d, s + 1e-12) << k;
@@ -67,19 +67,19 @@ TEST(SceneFacts, TriangleDistanceEdgeCases) {
   // Parallel above: the height.
   Tri above = base;
   for (auto& v : above) v[2] = 0.25;
-  EXPECT_NEAR(stages::triangle_distance(base, above), 0.25, 1e-12);
+  EXPECT_NEAR(facts::triangle_distance(base, above), 0.25, 1e-12);
   // Through the interior without any edge near another: 0.
   const Tri pierce{{{0.2, 0.2, -1}, {0.3, 0.2, 1}, {0.2, 0.3, 1}}};
-  EXPECT_EQ(stages::triangle_distance(base, pierce), 0.0);
+  EXPECT_EQ(facts::triangle_distance(base, pierce), 0.0);
   // Coplanar, apart along x.
   const Tri beside{{{1.5, 0, 0}, {2.5, 0, 0}, {1.5, 1, 0}}};
-  EXPECT_NEAR(stages::triangle_distance(base, beside), 0.5, 1e-12);
+  EXPECT_NEAR(facts::triangle_distance(base, beside), 0.5, 1e-12);
   // A degenerate (collinear) partner: its segment's distance.
   const Tri needle{{{0.5, 0.5, 1}, {0.5, 0.5, 2}, {0.5, 0.5, 1.5}}};
-  EXPECT_NEAR(stages::triangle_distance(base, needle), 1.0, 1e-12);
+  EXPECT_NEAR(facts::triangle_distance(base, needle), 1.0, 1e-12);
   // Crossing edges, nearly parallel planes.
   const Tri tilted{{{-1, 0.5, 1e-9}, {2, 0.5, -1e-9}, {0.5, 3, 0}}};
-  EXPECT_EQ(stages::triangle_distance(base, tilted), 0.0);
+  EXPECT_EQ(facts::triangle_distance(base, tilted), 0.0);
 }
 
 // A small scene: a grid mesh folded over itself (two sheets close together), a separate
@@ -144,7 +144,7 @@ bool share_position(const Tri& a, const Tri& b) {
 TEST(SceneFacts, AdjacencyAndClearancesAgreeWithBruteForce) {
   for (double gap : {1e-5, 1e-3, 0.05}) {
     const Scene s = folded_scene(gap);
-    const stages::SceneFacts f = stages::find_scene_facts(s);
+    const facts::SceneFacts f = facts::find_scene_facts(s);
     const std::vector<Tri> tri = triangles_of(s);
     ASSERT_EQ(f.clearance.size(), tri.size());
     ASSERT_GT(f.cap, 0);
@@ -157,7 +157,7 @@ TEST(SceneFacts, AdjacencyAndClearancesAgreeWithBruteForce) {
         if (share_position(tri[t], tri[u])) {
           if (u > t) want.insert(u);
         } else {
-          const double d = stages::triangle_distance(tri[t], tri[u]);
+          const double d = facts::triangle_distance(tri[t], tri[u]);
           nearest = std::min(nearest, d);
           margined = std::min(margined, d - std::ldexp(perimeter(tri[t]) + perimeter(tri[u]), -19));
         }
@@ -183,40 +183,40 @@ TEST(SceneFacts, AdjacencyAndClearancesAgreeWithBruteForce) {
 // The bins count from below: the fraction they give never passes the true one.
 TEST(SceneFacts, ApartFractionIsALowerBound) {
   for (double gap : {1e-5, 1e-3, 0.05}) {
-    const stages::SceneFacts f = stages::find_scene_facts(folded_scene(gap));
+    const facts::SceneFacts f = facts::find_scene_facts(folded_scene(gap));
     for (double need : {0.0, 1e-9, 1e-6, 1e-5, 1e-4, f.cap / 3, f.cap}) {
       size_t n = 0;
       for (float c : f.clearance) n += c > need;
-      const double truth = double(n) / f.clearance.size(), bound = stages::apart_fraction(f, need);
+      const double truth = double(n) / f.clearance.size(), bound = facts::apart_fraction(f, need);
       EXPECT_LE(bound, truth) << gap << " " << need;
       if (need == 0) EXPECT_EQ(bound, truth) << gap;  // (every clearance here is above cap 2^-63)
     }
-    EXPECT_EQ(stages::apart_fraction(f, f.cap), 0.0);
+    EXPECT_EQ(facts::apart_fraction(f, f.cap), 0.0);
   }
 }
 
 TEST(SceneFacts, NeedFollowsTheViewAndIsOffWhereNotDerived) {
   const Scene s = folded_scene(0.05);
-  const stages::SceneFacts f = stages::find_scene_facts(s);
+  const facts::SceneFacts f = facts::find_scene_facts(s);
   Camera cam = frame_scene(s, 1024, 1024);
   double qmax = 0;
-  const double near_need = stages::crossing_skip_distance(f, cam, &qmax);
+  const double near_need = facts::crossing_skip_distance(f, cam, &qmax);
   ASSERT_TRUE(std::isfinite(near_need));
   EXPECT_GT(near_need, 0);
   EXPECT_GT(qmax, 0);
   // A smaller viewport blurs more (a grid unit is larger in the world).
   Camera small = cam;
   small.width = small.height = 128;
-  EXPECT_GT(stages::crossing_skip_distance(f, small), near_need);
+  EXPECT_GT(facts::crossing_skip_distance(f, small), near_need);
   // Orthographic: not derived.
   Camera ortho = cam;
   ortho.projection = Camera::Projection::Orthographic;
-  EXPECT_TRUE(std::isinf(stages::crossing_skip_distance(f, ortho)));
+  EXPECT_TRUE(std::isinf(facts::crossing_skip_distance(f, ortho)));
   // Far away, the need passes the cap: off.
   Camera far = cam;
   for (int d = 0; d < 3; ++d) far.eye[d] = cam.target[d] + (cam.eye[d] - cam.target[d]) * 1e4;
   fit_near_far(far, s);
-  EXPECT_TRUE(std::isinf(stages::crossing_skip_distance(f, far)));
+  EXPECT_TRUE(std::isinf(facts::crossing_skip_distance(f, far)));
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include "core/check/map_diff.h"
 #include "core/check/planar_check.h"
+#include "core/facts/scene_facts.h"
 #include "core/util/clock.h"
 
 namespace vismap::check {
@@ -23,7 +24,8 @@ SceneFigures check_scene(Renderer& renderer, const Scene& scene, const Camera& c
   // The scene's facts at once (a single frame would not find them): the culled frame below is
   // then also the one whose crossing search skips pairs far apart in 3D, and cull_differing
   // compares it with the frame that does neither.
-  ro.facts = RenderOptions::Facts::Now;
+  if (facts::scene_facts_fit(scene.triangle_count(), o.memory_budget))
+    ro.scene_facts = std::make_shared<const facts::SceneFacts>(facts::find_scene_facts(scene));
   ro.min_apart_fraction = 0;  // (wherever they apply, not only where they pay)
   RenderStats st;
   ScreenTriangles screen;

@@ -14,7 +14,7 @@
 #include "core/camera.h"
 #include "core/scene.h"
 
-namespace vismap::stages {
+namespace vismap::facts {
 
 struct SceneFacts {
   // Per global triangle (Renderer's upload order): a lower bound on its distance to every
@@ -75,4 +75,4 @@ double apart_fraction(const SceneFacts& facts, double need);
 double triangle_distance(const std::array<std::array<double, 3>, 3>& a,
                          const std::array<std::array<double, 3>, 3>& b);
 
-}  // namespace vismap::stages
+}  // namespace vismap::facts

@@ -1,7 +1,9 @@
-// A frame's time limit (RenderOptions::time_limit_s), checked on the host between launches and
-// clip rounds: past it the render stops with InputError TimeLimit, naming the stage.
+// A frame's time limit (RenderOptions::time_limit_s, counted from RenderOptions::started) and its
+// cancel flag, checked on the host between launches and clip rounds: past the limit the render
+// stops with InputError TimeLimit naming the stage; cancelled, with InputError Cancelled.
 #pragma once
 
+#include <atomic>
 #include <cstdio>
 #include <string>
 #include <utility>
@@ -15,14 +17,20 @@ namespace vismap::stages {
 class Deadline {
  public:
   Deadline() = default;
-  // source: the scene's file, for the message.
-  Deadline(double seconds, std::string source)
+  // source: the scene's file, for the message. started: when the limit began (the default: now).
+  Deadline(double seconds, std::string source, Clock::time_point started = {},
+           const std::atomic<bool>* cancel = nullptr)
       : limited_(seconds > 0),
         seconds_(seconds),
         source_(std::move(source)),
-        at_(Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                               std::chrono::duration<double>(seconds > 0 ? seconds : 0))) {}
+        at_((started == Clock::time_point{} ? Clock::now() : started) +
+            std::chrono::duration_cast<Clock::duration>(
+                std::chrono::duration<double>(seconds > 0 ? seconds : 0))),
+        cancel_(cancel) {}
   void check(Stage stage) const {
+    if (cancel_ && cancel_->load(std::memory_order_relaxed))
+      throw InputError(InputErrorKind::Cancelled, source_, "", "", -1,
+                       std::string("the frame was cancelled (in stage ") + stage_name(stage) + ")");
     if (!limited_ || Clock::now() <= at_) return;
     char limit[32];
     std::snprintf(limit, sizeof limit, "%g", seconds_);
@@ -36,6 +44,7 @@ class Deadline {
   double seconds_ = 0;
   std::string source_;
   Clock::time_point at_{};
+  const std::atomic<bool>* cancel_ = nullptr;
 };
 
 }  // namespace vismap::stages

@@ -81,8 +81,8 @@ ScreenSet fill_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl
 ApartView apart_view(const SceneBuffers& sb, const Camera& cam, double min_fraction) {
   ApartView v;
   if (!sb.facts) return v;
-  const double need = crossing_skip_distance(*sb.facts, cam, &v.qmax);
-  if (!std::isfinite(need) || (min_fraction > 0 && apart_fraction(*sb.facts, need) < min_fraction))
+  const double need = facts::crossing_skip_distance(*sb.facts, cam, &v.qmax);
+  if (!std::isfinite(need) || (min_fraction > 0 && facts::apart_fraction(*sb.facts, need) < min_fraction))
     return v;
   v.need = static_cast<float>(need);
   if (static_cast<double>(v.need) < need) v.need = std::nextafter(v.need, INFINITY);

@@ -10,7 +10,7 @@
 
 #include "core/camera.h"
 #include "core/device/cl_runtime.h"
-#include "core/stages/scene_facts.h"
+#include "core/facts/scene_facts.h"
 #include "core/scene.h"
 
 namespace vismap::stages {
@@ -21,11 +21,10 @@ struct SceneBuffers {
   uint32_t nv = 0, ntri = 0;
   uint64_t bytes = 0;          // device bytes they hold
   std::vector<int8_t> closed;  // per mesh: closed_orientation()
-  // The scene's view-independent facts (scene_facts.h), once found or given: the host's copy
-  // (for each view's need) and the clearances and adjacency on the device.
-  bool facts_tried = false;  // the renderer tried to find them for this upload
-  bool facts_given = false;  // they are RenderOptions::scene_facts (not the renderer's own)
-  std::shared_ptr<const SceneFacts> facts;
+  // The scene's view-independent facts (core/facts/scene_facts.h), as given
+  // (RenderOptions::scene_facts): the host's copy (for each view's need) and the clearances and
+  // adjacency on the device.
+  std::shared_ptr<const facts::SceneFacts> facts;
   cl::Buffer clearance, adj_offset, adj;
 };
 

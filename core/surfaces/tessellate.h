@@ -5,6 +5,8 @@
 #pragma once
 
 #include <array>
+#include <atomic>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <map>
@@ -49,6 +51,8 @@ struct TessellateOptions {
   // mesh and between a dicer's launches (TimeLimit, naming stage tessellate).
   uint64_t memory_budget = 0;
   double time_limit_s = 0;
+  std::chrono::steady_clock::time_point started{};  // as RenderOptions::started and ::cancel
+  const std::atomic<bool>* cancel = nullptr;
   // Loop subdivision plans (host topology and stencils, and their device copies) kept for the
   // next frame, in bytes of host plan: past it, the least recently used plans of other meshes
   // are dropped (issue 35, case 6: six sessions' plans held 6 GB in the server for good).

@@ -618,7 +618,7 @@ TEST_F(ServerTest, TimeLimitIsANonFatalError) {
   EXPECT_EQ(seen, 0.25);
 }
 
-// A session's scene gets its view-independent facts (core/stages/scene_facts.h) on the load pool
+// A session's scene gets its view-independent facts (core/facts/scene_facts.h) on the load pool
 // after scene_ready; from then on every frame is given them, whichever renderer draws it, and
 // the frames are the same bytes with and without them.
 TEST_F(ServerTest, SceneFactsFoundAfterTheLoadAndGivenToFrames) {
