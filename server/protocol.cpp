@@ -349,23 +349,6 @@ Request parse_request(const std::string& text, uint64_t max_scene_bytes, uint32_
   throw ProtoError(code::unknown_message, "unknown message type '" + shown + "'");
 }
 
-frame::OutputSpec output_spec(const Hello& h, int level) {
-  frame::OutputSpec o;
-  o.format = format_spec(h.format).output;
-  o.fill = h.fill_id ? Fill::Id : Fill::Shade;
-  o.style = frame::style_named(h.style).value_or(frame::DrawStyle::Fill);
-  o.lines.hidden = h.hidden;
-  o.lines.crease_angle_deg = h.crease_angle_deg;
-  o.attributes = h.attributes;
-  o.quantum = h.quantum;
-  o.compression = h.compression;
-  o.level = level;
-  o.keyframe_every = h.keyframe_every;
-  o.delta_version = h.version >= 3 ? 2 : 1;  // DELTA.md version 2 from protocol version 3
-  o.client_holds_scene = h.hold_scene;
-  return o;
-}
-
 std::string error_code(const vismap::InputError& e) {
   return vismap::to_string(e.kind());
 }

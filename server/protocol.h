@@ -15,7 +15,6 @@
 
 #include "core/camera.h"
 #include "core/error.h"
-#include "core/frame/encoders.h"
 #include "core/frame/formats.h"
 #include "core/stream/compact.h"
 
@@ -171,10 +170,6 @@ void check_control_message(const std::string& text, uint64_t max_control_bytes);
 Request parse_request(const std::string& text, uint64_t max_scene_bytes, uint32_t max_viewport,
                       bool checked_depth = false);
 
-// How a session's frames are written (core/frame/encoders.h), from its hello. level: compact and
-// delta frames' entropy coder level (Config::frame_level; 0: its default).
-frame::OutputSpec output_spec(const Hello& hello, int level = 0);
-
 // The code for a core input error: to_string(kind).
 std::string error_code(const vismap::InputError& e);
 
@@ -202,7 +197,7 @@ std::string scene_ready_message(const std::string& name, uint64_t meshes, uint64
                                 const Bounds& bounds, const Camera& camera, double load_ms);
 
 // The text message before each frame's payload: the render's figures, then the format's own
-// fields (frame_encoder.cpp, EncodedFrame::header).
+// fields (core/frame/encoders.cpp, frame::EncodedFrame::header).
 struct FrameHeader {
   uint64_t seq = 0;
   Format format = Format::Svg;

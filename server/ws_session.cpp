@@ -27,6 +27,25 @@ namespace {
 
 using frame::scene_bytes;
 
+// How a session's frames are written (core/frame/encoders.h), from its hello. level: compact and
+// delta frames' entropy coder level (Config::frame_level; 0: its default).
+frame::OutputSpec output_spec(const Hello& h, int level) {
+  frame::OutputSpec o;
+  o.format = format_spec(h.format).output;
+  o.fill = h.fill_id ? Fill::Id : Fill::Shade;
+  o.style = frame::style_named(h.style).value_or(frame::DrawStyle::Fill);
+  o.lines.hidden = h.hidden;
+  o.lines.crease_angle_deg = h.crease_angle_deg;
+  o.attributes = h.attributes;
+  o.quantum = h.quantum;
+  o.compression = h.compression;
+  o.level = level;
+  o.keyframe_every = h.keyframe_every;
+  o.delta_version = h.version >= 3 ? 2 : 1;  // DELTA.md version 2 from protocol version 3
+  o.client_holds_scene = h.hold_scene;
+  return o;
+}
+
 websocket::close_code close_code_for(const std::string& c) {
   if (c == code::busy) return websocket::close_code::try_again_later;
   if (c == code::shutting_down) return websocket::close_code::going_away;

@@ -23,6 +23,7 @@
 
 #include "clients/wsclient.h"
 #include "core/error.h"
+#include "core/facts/scene_facts.h"
 #include "core/pipeline.h"
 #include "core/write/output.h"
 #include "server/server.h"
