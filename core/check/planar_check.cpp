@@ -574,10 +574,18 @@ PixelReport pixel_compare(const PlanarMap& map, const ScreenTriangles& screen, u
         double depth = d[0] + b1 * (d[1] - d[0]) + b2 * (d[2] - d[0]);
         size_t k = size_t(j) * n + i;
         bool closer;
-        double band = VM_TIE_EPS * std::max(std::fabs(depth), std::fabs(zdepth[k]));
-        if (zid[k] == kEmpty || std::fabs(depth - zdepth[k]) > band) {
+        // The pair's band is VM_TIE_EPS of the largest |depth| over its overlap, at most
+        // `bound` (the largest over both triangles' corners); beyond twice that (room for the
+        // rounding of the doubles' overlap) the depths' sign is the pair's order, whatever the
+        // sample. Within it, only the pair's order over its overlap decides: the band at the
+        // sample alone would let the sample point decide (docs/NUMERICS.md §3).
+        double bound = 0;
+        if (zid[k] != kEmpty)
+          for (int c = 0; c < 3; ++c)
+            bound = std::max({bound, std::fabs(d[c]), std::fabs(screen.depth[3 * ztri[k] + c])});
+        if (zid[k] == kEmpty || std::fabs(depth - zdepth[k]) > 2 * VM_TIE_EPS * bound) {
           closer = depth > zdepth[k];
-        } else {  // within the tie band: the pair's order over its whole overlap
+        } else {  // near the tie band: the pair's order over its whole overlap
           uint64_t pk = (uint64_t(t) << 32) | ztri[k];
           auto it = order_cache.find(pk);
           int order = it != order_cache.end() ? it->second

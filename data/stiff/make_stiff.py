@@ -249,6 +249,36 @@ def main():
              "width": 256, "height": 256}
     write("tie_cycle", [("m0", tc)], camtc, "ten coplanar triangles whose tie and crossing orders are cyclic", shared=False)
 
+    # Coplanar and nearly coplanar, seen obliquely (issue 45): the nearness changes by a factor ~2
+    # over each overlap, so the tie band taken at a point (VM_TIE_EPS of the local |q|) is
+    # narrower than the pair's (of the largest |q| over the overlap), and a rule that lets the
+    # sample point decide overlaps or leaves holes. One band for every decision
+    # (docs/NUMERICS.md §3). Three coplanar triangles in one mesh; two plates 1e-6 apart; two
+    # plates whose vertices are jittered by up to 1e-6 across each other.
+    oblique = {"type": "perspective", "eye": [0.45, -2.3, 1.05], "target": [0, 0, 0], "up": [0, 0, 1],
+               "fov_y_deg": 55, "near": 0.5, "far": 6, "width": 256, "height": 256}
+    ct = [[(-1, -1, 0), (1, -0.8, 0), (0.05, 1, 0)],
+          [(-0.9, 0.7, 0), (0.8, 0.9, 0), (0.1, -1.05, 0)],
+          [(-1.1, -0.05, 0), (1.05, 0.2, 0), (0.2, 0.95, 0)]]
+    write("coplanar_triple", [("m0", ct)], oblique, "three coplanar triangles in one mesh, seen obliquely")
+    pl = [("lower", quad(-1, -1, 1, 1, 0)), ("upper", quad(-0.6, -1.2, 1.3, 0.7, 1e-6))]
+    campl = dict(oblique, eye=[0.1, -1.2, 2.5], fov_y_deg=50)
+    write("plates_1e-6", pl, campl, "two plates 1e-6 apart (inside the tie band), seen obliquely; "
+          "the z-buffer of pixel_error, comparing depths against the band at the sample, showed 0.12 % "
+          "of the pixels wrong (the map was right)")
+    jr = random.Random(45)
+
+    def jittered(x0, y0, x1, y1, n):
+        z = {(i, j): jr.uniform(-1e-6, 1e-6) for i in range(n + 1) for j in range(n + 1)}
+        p = lambda i, j: (x0 + (x1 - x0) * i / n, y0 + (y1 - y0) * j / n, z[(i, j)])
+        out = []
+        for i in range(n):
+            for j in range(n):
+                out += [[p(i, j), p(i + 1, j), p(i + 1, j + 1)], [p(i, j), p(i + 1, j + 1), p(i, j + 1)]]
+        return out
+    jp = [("lower", jittered(-1, -1, 1, 1, 3)), ("upper", jittered(-0.7, -1.1, 1.2, 0.8, 3))]
+    write("jittered_plates", jp, oblique, "two plates of 18 triangles, every vertex jittered by up to 1e-6 in depth, seen obliquely")
+
 
 if __name__ == "__main__":
     main()
