@@ -279,6 +279,26 @@ def main():
     jp = [("lower", jittered(-1, -1, 1, 1, 3)), ("upper", jittered(-0.7, -1.1, 1.2, 0.8, 3))]
     write("jittered_plates", jp, oblique, "two plates of 18 triangles, every vertex jittered by up to 1e-6 in depth, seen obliquely")
 
+    # Closed shells facing opposite ways in one mesh (issue 45): an outward cube and a smaller
+    # inward one (its faces wound the other way). The whole mesh's signed volume is positive; a
+    # cull by that sign drops the inward cube's near faces and draws its inside. Back faces are
+    # culled only where every closed component faces the same way (core/util/mesh_topology.h).
+    def cube(cx, cy, cz, h, inward):
+        v = lambda i, j, k: (cx + (2 * i - 1) * h, cy + (2 * j - 1) * h, cz + (2 * k - 1) * h)
+        faces = [((0, 0, 0), (0, 1, 0), (1, 1, 0), (1, 0, 0)), ((0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)),
+                 ((0, 0, 0), (1, 0, 0), (1, 0, 1), (0, 0, 1)), ((0, 1, 0), (0, 1, 1), (1, 1, 1), (1, 1, 0)),
+                 ((0, 0, 0), (0, 0, 1), (0, 1, 1), (0, 1, 0)), ((1, 0, 0), (1, 1, 0), (1, 1, 1), (1, 0, 1))]
+        out = []
+        for f in faces:
+            a, b, c, d = [v(*q) for q in f]
+            for t in ([a, b, c], [a, c, d]):
+                out.append(t[::-1] if inward else t)
+        return out
+    shells = cube(-0.7, 0, 0, 0.5, False) + cube(0.7, 0.1, 0.1, 0.4, True)
+    camsh = {"type": "perspective", "eye": [0.6, 1.7, 3.4], "target": [0, 0, 0], "up": [0, 1, 0],
+             "fov_y_deg": 45, "near": 1, "far": 10, "width": 256, "height": 256}
+    write("opposite_shells", [("shells", shells)], camsh, "one mesh holding an outward cube and an inward one")
+
 
 if __name__ == "__main__":
     main()
