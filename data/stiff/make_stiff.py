@@ -299,6 +299,18 @@ def main():
              "fov_y_deg": 45, "near": 1, "far": 10, "width": 256, "height": 256}
     write("opposite_shells", [("shells", shells)], camsh, "one mesh holding an outward cube and an inward one")
 
+    # A sliver (8e-5 wide, thinner than a grid unit) crossing the viewport's top edge at a slant
+    # (issue 45, found by a random search). Its clipped polygon snapped into a folded one, whose
+    # two fan triangles overlapped (0.0037 px^2, coverage_error 0.30), and compare_maps counted
+    # the culled and unculled maps, byte-identical, as differing (cull_differing 1). Now the hull
+    # of a folded snapped polygon is cut (transform.cl snapped_convex) and compare_maps makes a
+    # source's fragments disjoint first.
+    sl = [[(0.589334153, 1.39532774, 0.147584793), (-0.354412406, 1.02139503, -0.132301331),
+           (-0.354453667, 1.02136961, -0.132264276)]]
+    camsl = {"type": "perspective", "eye": [0.3, 0.2, 3], "target": [0, 0, 0], "up": [0, 1, 0],
+             "fov_y_deg": 40, "near": 0.5, "far": 10, "width": 64, "height": 64}
+    write("sliver_viewport_edge", [("s", sl)], camsl, "a sliver crossing the viewport's edge at a slant")
+
 
 if __name__ == "__main__":
     main()
