@@ -227,7 +227,7 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   }
   Tally tally;
 
-  stages::Frame fr = stages::begin_frame(rt, sb, scene, cam, Stage::Transform, opts.cull);
+  stages::Frame fr = stages::begin_frame(rt, sb, scene, cam, Stage::Transform);
   const stages::ApartView apart = opts.cull && opts.facts != RenderOptions::Facts::Off
                                       ? stages::apart_view(sb, cam, opts.min_apart_fraction)
                                       : stages::ApartView{};

@@ -38,8 +38,7 @@ struct RenderOptions {
   double time_limit_s = 0;
   // Leave out what is provably hidden (core/stages/cull.h): triangles before the crossings,
   // candidates and clip rounds, fragments during them. The visible region of every source is the
-  // same either way; off, the frame clips every triangle in view, back faces of closed meshes
-  // included (for comparisons and tests: `vismap check`'s cull_differing).
+  // same either way; off, the frame clips every triangle in view (for comparisons and tests).
   bool cull = true;
   // With cull, the crossing search skips pairs of triangles that are far apart in 3D and share
   // no vertex (core/stages/scene_facts.h), from view-independent facts found once per uploaded

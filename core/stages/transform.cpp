@@ -31,15 +31,13 @@ std::vector<uint32_t> cull_modes(const Scene& scene, const std::vector<int8_t>& 
 }
 
 Frame begin_frame(ClRuntime& rt, const SceneBuffers& sb, const Scene& scene, const Camera& cam,
-                  Stage stage, bool back_faces) {
+                  Stage stage) {
   Frame f;
   f.W = cam.width;
   f.H = cam.height;
   Mat4 vp = cam.view_projection();
   f.mat = rt.upload(std::vector<double>(vp.begin(), vp.end()), "view-projection");
-  f.mesh_cull = rt.upload(back_faces ? cull_modes(scene, sb.closed, cam)
-                                     : std::vector<uint32_t>(scene.meshes.size(), VM_CULL_NONE),
-                          "cull modes");
+  f.mesh_cull = rt.upload(cull_modes(scene, sb.closed, cam), "cull modes");
   f.clip = rt.alloc(size_t(sb.nv) * sizeof(cl_double4), "clip-space vertices");
   // The depth exponents and the frame's counts (VM_FRAME_*), zeroed by transform_vertices.
   f.depth_ex = rt.alloc(VM_FRAME_WORDS * sizeof(cl_int), "frame words");

@@ -72,10 +72,8 @@ struct ScreenSet {
 std::vector<uint32_t> cull_modes(const Scene& scene, const std::vector<int8_t>& closed,
                                  const Camera& cam);
 
-// back_faces false: every mesh two-sided (RenderOptions::cull off, the frame `vismap check`
-// compares with, so that a wrong back-face cull cannot pass the check).
 Frame begin_frame(ClRuntime& rt, const SceneBuffers& sb, const Scene& scene, const Camera& cam,
-                  Stage stage, bool back_faces = true);
+                  Stage stage);
 // Sizes the region's screen triangles (the frame's offsets and group totals); returns S.
 uint32_t count_screen(ClRuntime& rt, const SceneBuffers& sb, Frame& fr, const cl_int4& region,
                       Stage stage);
