@@ -128,12 +128,22 @@ inline bool sample_covers(__global const VmScreenTri* o, const VmSample* s) {
   return s->exact ? covers_exact(o, s->X, s->Y, s->W) : covers(o, s->px, s->py);
 }
 
+/* A mutation for tests/test_coplanar.cpp: 1 takes the band at the sample point (the rule before
+ * issue 45), so that the point decides pairs the relation orders otherwise; it must be caught. */
+#ifndef VM_BAND_MUTATION
+#define VM_BAND_MUTATION 0
+#endif
+
 /* Does screen triangle o hide screen triangle t at the sample point, which both cover?
  * Crossing pairs: by the side of their snapped intersection line (t's copy is directed so that
- * t is in front on its positive side). Other pairs: by the depth difference where it is clear
- * of the tie band, else by the relation of the pair over its whole overlap, so that all points
- * of the overlap get the same answer. Antisymmetric at every point: exactly one of
- * hides(t, o) and hides(o, t) holds, so the covering triangles form a tournament there. */
+ * t is in front on its positive side). Other pairs: by the relation of the pair over its whole
+ * overlap (its band is VM_TIE_EPS of the largest |q| over the overlap), so that all points of
+ * the overlap get the same answer. The depths at the point stand in for it only where their
+ * difference passes twice VM_TIE_EPS of the largest |q| at the six corners: beyond the pair's
+ * band with room for the rounding of its overlap, where the relation is that side (or a
+ * crossing). A band taken at the point (narrower) would let the point decide
+ * (docs/NUMERICS.md §3). Antisymmetric at every point: exactly one of hides(t, o) and
+ * hides(o, t) holds, so the covering triangles form a tournament there. */
 inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, const VmSample* smp,
                   __global const VmEdge* edges, uint nsil, __global const uint* cross_offset,
                   __global const uint* cross_count, __global const uint* partner) {
@@ -150,7 +160,13 @@ inline bool hides(uint t, uint o, const VmScreenTri* T, const VmScreenTri* O, co
       break; /* a tying pair: its entries are the partner's edges */
     }
   double qt = tri_depth_at(T, smp->fx, smp->fy), qo = tri_depth_at(O, smp->fx, smp->fy);
+#if VM_BAND_MUTATION == 1
   double band = VM_TIE_EPS * fmax(fabs(qt), fabs(qo));
+#else
+  double qmax = 0;
+  for (int k = 0; k < 3; ++k) qmax = fmax(qmax, fmax(fabs(T->q[k]), fabs(O->q[k])));
+  double band = 2.0 * VM_TIE_EPS * qmax;
+#endif
   if (qo - qt > band) return true;
   if (qt - qo > band) return false;
   VmLine unused;

@@ -192,6 +192,63 @@ __kernel void snap_depth_planes(__global VmScreenTri* tris, uint n, __global con
 
 #define VM_CLIP_MAXV 9
 
+/* Does the snapped polygon (X, Y) turn one way only, once around? Then it is convex and its fan
+ * from vertex 0 tiles it. Repeated vertices are passed over; a vertex where the polygon turns
+ * back (a spike) or turns the other way, or a polygon that winds more than once, is not convex.
+ * A polygon with fewer than 3 distinct vertices in a row counts as convex (its fan is empty). */
+inline bool snapped_convex(const int* X, const int* Y, int n) {
+  int v[VM_CLIP_MAXV], m = 0;
+  for (int i = 0; i < n; ++i) {
+    int j = i + 1 == n ? 0 : i + 1;
+    if (X[i] != X[j] || Y[i] != Y[j]) v[m++] = i;
+  }
+  if (m < 3) return true;
+  long sign = 0;
+  int wind = 0;
+  for (int i = 0; i < m; ++i) {
+    int a = v[i == 0 ? m - 1 : i - 1], b = v[i], c = v[i + 1 == m ? 0 : i + 1];
+    long ex = X[b] - X[a], ey = Y[b] - Y[a], fx = X[c] - X[b], fy = Y[c] - Y[b];
+    long o = ex * fy - ey * fx;
+    if (o == 0) {
+      if (ex * fx + ey * fy <= 0) return false; /* turns back */
+      continue;
+    }
+    if (sign == 0) sign = o > 0 ? 1 : -1;
+    if ((o > 0 ? 1 : -1) != sign) return false;
+    /* The edge direction passes angle 0 (turning positively) or leaves it (negatively): once
+     * per turn around. Steps are below a half turn, so each pass is seen once. */
+    if (sign > 0 ? (ey < 0 && fy >= 0) : (ey >= 0 && fy < 0)) ++wind;
+  }
+  return sign == 0 || wind == 1;
+}
+
+/* The convex hull of the n snapped points (X, Y), as indices into them in positive turning order
+ * (orient_points > 0), collinear points left out (Andrew's monotone chain, n <= VM_CLIP_MAXV).
+ * Returns its size (< 3: no area). */
+inline int snapped_hull(const int* X, const int* Y, int n, int* hull) {
+  int s[VM_CLIP_MAXV];
+  for (int i = 0; i < n; ++i) { /* sorted by (x, y), insertion */
+    int j = i;
+    for (; j > 0 && (X[s[j - 1]] > X[i] || (X[s[j - 1]] == X[i] && Y[s[j - 1]] > Y[i])); --j)
+      s[j] = s[j - 1];
+    s[j] = i;
+  }
+  int h[2 * VM_CLIP_MAXV], k = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    const int start = k;
+    for (int q = 0; q < n; ++q) {
+      int i = pass ? s[n - 1 - q] : s[q];
+      while (k >= start + 2 && orient_points(X[h[k - 2]], Y[h[k - 2]], X[h[k - 1]], Y[h[k - 1]],
+                                             X[i], Y[i]) <= 0)
+        --k;
+      h[k++] = i;
+    }
+    --k; /* the last point of each chain is the first of the other */
+  }
+  for (int i = 0; i < k; ++i) hull[i] = h[i];
+  return k;
+}
+
 /* Clips input triangle t and emits its snapped, non-degenerate, non-culled fan triangles.
  * Returns how many; writes them at out[base...] when write is set. The region (grid units,
  * x0 y0 x1 y1) is the part of the screen being rendered: fan triangles whose box misses its
@@ -253,6 +310,38 @@ inline uint clip_triangle(uint t, __global const uint* idx, __global const doubl
     X[i] = (int)clamp(fx, 0.0, xmax);
     Y[i] = (int)clamp(fy, 0.0, ymax);
     Q[i] = ortho ? -p[i].z : iw;
+  }
+  /* A clipped polygon is convex, but snapping a sliver's (several vertices within a grid unit
+   * of one line) can fold it, and its fan triangles would overlap: pieces of one source on top
+   * of each other (issue 45). Then its vertices' convex hull is cut instead, wound the way the
+   * polygon was before snapping (so that the back-face cull sees its orientation). */
+  if (n > 3 && !snapped_convex(X, Y, n)) {
+    double area = 0;
+    for (int i = 0; i < n; ++i) {
+      int j = i + 1 == n ? 0 : i + 1;
+      double ax = p[i].x / p[i].w, ay = -p[i].y / p[i].w, bx = p[j].x / p[j].w,
+             by = -p[j].y / p[j].w;
+      area += ax * by - bx * ay;
+    }
+    int hull[2 * VM_CLIP_MAXV];
+    int h = snapped_hull(X, Y, n, hull);
+    int HX[VM_CLIP_MAXV], HY[VM_CLIP_MAXV];
+    double HQ[VM_CLIP_MAXV];
+    float3 HB[VM_CLIP_MAXV];
+    for (int i = 0; i < h; ++i) {
+      int s = area < 0 ? hull[h - 1 - i] : hull[i]; /* (y down on the grid, up in NDC) */
+      HX[i] = X[s];
+      HY[i] = Y[s];
+      HQ[i] = Q[s];
+      HB[i] = b[s];
+    }
+    n = h < 3 ? 0 : h;
+    for (int i = 0; i < n; ++i) {
+      X[i] = HX[i];
+      Y[i] = HY[i];
+      Q[i] = HQ[i];
+      b[i] = HB[i];
+    }
   }
 
   uint cull = mesh_cull[tri_mesh[t]];

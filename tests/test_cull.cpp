@@ -7,7 +7,9 @@
 // into the kernels only on request) must be caught, so the comparison can fail.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cstdlib>
+#include <initializer_list>
 #include <string>
 
 #include "core/check/map_diff.h"
@@ -154,6 +156,43 @@ TEST(Cull, AnUnsoundCullIsCaught) {
 TEST(Cull, ApartTrianglesWithoutTheirClearanceAreCaught) {
   EXPECT_GT(differing_under("-DVM_APART_MUTATION=1", 120, randomized::random_scene), 0u)
       << "the mutated facts were not caught";
+}
+
+// compare_maps on a map whose fragments of one source overlap (issue 45 item 6: a sliver at the
+// viewport's edge snapped into overlapping pieces, and `vismap check` reported cull_differing 1
+// for byte-identical maps): the source's region is the union of its fragments.
+PlanarMap squares(std::initializer_list<std::array<int, 4>> boxes) {
+  PlanarMap m;
+  m.width = m.height = 8;
+  m.grid_scale = 1;
+  for (const auto& b : boxes) {
+    const int x[4] = {b[0], b[2], b[2], b[0]}, y[4] = {b[1], b[1], b[3], b[3]};
+    for (int k = 0; k < 4; ++k) {
+      m.xy.push_back(x[k]);
+      m.xy.push_back(y[k]);
+      m.hx.push_back({x[k] < 0 ? -1 : 0, uint64_t(int64_t(x[k]))});
+      m.hy.push_back({y[k] < 0 ? -1 : 0, uint64_t(int64_t(y[k]))});
+      m.hw.push_back({0, 1});
+    }
+    m.offsets.push_back(uint32_t(m.xy.size() / 2));
+    m.mesh.push_back(0);
+    m.triangle.push_back(0);
+  }
+  return m;
+}
+
+TEST(MapDiff, SelfOverlappingFragmentsAreTheirUnion) {
+  const PlanarMap overlapping = squares({{0, 0, 4, 4}, {2, 0, 6, 4}, {1, 1, 3, 5}});
+  const PlanarMap disjoint = squares({{0, 0, 6, 4}, {1, 4, 3, 5}});
+  const check::MapDiff self = check::compare_maps(overlapping, overlapping);
+  EXPECT_TRUE(self.exact);
+  EXPECT_TRUE(self.same()) << self.summary();
+  EXPECT_DOUBLE_EQ(self.visible_area, 26.0);
+  const check::MapDiff same = check::compare_maps(overlapping, disjoint);
+  EXPECT_TRUE(same.same()) << same.summary();
+  const check::MapDiff other = check::compare_maps(overlapping, squares({{0, 0, 6, 4}}));
+  EXPECT_EQ(other.differing, 1u) << other.summary();
+  EXPECT_DOUBLE_EQ(other.xor_area, 2.0);
 }
 
 }  // namespace

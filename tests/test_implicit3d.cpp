@@ -263,6 +263,38 @@ TEST(Implicit3D, BackFacesLeftOutOnlyWhereHidden) {
   EXPECT_EQ(inside.st.implicit_back_faces, 0u);
 }
 
+// The near plane inside the solid across the whole view (issue 45): every ray starts inside and
+// meets the far surface's inner side, so ray casting covers every pixel. No leaf in view is cut
+// by the near plane and the eye is outside, yet back faces must stay: the whole view is covered,
+// also with the dicer's occlusion on (as the CLI dices). Before, 0 triangles and an empty frame.
+TEST(Implicit3D, NearPlaneInsideTheSolidKeepsTheInnerSurface) {
+  for (const char* shape : {kSphere, kBox}) {
+    const Scene s = scene_of(shape);
+    Camera cam;
+    cam.eye = {0, 0, 1.3};
+    cam.target = {0, 0, 0};
+    cam.up = {0, 1, 0};
+    cam.fov_y_deg = 40;
+    cam.near_plane = 0.8, cam.far_plane = 10;
+    cam.width = cam.height = 48;
+    for (bool occlusion : {false, true}) {
+      TessellateOptions o;
+      o.implicit_tolerance_px = 1.0f;
+      o.implicit_back_faces = false;  // left out where hidden
+      o.implicit_occlusion = occlusion;
+      TessellateStats st;
+      const Scene diced = renderer().tessellate(s, cam, o, &st);
+      ASSERT_GT(diced.meshes.at(0).triangle_count(), 0u) << shape;
+      EXPECT_EQ(st.implicit_back_faces, 0u) << shape;
+      std::vector<uint32_t> ids;
+      renderer().raster_ids(diced, cam, &ids);
+      const size_t covered = size_t(std::count_if(ids.begin(), ids.end(),
+                                                  [](uint32_t i) { return i != ~0u; }));
+      EXPECT_EQ(covered, ids.size()) << shape << (occlusion ? " (occlusion)" : "");
+    }
+  }
+}
+
 TEST(Implicit3D, SphereNormalsAreTheGradient) {
   const Scene s = scene_of(kSphere);
   const Diced d = dice(s, frame_scene(s, 256, 256), 1.0f);

@@ -1,6 +1,10 @@
 // compare_maps: per source, area(A) + area(B) - 2 area(A ∩ B) over its fragments in the two maps
-// (fragments of one source in one map never overlap, so the sums are the areas of the regions),
-// in rationals from the exact vertices; a box filter skips fragment pairs that cannot meet.
+// (fragments of one source in one map are disjoint, so the sums are the areas of the regions),
+// in rationals from the exact vertices; a box filter skips fragment pairs that cannot meet. A
+// map whose fragments of one source overlap (a wrong map, which check_planar_map reports as
+// overlap_area) has that source's fragments cut into disjoint pieces first: without that a map
+// compared with itself differed by twice its self-overlap (issue 45: `cull_differing 1` for
+// byte-identical maps).
 #include "core/check/map_diff.h"
 
 #include <algorithm>
@@ -53,6 +57,48 @@ std::map<std::pair<uint32_t, uint32_t>, std::vector<Piece>> pieces_of(const Plan
   return out;
 }
 
+bool boxes_apart(const Piece& p, const Piece& q) {
+  return p.x1 < q.x0 || q.x1 < p.x0 || p.y1 < q.y0 || q.y1 < p.y0;
+}
+
+// P less the convex, positively oriented Q, as disjoint convex parts appended to out: the part
+// of P outside Q's first edge, then of the rest the part outside its second edge, and so on.
+void subtract(const std::vector<QPoint>& P, const std::vector<QPoint>& Q,
+              std::vector<std::vector<QPoint>>& out) {
+  std::vector<QPoint> rest = P;
+  for (size_t i = 0, n = Q.size(); i < n; ++i) {
+    const QPoint& a = Q[i];
+    const QPoint& b = Q[(i + 1) % n];
+    std::vector<QPoint> outside = detail::clip_left(rest, b, a);
+    if (outside.size() >= 3 && detail::area2(outside) != 0) out.push_back(std::move(outside));
+    rest = detail::clip_left(rest, a, b);
+    if (rest.size() < 3 || detail::area2(rest) == 0) return;
+  }
+}
+
+// One source's fragments as disjoint pieces covering the same region: unchanged unless two
+// overlap; then each less the pieces kept before it.
+void make_disjoint(std::vector<Piece>& pieces) {
+  bool overlap = false;
+  for (size_t i = 0; i < pieces.size() && !overlap; ++i)
+    for (size_t j = i + 1; j < pieces.size() && !overlap; ++j)
+      overlap = !boxes_apart(pieces[i], pieces[j]) &&
+                detail::convex_intersection_area2(pieces[i].poly, pieces[j].poly) != 0;
+  if (!overlap) return;
+  std::vector<Piece> out;
+  for (const Piece& p : pieces) {
+    std::vector<std::vector<QPoint>> parts{p.poly};
+    for (size_t k = 0, before = out.size(); k < before && !parts.empty(); ++k) {
+      if (boxes_apart(p, out[k])) continue;
+      std::vector<std::vector<QPoint>> next;
+      for (const auto& part : parts) subtract(part, out[k].poly, next);
+      parts = std::move(next);
+    }
+    for (auto& part : parts) out.push_back({std::move(part), p.x0, p.y0, p.x1, p.y1, p.perimeter});
+  }
+  pieces = std::move(out);
+}
+
 }  // namespace
 
 std::string MapDiff::summary() const {
@@ -69,6 +115,9 @@ MapDiff compare_maps(const PlanarMap& a, const PlanarMap& b) {
   d.fragments_a = a.fragment_count();
   d.fragments_b = b.fragment_count();
   auto pa = pieces_of(a, d.exact), pb = pieces_of(b, d.exact);
+  if (d.exact)  // (rounded vertices overlap within the slack below anyway)
+    for (auto* m : {&pa, &pb})
+      for (auto& [k, v] : *m) make_disjoint(v);
   const double g = a.grid_scale ? a.grid_scale : 1.0;
   std::map<std::pair<uint32_t, uint32_t>, int> keys;
   for (const auto& [k, v] : pa) keys[k] |= 1;
@@ -84,7 +133,7 @@ MapDiff compare_maps(const PlanarMap& a, const PlanarMap& b) {
     for (const Piece& p : B) x += detail::area2(p.poly), slack += p.perimeter * 0x1p-27;
     for (const Piece& p : A)
       for (const Piece& q : B) {
-        if (p.x1 < q.x0 || q.x1 < p.x0 || p.y1 < q.y0 || q.y1 < p.y0) continue;
+        if (boxes_apart(p, q)) continue;
         x -= 2 * detail::convex_intersection_area2(p.poly, q.poly);
       }
     const double xor_px = std::fabs(x.get_d()) / 2 / (g * g);

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -547,6 +548,9 @@ PixelReport pixel_compare(const PlanarMap& map, const ScreenTriangles& screen, u
   std::vector<uint8_t> near(size_t(n) * n, 0);
   std::vector<uint32_t> ztri(size_t(n) * n, 0);
   std::unordered_map<uint64_t, int> order_cache;
+  // A mutation for tests/test_coplanar.cpp: VISMAP_BAND_MUTATION set takes the tie band at the
+  // sample (the rule before issue 45), which the random coplanar scenes must catch.
+  const bool point_band = std::getenv("VISMAP_BAND_MUTATION") != nullptr;
 
   // Z-buffer of the screen triangles: closed point-in-triangle exactly; depth interpolated in
   // double; within the tie band the pair's order over its overlap decides (pair_order).
@@ -574,10 +578,21 @@ PixelReport pixel_compare(const PlanarMap& map, const ScreenTriangles& screen, u
         double depth = d[0] + b1 * (d[1] - d[0]) + b2 * (d[2] - d[0]);
         size_t k = size_t(j) * n + i;
         bool closer;
-        double band = VM_TIE_EPS * std::max(std::fabs(depth), std::fabs(zdepth[k]));
+        // The pair's band is VM_TIE_EPS of the largest |depth| over its overlap, at most
+        // `bound` (the largest over both triangles' corners); beyond twice that (room for the
+        // rounding of the doubles' overlap) the depths' sign is the pair's order, whatever the
+        // sample. Within it, only the pair's order over its overlap decides: the band at the
+        // sample alone would let the sample point decide (docs/NUMERICS.md §3).
+        double bound = 0;
+        if (zid[k] != kEmpty)
+          for (int c = 0; c < 3; ++c)
+            bound = std::max({bound, std::fabs(d[c]), std::fabs(screen.depth[3 * ztri[k] + c])});
+        double band = 2 * VM_TIE_EPS * bound;
+        if (point_band)  // (the mutation: the band at the sample, narrower)
+          band = VM_TIE_EPS * std::max(std::fabs(depth), std::fabs(zdepth[k]));
         if (zid[k] == kEmpty || std::fabs(depth - zdepth[k]) > band) {
           closer = depth > zdepth[k];
-        } else {  // within the tie band: the pair's order over its whole overlap
+        } else {  // near the tie band: the pair's order over its whole overlap
           uint64_t pk = (uint64_t(t) << 32) | ztri[k];
           auto it = order_cache.find(pk);
           int order = it != order_cache.end() ? it->second

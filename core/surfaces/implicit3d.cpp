@@ -347,12 +347,70 @@ void weld_world(const DualMesh& nv, const M4& xf, Mesh& out, std::vector<uint32_
   }
 }
 
+// Does every ray of the view start outside the solid? The near plane's rectangle in view (the
+// rays' starts, perspective or orthographic), grown by `grow`, in pieces each boxed around its
+// 4 corners in the object's space, misses the object's box or is proven empty (f >= 0 over it)
+// by interval arithmetic; false where a piece 2^-8 of the viewport across is not.
+bool rays_start_outside(const Camera& cam, const M4& xf, const std::array<double, 9>& inv,
+                        const implicit::Tape& clipped, const double blo[3], const double bhi[3],
+                        double grow) {
+  const Mat4 V = cam.view();
+  const double hh = cam.projection == Camera::Projection::Perspective
+                        ? cam.near_plane * std::tan(cam.fov_y_deg * M_PI / 360)
+                        : cam.ortho_height / 2;
+  const double hw = hh * cam.width / cam.height;
+  double c0[3], dx[3], dy[3];  // the near rectangle: c0 + s dx + t dy, s, t in [0, 1]
+  for (int k = 0; k < 3; ++k) {
+    const double r = V[4 * k], u = V[4 * k + 1], f = -V[4 * k + 2];
+    c0[k] = cam.eye[k] + cam.near_plane * f - hw * r - hh * u - xf[12 + k];
+    dx[k] = 2 * hw * r;
+    dy[k] = 2 * hh * u;
+  }
+  struct Piece {
+    double s0, t0, s1, t1;
+    int depth;
+  };
+  std::vector<Piece> todo{{0, 0, 1, 1, 0}};
+  while (!todo.empty()) {
+    const Piece p = todo.back();
+    todo.pop_back();
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int c = 0; c < 4; ++c) {
+      double w[3];
+      for (int k = 0; k < 3; ++k)
+        w[k] = c0[k] + (c & 1 ? p.s1 : p.s0) * dx[k] + (c & 2 ? p.t1 : p.t0) * dy[k];
+      for (int r = 0; r < 3; ++r) {
+        const double o = inv[3 * r] * w[0] + inv[3 * r + 1] * w[1] + inv[3 * r + 2] * w[2];
+        lo[r] = std::min(lo[r], o - grow);
+        hi[r] = std::max(hi[r], o + grow);
+      }
+    }
+    bool apart = false;
+    for (int k = 0; k < 3; ++k) apart = apart || hi[k] < blo[k] || lo[k] > bhi[k];
+    if (apart ||
+        implicit::eval_interval(clipped, {lo[0], hi[0]}, {lo[1], hi[1]}, {lo[2], hi[2]}).lo >= 0)
+      continue;
+    if (p.depth == 8) return false;  // the near plane meets the solid, or nearly
+    const double sm = (p.s0 + p.s1) / 2, tm = (p.t0 + p.t1) / 2;
+    todo.push_back({p.s0, p.t0, sm, tm, p.depth + 1});
+    todo.push_back({sm, p.t0, p.s1, tm, p.depth + 1});
+    todo.push_back({p.s0, tm, sm, p.t1, p.depth + 1});
+    todo.push_back({sm, tm, p.s1, p.t1, p.depth + 1});
+  }
+  return true;
+}
+
 // Back faces: a closed surface seen from outside hides every triangle that faces away (a ray
 // reaching one from the eye has entered the solid through a front face first), so they can be
-// left out when that holds: the eye outside the solid (f > 0 there) and every leaf cell wholly
-// beyond the near plane (the near plane cuts nothing open).
+// left out when that holds: the eye outside the solid (f > 0 there), every leaf cell wholly
+// beyond the near plane (the near plane cuts nothing open in view), and every ray starting
+// outside the solid (rays_start_outside, with the occlusion map's margin of three leaf sides):
+// with the near plane inside the solid across the whole view no leaf in view is cut by it, yet
+// every ray starts inside and sees only the far surface's inner side (issue 45: a unit sphere
+// from (0, 0, 1.3) with near 0.8 was diced to nothing).
 bool back_faces_hidden(const ImplicitQueue& q, const implicit::Tape& clipped, const Camera& cam,
-                       const M4& xf, const std::array<double, 9>& inv) {
+                       const M4& xf, const std::array<double, 9>& inv, const double blo[3],
+                       const double bhi[3], const VmIView& sizing) {
   const std::array<float, 4> np = view_planes(cam.view_projection(), xf)[4];
   bool hidden = true;
   for (size_t l = 0; l < q.leaves.size() && hidden; ++l) {
@@ -365,7 +423,9 @@ bool back_faces_hidden(const ImplicitQueue& q, const implicit::Tape& clipped, co
   double eo[3];
   for (int r = 0; r < 3; ++r)
     eo[r] = inv[3 * r] * w[0] + inv[3 * r + 1] * w[1] + inv[3 * r + 2] * w[2];
-  return hidden && implicit::eval(clipped, eo[0], eo[1], eo[2]) > 0;
+  if (!hidden || !(implicit::eval(clipped, eo[0], eo[1], eo[2]) > 0)) return false;
+  const double grow = 3 * leaf_side(sizing, cam.near_plane) + 1e-6 * (1 + cam.near_plane);
+  return rays_start_outside(cam, xf, inv, clipped, blo, bhi, grow);
 }
 
 // Triangles through the weld, in place; collapsed or exactly flat ones dropped; a mirroring
@@ -531,7 +591,7 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   weld_world(nv, xf, out, remap, src);
   check_time();
   const bool cull_back =
-      !o.implicit_back_faces && back_faces_hidden(q, clipped, v.cam, xf, inv);
+      !o.implicit_back_faces && back_faces_hidden(q, clipped, v.cam, xf, inv, blo, bhi, sizing);
   const size_t ntri = keep_triangles(out, remap, det, cull_back, v, st);
   if (cull_back) drop_unused_vertices(out, src);
   check_time();

@@ -1,6 +1,7 @@
 #include "core/util/mesh_topology.h"
 
 #include <algorithm>
+#include <utility>
 #include <vector>
 
 #include "core/util/weld.h"
@@ -29,18 +30,43 @@ int8_t closed_orientation(const Mesh& m) {
     // ... and no third use of it.
     if (i + 2 < edges.size() && (edges[i + 2] >> 1) == (edges[i] >> 1)) return 0;
   }
-  double volume = 0;
+  // The closed components (triangles joined through shared edges: two shells that touch at a
+  // vertex stay apart), each with its own signed volume. One orientation for the mesh only when
+  // every component has it: a mesh holding an outward and an inward shell (one OBJ group with
+  // a flipped sphere, a solid with a cavity) is two-sided, since culling by the whole mesh's
+  // sign would drop the near half of the shell that faces the other way (issue 45).
+  std::vector<uint32_t> root(nt);
+  for (size_t t = 0; t < nt; ++t) root[t] = uint32_t(t);
+  auto find = [&](uint32_t t) {
+    while (root[t] != t) t = root[t] = root[root[t]];
+    return t;
+  };
+  std::vector<std::pair<uint64_t, uint32_t>> tri_edges;  // (undirected edge, triangle)
+  tri_edges.reserve(nt * 3);
+  for (size_t t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) {
+      uint64_t a = weld[m.indices[3 * t + k]], b = weld[m.indices[3 * t + (k + 1) % 3]];
+      tri_edges.push_back({std::min(a, b) << 32 | std::max(a, b), uint32_t(t)});
+    }
+  std::sort(tri_edges.begin(), tri_edges.end());
+  for (size_t i = 0; i + 1 < tri_edges.size(); i += 2)  // (each edge exactly twice, above)
+    root[find(tri_edges[i].second)] = find(tri_edges[i + 1].second);
+  std::vector<double> volume(nt, 0.0);
   for (size_t t = 0; t < nt; ++t) {
     const float* a = &m.positions[3 * m.indices[3 * t]];
     const float* b = &m.positions[3 * m.indices[3 * t + 1]];
     const float* c = &m.positions[3 * m.indices[3 * t + 2]];
-    volume += a[0] * (double(b[1]) * c[2] - double(b[2]) * c[1]) -
-              a[1] * (double(b[0]) * c[2] - double(b[2]) * c[0]) +
-              a[2] * (double(b[0]) * c[1] - double(b[1]) * c[0]);
+    volume[find(uint32_t(t))] += a[0] * (double(b[1]) * c[2] - double(b[2]) * c[1]) -
+                                 a[1] * (double(b[0]) * c[2] - double(b[2]) * c[0]) +
+                                 a[2] * (double(b[0]) * c[1] - double(b[1]) * c[0]);
   }
-  if (volume > 0) return 1;
-  if (volume < 0) return -1;
-  return 0;
+  bool outward = false, inward = false;
+  for (size_t t = 0; t < nt; ++t) {
+    if (find(uint32_t(t)) != t) continue;
+    if (!(volume[t] > 0) && !(volume[t] < 0)) return 0;  // a flat (or NaN) component
+    (volume[t] > 0 ? outward : inward) = true;
+  }
+  return outward == inward ? 0 : outward ? 1 : -1;
 }
 
 }  // namespace vismap

@@ -8,8 +8,9 @@
 
 namespace vismap {
 
-// +1: closed, consistently oriented, positive signed volume (faces point outward);
-// -1: closed and consistent with negative volume (faces point inward); 0: not closed.
+// +1: closed, consistently oriented, and every closed component (triangles joined through
+// shared edges) of positive signed volume (faces point outward); -1: all of negative volume
+// (faces point inward); 0: not closed, or components facing opposite ways (or flat).
 // Vertices are matched by position, so soup and split-vertex meshes are judged by their shape.
 int8_t closed_orientation(const Mesh& m);
 
