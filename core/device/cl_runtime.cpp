@@ -156,6 +156,23 @@ ClRuntime::ClRuntime(const std::string& device_spec) {
   scratch_total_ = cl::Buffer(ctx_, CL_MEM_READ_WRITE, sizeof(uint32_t));
 }
 
+ClRuntime::~ClRuntime() {
+  // Without this the members died first (pending_writes_ is declared after queue_): a frame that
+  // threw with commands still queued left a non-blocking write to read freed memory when the
+  // queue's release ran it (issue 51: oclgrind's "Invalid write of size 64" in clip_fill).
+  drain();
+}
+
+void ClRuntime::drain() noexcept {
+  try {
+    if (queue_()) queue_.finish();
+  } catch (...) {
+    // A device that fails here has nothing left to run.
+  }
+  async_pending_ = false;
+  pending_writes_.clear();
+}
+
 std::string program_source() {
   std::string source;
   for (const auto& [file, text] : kernel_sources())
