@@ -187,6 +187,12 @@ void ClRuntime::build(uint32_t maxl) {
   // A CPU device runs a work-group's items in loops between barriers (PoCL): there one item
   // scans the group serially, two barriers instead of sixteen (scan.cl vm_group_scan).
   if (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) options += " -DVM_SERIAL_GROUP_SCAN";
+  // Oclgrind (the device simulator, scripts/oclgrind_check.sh) builds with LLVM 14, whose inliner
+  // marks the noalias of a struct returned by value (sret) with llvm.experimental.noalias.scope
+  // .decl, an intrinsic Oclgrind 21.10 cannot run ("Undefined external function" when creating
+  // leaf_bin, which inlines leaf_walk). Unoptimised, nothing is inlined, and the simulator checks
+  // the code as written.
+  if (info_.platform.find("Oclgrind") != std::string::npos) options += " -cl-opt-disable";
   if (const char* extra = std::getenv("VISMAP_CL_OPTIONS"); extra && *extra)
     options += std::string(" ") + extra;
   uint64_t key =
