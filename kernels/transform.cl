@@ -98,10 +98,11 @@ inline void clip_edge(double4 a, float3 ba, double4 b, float3 bb, int k, double4
  * their crossing lines are rounded as before. */
 #define VM_PLANE_BIAS 4096
 
-/* atomic_max only when it would raise the value: the maxima settle after a few triangles, and
- * a plain read (the value only grows) spares the rest the atomic. */
+/* Always the atomic: a plain read first (it sparing the atomic once the maxima settle) raced
+ * with the other items' atomic_max, which OpenCL 1.2 leaves undefined (no atomic loads; issue
+ * 51, oclgrind --data-races); an atomic read (atomic_or(p, 0)) would cost as much as the max. */
 inline void raise_to(__global int* p, int v) {
-  if (v > *(volatile __global int*)p) atomic_max(p, v);
+  atomic_max(p, v);
 }
 
 inline void note_depth_exponents(const VmScreenTri* t, int ortho, __global int* ex) {
