@@ -11,7 +11,10 @@ __kernel void transform_vertices(__global const float* pos, uint nv, __constant 
     for (int k = 0; k < VM_FRAME_WORDS; ++k) depth_ex[k] = 0;
   if (i >= nv) return;
   double x = pos[3 * i], y = pos[3 * i + 1], z = pos[3 * i + 2];
-  /* column-major 4x4, as OpenGL */
+  /* column-major 4x4, as OpenGL. (Oclgrind's --uninitialized flags this store when optimised:
+   * LLVM 14 writes it as a store of an undef double4 and then its four lanes, as the same line
+   * alone in a minimal kernel shows; unoptimised, as ClRuntime::build builds for Oclgrind, it is
+   * clean. All four lanes are written.) */
   clip[i] =
       (double4)(m[0] * x + m[4] * y + m[8] * z + m[12], m[1] * x + m[5] * y + m[9] * z + m[13],
                 m[2] * x + m[6] * y + m[10] * z + m[14], m[3] * x + m[7] * y + m[11] * z + m[15]);
