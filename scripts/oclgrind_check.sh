@@ -8,9 +8,10 @@
 #
 # quick (ctest's, label oclgrind; 3 min on the shared 2-core machine): a frame that throws
 # midway, a stiff scene with penetrating triangles, a near-plane cut, the small bunny (948
-# triangles) at 32 x 32, that bunny in 3 buckets under --memory-budget and as a line drawing, and
-# 4 Bezier patches. full adds the whole stiff corpus and the bunny at 64 x 64, a Loop surface and
-# an implicit surface. The frames are small: the simulator runs every work-item one by one.
+# triangles) at 32 x 32, that bunny in 3 buckets under --memory-budget and as a line drawing,
+# penetrating soup and 4 Bezier patches. full adds the whole stiff corpus and the bunny at
+# 64 x 64, a Loop surface and an implicit surface. The frames are small: the simulator runs every
+# work-item one by one.
 #
 # VISMAP_OCLGRIND_FLAGS replaces the checks (default: --data-races --check-api). Oclgrind's
 # --uninitialized is left out for now: it reports leaf_sort_classes reading leaf-list entries
@@ -83,6 +84,16 @@ check near_plane "$ROOT/data/stiff/near_plane_behind_camera.json" "${small[@]}"
 check bunny "$SHARED/stanford/bun_zipper_res4.ply" "${small[@]}"
 check bunny_buckets "$SHARED/stanford/bun_zipper_res4.ply" "${small[@]}" --memory-budget 1M  # (3 buckets)
 check bunny_lines "$SHARED/stanford/bun_zipper_res4.ply" "${small[@]}" --style lines
+# Penetrating soup: 80 random triangles 0.4 wide in a unit cube (13 entangled pairs at 32 x 32,
+# the crossing lines' path; bench/make_soup.cpp makes the big ones).
+awk 'BEGIN { srand(51)
+  for (t = 0; t < 80; ++t) {
+    cx = rand(); cy = rand(); cz = rand()
+    for (k = 0; k < 3; ++k)
+      printf "v %.4f %.4f %.4f\n", cx + 0.4 * (rand() - 0.5), cy + 0.4 * (rand() - 0.5), cz + 0.4 * (rand() - 0.5)
+  }
+  for (t = 0; t < 80; ++t) printf "f %d %d %d\n", 3 * t + 1, 3 * t + 2, 3 * t + 3 }' > "$WORK/soup.obj"
+check soup "$WORK/soup.obj" "${small[@]}"
 # The teacup's first 4 Bezier patches (all 26 take ~4 min): header, patch lines, its vertices.
 awk 'NR == 1 { print 4; next } NR <= 5 { print; next } NR >= 28 { print }' \
   "$SHARED/teapot/newell_teacup.patches" > "$WORK/cup4.patches"
