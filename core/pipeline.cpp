@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <string>
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -198,6 +199,14 @@ PlanarMap Renderer::Impl::run(const Scene& scene, const Camera& cam, const Rende
   Tally tally;
 
   stages::Frame fr = stages::begin_frame(rt, sb, scene, cam, Stage::Transform);
+  // A throw drains the queue before fr goes (count_screen reads its back faces without blocking).
+  struct DrainOnThrow {
+    ClRuntime& rt;
+    int in_flight = std::uncaught_exceptions();
+    ~DrainOnThrow() {
+      if (std::uncaught_exceptions() > in_flight) rt.drain();
+    }
+  } drain_on_throw{rt};
   const stages::ApartView apart = stages::apart_view(sb, cam, opts.min_apart_fraction);
   st.has_facts = sb.facts != nullptr;
   st.facts_isolated = sb.facts ? sb.facts->isolated : 0;

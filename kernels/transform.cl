@@ -11,7 +11,10 @@ __kernel void transform_vertices(__global const float* pos, uint nv, __constant 
     for (int k = 0; k < VM_FRAME_WORDS; ++k) depth_ex[k] = 0;
   if (i >= nv) return;
   double x = pos[3 * i], y = pos[3 * i + 1], z = pos[3 * i + 2];
-  /* column-major 4x4, as OpenGL */
+  /* column-major 4x4, as OpenGL. (Oclgrind's --uninitialized flags this store when optimised:
+   * LLVM 14 writes it as a store of an undef double4 and then its four lanes, as the same line
+   * alone in a minimal kernel shows; unoptimised, as ClRuntime::build builds for Oclgrind, it is
+   * clean. All four lanes are written.) */
   clip[i] =
       (double4)(m[0] * x + m[4] * y + m[8] * z + m[12], m[1] * x + m[5] * y + m[9] * z + m[13],
                 m[2] * x + m[6] * y + m[10] * z + m[14], m[3] * x + m[7] * y + m[11] * z + m[15]);
@@ -98,10 +101,11 @@ inline void clip_edge(double4 a, float3 ba, double4 b, float3 bb, int k, double4
  * their crossing lines are rounded as before. */
 #define VM_PLANE_BIAS 4096
 
-/* atomic_max only when it would raise the value: the maxima settle after a few triangles, and
- * a plain read (the value only grows) spares the rest the atomic. */
+/* Always the atomic: a plain read first (it sparing the atomic once the maxima settle) raced
+ * with the other items' atomic_max, which OpenCL 1.2 leaves undefined (no atomic loads; issue
+ * 51, oclgrind --data-races); an atomic read (atomic_or(p, 0)) would cost as much as the max. */
 inline void raise_to(__global int* p, int v) {
-  if (v > *(volatile __global int*)p) atomic_max(p, v);
+  atomic_max(p, v);
 }
 
 inline void note_depth_exponents(const VmScreenTri* t, int ortho, __global int* ex) {

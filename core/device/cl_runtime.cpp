@@ -156,6 +156,23 @@ ClRuntime::ClRuntime(const std::string& device_spec) {
   scratch_total_ = cl::Buffer(ctx_, CL_MEM_READ_WRITE, sizeof(uint32_t));
 }
 
+ClRuntime::~ClRuntime() {
+  // Without this the members died first (pending_writes_ is declared after queue_): a frame that
+  // threw with commands still queued left a non-blocking write to read freed memory when the
+  // queue's release ran it (issue 51: oclgrind's "Invalid write of size 64" in clip_fill).
+  drain();
+}
+
+void ClRuntime::drain() noexcept {
+  try {
+    if (queue_()) queue_.finish();
+  } catch (...) {
+    // A device that fails here has nothing left to run.
+  }
+  async_pending_ = false;
+  pending_writes_.clear();
+}
+
 std::string program_source() {
   std::string source;
   for (const auto& [file, text] : kernel_sources())
@@ -170,6 +187,12 @@ void ClRuntime::build(uint32_t maxl) {
   // A CPU device runs a work-group's items in loops between barriers (PoCL): there one item
   // scans the group serially, two barriers instead of sixteen (scan.cl vm_group_scan).
   if (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) options += " -DVM_SERIAL_GROUP_SCAN";
+  // Oclgrind (the device simulator, scripts/oclgrind_check.sh) builds with LLVM 14, whose inliner
+  // marks the noalias of a struct returned by value (sret) with llvm.experimental.noalias.scope
+  // .decl, an intrinsic Oclgrind 21.10 cannot run ("Undefined external function" when creating
+  // leaf_bin, which inlines leaf_walk). Unoptimised, nothing is inlined, and the simulator checks
+  // the code as written.
+  if (info_.platform.find("Oclgrind") != std::string::npos) options += " -cl-opt-disable";
   if (const char* extra = std::getenv("VISMAP_CL_OPTIONS"); extra && *extra)
     options += std::string(" ") + extra;
   uint64_t key =

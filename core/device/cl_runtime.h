@@ -31,6 +31,11 @@ std::string program_source();
 class ClRuntime {
  public:
   explicit ClRuntime(const std::string& device_spec);
+  // Waits for the queue before the members go: a device may run queued commands as late as the
+  // queue's release (Oclgrind does), and they read pending_writes_ and write into host_words_.
+  ~ClRuntime();
+  ClRuntime(const ClRuntime&) = delete;
+  ClRuntime& operator=(const ClRuntime&) = delete;
 
   const DeviceInfo& info() const { return info_; }
   cl::Context& context() { return ctx_; }
@@ -83,6 +88,9 @@ class ClRuntime {
   // Makes every earlier read_async complete: free when a blocking read (or collect_profile) came
   // after the last of them, else one wait for the queue, counted as a blocking read of `stage`.
   void complete_reads(Stage stage);
+  // Waits for every queued command, uncounted and without throwing: before the host memory of a
+  // read_async or of a non-blocking write goes out of scope on a throw (and in the destructor).
+  void drain() noexcept;
   // Host words owned by the runtime (resized to n), for a read_async target that must outlive
   // the caller's frame (a stage that throws before the next blocking read leaves no read into
   // freed memory). One user at a time: the silhouettes' group totals.
