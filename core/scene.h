@@ -73,10 +73,6 @@ struct Scene {
   bool has_surfaces() const;  // any mesh is_surface(): Renderer::tessellate before render
   // Global id of mesh m's first source triangle: sum of source_triangles of meshes before it.
   std::vector<uint64_t> triangle_id_base() const;
-  // A hash of what a renderer uploads (every mesh's positions and indices, and their counts):
-  // two scenes with the same fingerprint upload the same buffers (up to a 64-bit collision).
-  // ~0.2 ms for the bunny, a few ms for a million triangles.
-  uint64_t geometry_fingerprint() const;
 };
 
 // The box of the vertices that triangles use (stray unused vertices do not move the framing).
