@@ -223,9 +223,14 @@ RenderArgs parse_render(int argc, char** argv) {
     else if (f == "--fill")
       a.fill = value();
     else if (f == "--quantum") {
-      const uint32_t q = parse_pixels(f, value());
-      if (q < 1 || q > 256) throw UsageError("--quantum: expected 1 ... 256 grid steps per pixel");
-      a.quantum = q;
+      // One range and one message for every value (parse_pixels said 1..16384 past 16384).
+      const std::string v = value();
+      char* end = nullptr;
+      const double q = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end || !(q >= kMinQuantum && q <= kMaxQuantum) || q != std::floor(q))
+        throw UsageError("--quantum: expected an integer in " + quantum_range_text() + ", got '" +
+                         v + "'");
+      a.quantum = static_cast<uint32_t>(q);
     } else if (f == "--compression") {
       a.compression = value();
       if (a.compression != "zstd" && a.compression != "deflate")

@@ -221,9 +221,8 @@ void Renderer::Impl::find_facts(const Scene& scene, const RenderOptions& opts, R
   std::shared_ptr<const stages::SceneFacts> f = opts.scene_facts;
   if (f && f == sb.facts) return;  // (given, and uploaded already)
   if (!f) {
-    // Under a memory budget a renderer holds only facts it was asked for (Now, or given): its
-    // own from an earlier frame would change the buckets' plan (their bytes are held), and the
-    // same scene, view and budget give the same buckets every time.
+    // Under a memory budget a renderer holds only facts it was asked for (Now, or given): the
+    // device memory a frame holds beyond its plan is what its caller chose.
     if (opts.memory_budget && opts.facts == F::Repeat) {
       if (sb.facts && !sb.facts_given) drop_facts();
       return;
@@ -241,7 +240,10 @@ void Renderer::Impl::find_facts(const Scene& scene, const RenderOptions& opts, R
     f = std::move(found);
   }
   if (f->clearance.size() != sb.ntri || !(f->cap > 0)) return;  // (not this scene's, or none)
-  if (opts.memory_budget && f->bytes() > opts.memory_budget / 4) return;
+  // Under a budget the buckets' plan leaves them out (so that it is the same with and without
+  // them: plan_buckets), and they come out of the eighth it keeps for the allocator: at most half
+  // of it, else the frame goes without.
+  if (opts.memory_budget && f->bytes() > opts.memory_budget / 16) return;
   if (sb.facts) sb.bytes -= sb.facts->bytes();
   sb.facts_given = f == opts.scene_facts;
   sb.facts = f;

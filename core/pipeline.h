@@ -44,9 +44,10 @@ struct RenderOptions {
   // no vertex (core/stages/scene_facts.h), from view-independent facts found once per uploaded
   // scene: when the scene is rendered a second time (Repeat: a single frame, as the CLI renders,
   // does not pay for them; an orbit does), at once (Now), or never (Off); or given (below).
-  // The map is the same either way. Under a memory budget Repeat finds none (the facts' device
-  // bytes would change the buckets' plan from the second frame on): ask for them (Now, or
-  // scene_facts) and every frame has them.
+  // The map is the same either way, byte for byte, under a memory budget too (the buckets are
+  // planned without the facts' bytes; facts over a sixteenth of the budget are not used). Under
+  // a memory budget Repeat finds none (a renderer there holds only what it was asked for): ask
+  // for them (Now, or scene_facts) and every frame has them.
   enum class Facts { Repeat, Now, Off };
   Facts facts = Facts::Repeat;
   // Facts the caller found for this scene (stages::find_scene_facts), used instead of the

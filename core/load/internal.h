@@ -119,6 +119,11 @@ Mesh implicit_object(const Source& src, std::string_view text, const std::string
                      const std::optional<std::array<double, 6>>& bounds);
 Scene read_sexp(const Source& src, std::string_view bytes, const LoadOptions& opts);
 
+// Throws ParseError "UTF-16 text: save the file as UTF-8" when a text file's bytes are UTF-16 (a
+// byte-order mark, or a NUL in every other one of its first bytes): every reader read it as no
+// triangles before (issue 45, item 9).
+void refuse_utf16(const Source& src, std::string_view bytes);
+
 // Loads a mesh file (any format but .json) from bytes into a scene.
 Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptions& opts);
 

@@ -279,8 +279,25 @@ uint64_t finish_mesh(Mesh& m, const Source& src) {
   return nt - kept;
 }
 
+void refuse_utf16(const Source& src, std::string_view b) {
+  auto byte = [&](size_t i) { return static_cast<unsigned char>(b[i]); };
+  bool utf16 = b.size() >= 2 && ((byte(0) == 0xFE && byte(1) == 0xFF) ||
+                                 (byte(0) == 0xFF && byte(1) == 0xFE));  // a byte-order mark
+  if (!utf16 && b.size() >= 4) {
+    // No mark: ASCII saved as UTF-16 has a NUL in every other byte (and text formats none).
+    const size_t n = std::min<size_t>(b.size() & ~size_t(1), 64);
+    size_t nul[2] = {0, 0};
+    for (size_t i = 0; i < n; ++i) nul[i & 1] += b[i] == '\0';
+    utf16 = (nul[0] == n / 2 && nul[1] == 0) || (nul[1] == n / 2 && nul[0] == 0);
+  }
+  if (utf16)
+    fail(InputErrorKind::ParseError, src, "", "", -1, "UTF-16 text: save the file as UTF-8");
+}
+
 Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptions& opts) {
   std::string ext = format_extension(src.file);
+  // Every format but binary STL (any 80-byte header), GLB and gzip is text or starts with some.
+  if (ext != ".stl" && ext != ".glb" && ext != ".ply.gz") refuse_utf16(src, bytes);
   if (ext == ".gltf" || ext == ".glb") return read_gltf(src, bytes, ext == ".glb", opts);
   if (ext == ".pbrt") return read_pbrt(src, bytes, opts);
   // Patch meshes have no triangles: the tail below (finish_mesh, "every triangle is degenerate")
@@ -293,6 +310,7 @@ Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptio
     meshes = read_ply(src, bytes, opts);
   } else if (ext == ".ply.gz") {
     std::string plain = gunzip(src, bytes);
+    refuse_utf16(src, plain);
     meshes = read_ply(src, plain, opts);
   } else if (ext == ".obj") {
     meshes = read_obj(src, bytes, opts);
@@ -340,7 +358,10 @@ Scene load_file(const std::string& path, const LoadOptions& opts, ByteBudget& bu
          "unknown format '" + ext +
              "' (expected " + std::string(kFormats) + ")");
   std::string bytes = read_input_file(path, opts, budget);
-  if (ext == ".json") return read_scene_file(src, bytes, opts);
+  if (ext == ".json") {
+    refuse_utf16(src, bytes);
+    return read_scene_file(src, bytes, opts);
+  }
   return load_mesh_bytes(src, bytes, opts);
 }
 }  // namespace detail
@@ -363,7 +384,10 @@ Scene load_scene_from_memory(const std::string& name, const std::string& bytes,
         InputErrorKind::UnknownFormat, src, "", "", -1,
         "unknown format '" + ext +
             "' (expected " + std::string(detail::kFormats) + ")");
-  if (ext == ".json") return detail::read_scene_file(src, bytes, opts);
+  if (ext == ".json") {
+    detail::refuse_utf16(src, bytes);
+    return detail::read_scene_file(src, bytes, opts);
+  }
   return detail::load_mesh_bytes(src, bytes, opts);
 }
 
