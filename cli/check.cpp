@@ -111,6 +111,7 @@ namespace {
 
 int run_check(const CheckArgs& a) {
   Scene scene = load_scene(a.scene);
+  print_load_warnings(scene);
   Camera cam = make_camera(scene, a.view);
   Renderer renderer(a.view.device);
   scene = dice_for_view(renderer, std::move(scene), cam, a.view, nullptr, a.opts.memory_budget);

@@ -479,6 +479,7 @@ int run_render(RenderArgs& a, std::chrono::steady_clock::time_point t0) {
   LoadOptions lo;
   lo.time_limit_s = a.time_limit_s;  // an implicit object's bounds search, too
   Scene scene = load_scene(a.scene, lo);
+  print_load_warnings(scene);
   auto t_load = Clock::now();
   Camera cam = make_camera(scene, a.view);
   Renderer renderer(a.view.device);

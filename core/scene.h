@@ -67,6 +67,10 @@ struct Scene {
   std::vector<Mesh> meshes;         // scene order; global triangle ids follow this order
   std::optional<Camera> camera;     // from the file (glTF camera or scene file), if any
   uint64_t dropped_degenerate = 0;  // zero-area triangles dropped while loading
+  // What the load read but could not take as it is, one line each naming the file and the
+  // element (a polygon whose edges cross, core/load/internal.h add_polygon); the CLI prints them
+  // on stderr, vismapd logs them. At most kMaxLoadWarnings, then one line saying how many more.
+  std::vector<std::string> warnings;
   std::string source;               // path it was loaded from
 
   size_t triangle_count() const;

@@ -4,7 +4,8 @@
 #   scripts/setup.sh --tests   that, and what the tests need: GoogleTest, the Python and JS
 #                              clients' interpreters and packages, Chromium and playwright-core
 #                              (the web viewer's browser test), nginx (the scale-out test), clang
-#                              with libFuzzer (the fuzzers' short runs)
+#                              with libFuzzer (the fuzzers' short runs), assimp's test models
+#                              (real-world files the loader tests read where installed)
 # The bench peers have setup scripts of their own (bench/peers/setup.sh, bench/lines/setup.sh).
 # Idempotent: when every package is already there it only checks and returns.
 set -euo pipefail
@@ -32,6 +33,7 @@ TEST_PACKAGES=(
   python3-setuptools python3-wheel python3-pip libmeshoptimizer2d
   chromium nodejs nginx
   clang libclang-rt-14-dev
+  assimp-testmodels
 )
 [ "$TESTS" -eq 1 ] && PACKAGES+=("${TEST_PACKAGES[@]}")
 

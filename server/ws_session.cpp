@@ -475,6 +475,10 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       }
       peak_bytes_ = std::max(peak_bytes_, scene_bytes(*scene));
       srv_.metrics.scenes_loaded++;
+      // What the load could not take as it is (a polygon whose edges cross): the operator's to
+      // see, in the log; the client gets the frames as they are.
+      for (const std::string& w : scene->warnings)
+        srv_.log.warn("scene_warning", {{"session", session_}, {"name", name}, {"message", w}});
       srv_.log.info("scene_loaded", {{"session", session_},
                                      {"name", name},
                                      {"triangles", scene->triangle_count()},

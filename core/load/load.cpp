@@ -13,6 +13,7 @@
 #include <limits>
 
 #include "core/load/internal.h"
+#include "core/util/polygon.h"
 #include "core/util/weld.h"
 
 namespace vismap {
@@ -279,6 +280,33 @@ uint64_t finish_mesh(Mesh& m, const Source& src) {
   return nt - kept;
 }
 
+void LoadWarnings::move_to(std::vector<std::string>& out) {
+  for (std::string& l : lines) out.push_back(std::move(l));
+  if (more) out.push_back(std::to_string(more) + " more warnings like these not shown");
+  lines.clear();
+  more = 0;
+}
+
+void add_polygon(std::vector<uint32_t>& indices, const std::vector<float>& positions,
+                 const uint32_t* corners, size_t k, const Source& src, const std::string& mesh,
+                 int64_t face, int64_t line) {
+  const size_t at = indices.size();
+  indices.resize(at + 3 * (k - 2));
+  const PolygonShape shape = triangulate_polygon(positions.data(), corners, k, indices.data() + at);
+  if (shape == PolygonShape::Convex) return;
+  if (shape != PolygonShape::Concave && src.warnings) {
+    std::string where = src.file + ": mesh '" + mesh + "': face " + std::to_string(face);
+    if (line >= 0) where += " (line " + std::to_string(line) + ")";
+    src.warnings->add(where + ": polygon of " + std::to_string(k) + " corners " +
+                      (shape == PolygonShape::TooLarge
+                           ? "is not convex and has more than " +
+                                 std::to_string(kMaxEarClipCorners) + ": fanned, not cut into ears"
+                           : "is not simple (its edges cross): its triangles may overlap"));
+  }
+  // Ear clipping is quadratic in the corners: the load's time limit is kept between polygons.
+  if (src.budget) src.budget->check_time(src.file, "polygon triangulation");
+}
+
 void refuse_utf16(const Source& src, std::string_view b) {
   auto byte = [&](size_t i) { return static_cast<unsigned char>(b[i]); };
   bool utf16 = b.size() >= 2 && ((byte(0) == 0xFE && byte(1) == 0xFF) ||
@@ -294,7 +322,10 @@ void refuse_utf16(const Source& src, std::string_view b) {
     fail(InputErrorKind::ParseError, src, "", "", -1, "UTF-16 text: save the file as UTF-8");
 }
 
-Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptions& opts) {
+Scene load_mesh_bytes(const Source& given, std::string_view bytes, const LoadOptions& opts) {
+  LoadWarnings warnings;
+  Source src = given;
+  src.warnings = &warnings;
   std::string ext = format_extension(src.file);
   // Every format but binary STL (any 80-byte header), GLB and gzip is text or starts with some.
   if (ext != ".stl" && ext != ".glb" && ext != ".ply.gz") refuse_utf16(src, bytes);
@@ -334,6 +365,7 @@ Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptio
   s.meshes = std::move(meshes);
   if (s.triangle_count() == 0)
     fail(InputErrorKind::EmptyMesh, src, "", "", -1, "every triangle is degenerate (zero area)");
+  warnings.move_to(s.warnings);
   return s;
 }
 
