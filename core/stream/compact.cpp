@@ -123,11 +123,6 @@ int64_t small(uint64_t z, const char* what) {
 
 }  // namespace
 
-std::string quantum_range_text() {
-  return std::to_string(kMinQuantum) + " ... " + std::to_string(kMaxQuantum) +
-         " grid steps per pixel";
-}
-
 std::string write_compact(const PlanarMap& map, const Scene& scene, const Camera& camera,
                           const CompactOptions& options, CompactStats* stats) {
   // Long on purpose (~120 lines): the conforming mesh, the codec's order, then COMPACT.md's

@@ -23,8 +23,12 @@ namespace vismap {
 // 256 keeps the grid within 2^22 steps a side at the largest viewport (kMaxViewport 2^14).
 inline constexpr uint32_t kMinQuantum = 1;
 inline constexpr uint32_t kMaxQuantum = 256;
-// "1 ... 256 grid steps per pixel": the words every message about a bad quantum uses.
-std::string quantum_range_text();
+// "1 ... 256 grid steps per pixel": the words every message about a bad quantum uses (inline:
+// the protocol fuzzer links server/protocol.cpp without this module).
+inline std::string quantum_range_text() {
+  return std::to_string(kMinQuantum) + " ... " + std::to_string(kMaxQuantum) +
+         " grid steps per pixel";
+}
 
 struct CompactOptions {
   uint32_t quantum = 16;  // grid steps per pixel, kMinQuantum ... kMaxQuantum (positions within
