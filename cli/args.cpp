@@ -3,11 +3,17 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
 namespace vismap::cli {
+
+void print_load_warnings(const Scene& scene) {
+  for (const std::string& w : scene.warnings)
+    std::fprintf(stderr, "vismap: warning: %s\n", w.c_str());
+}
 
 Vec3 parse_vec3(const std::string& flag, const std::string& s) {
   Vec3 v;

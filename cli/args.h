@@ -31,6 +31,9 @@ auto naming_scene(const std::string& scene, F&& f) -> decltype(f()) {
   }
 }
 
+// Prints the load's warnings (Scene::warnings) on stderr, one "vismap: warning: " line each.
+void print_load_warnings(const Scene& scene);
+
 Vec3 parse_vec3(const std::string& flag, const std::string& s);
 double parse_number(const std::string& flag, const std::string& s);
 uint32_t parse_pixels(const std::string& flag, const std::string& s);

@@ -78,6 +78,7 @@ CheckArgs parse_check(int argc, char** argv) {
 // The scene diced for the view through the front door (core/frame), then every check.
 int run_check(const CheckArgs& a) {
   auto loaded = std::make_shared<const Scene>(load_scene(a.scene));
+  print_load_warnings(*loaded);
   frame::FrameSpec spec;
   spec.camera = make_camera(*loaded, a.view);
   spec.scene = std::make_shared<frame::SceneState>(loaded);

@@ -91,9 +91,14 @@ bool parse_output_flag(const std::string& f, const std::function<std::string()>&
     if (v != "shade" && v != "id") throw UsageError("--fill: expected shade or id");
     o.fill = v == "id" ? Fill::Id : Fill::Shade;
   } else if (f == "--quantum") {
-    const uint32_t q = parse_pixels(f, value());
-    if (q < 1 || q > 256) throw UsageError("--quantum: expected 1 ... 256 grid steps per pixel");
-    o.quantum = q;
+    // One range and one message for every value (parse_pixels said 1..16384 past 16384).
+    const std::string v = value();
+    char* end = nullptr;
+    const double q = std::strtod(v.c_str(), &end);
+    if (v.empty() || *end || !(q >= kMinQuantum && q <= kMaxQuantum) || q != std::floor(q))
+      throw UsageError("--quantum: expected an integer in " + quantum_range_text() + ", got '" +
+                       v + "'");
+    o.quantum = static_cast<uint32_t>(q);
   } else if (f == "--compression") {
     const std::string v = value();
     if (v != "zstd" && v != "deflate") throw UsageError("--compression: expected zstd or deflate");
@@ -198,6 +203,7 @@ int run_render(const RenderArgs& a, Clock::time_point t0) {
   LoadOptions lo;
   lo.time_limit_s = a.time_limit_s;  // an implicit object's bounds search, too
   auto scene = std::make_shared<const Scene>(load_scene(a.scene, lo));
+  print_load_warnings(*scene);
   const double load_ms = ms_since(t0);
   const frame::FrameSpec spec = frame_spec(a, scene, t0);
   Renderer renderer(a.view.device);

@@ -165,9 +165,21 @@ int main(int argc, char** argv) {
         attributes = true;
       else if (a == "--fill")
         fill = val();
-      else if (a == "--quantum")
-        quantum = static_cast<uint32_t>(std::stoul(val()));
-      else if (a == "--compression")
+      else if (a == "--quantum") {
+        // The server's range, checked here too (one constant: kMaxQuantum).
+        const std::string v = val();
+        size_t used = 0;
+        unsigned long q = 0;
+        try {
+          q = std::stoul(v, &used);
+        } catch (...) {
+          used = 0;
+        }
+        if (used == 0 || used != v.size() || q < vismap::kMinQuantum || q > vismap::kMaxQuantum)
+          throw std::runtime_error("--quantum: expected an integer in " +
+                                   vismap::quantum_range_text() + ", got '" + v + "'");
+        quantum = static_cast<uint32_t>(q);
+      } else if (a == "--compression")
         compression = val();
       else if (a == "--cameras")
         cameras_file = val();

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 
 namespace vismap {
 
@@ -16,44 +15,6 @@ bool Scene::has_surfaces() const {
   for (const Mesh& m : meshes)
     if (m.is_surface()) return true;
   return false;
-}
-
-namespace {
-
-// Four independent multiply-xor lanes over 64-bit words (the tail zero-padded), mixed at the end.
-uint64_t hash_words(const void* data, size_t bytes, uint64_t seed) {
-  constexpr uint64_t kMul = 0x9E3779B97F4A7C15ull;
-  uint64_t lane[4] = {seed, seed ^ 0x243F6A8885A308D3ull, seed ^ 0x13198A2E03707344ull,
-                      seed ^ 0xA4093822299F31D0ull};
-  const unsigned char* p = static_cast<const unsigned char*>(data);
-  size_t i = 0;
-  for (; i + 32 <= bytes; i += 32)
-    for (int k = 0; k < 4; ++k) {
-      uint64_t w;
-      std::memcpy(&w, p + i + 8 * k, 8);
-      lane[k] = (lane[k] ^ w) * kMul;
-      lane[k] ^= lane[k] >> 29;
-    }
-  uint64_t tail[4] = {0, 0, 0, 0};
-  std::memcpy(tail, p + i, bytes - i);
-  uint64_t h = bytes * kMul;
-  for (int k = 0; k < 4; ++k) {
-    lane[k] = (lane[k] ^ tail[k]) * kMul;
-    h = (h ^ (lane[k] ^ (lane[k] >> 31))) * kMul;
-    h ^= h >> 32;
-  }
-  return h;
-}
-
-}  // namespace
-
-uint64_t Scene::geometry_fingerprint() const {
-  uint64_t h = meshes.size();
-  for (const Mesh& m : meshes) {
-    h = hash_words(m.positions.data(), m.positions.size() * sizeof(float), h);
-    h = hash_words(m.indices.data(), m.indices.size() * sizeof(uint32_t), h);
-  }
-  return h;
 }
 
 std::vector<uint64_t> Scene::triangle_id_base() const {

@@ -67,16 +67,16 @@ struct Scene {
   std::vector<Mesh> meshes;         // scene order; global triangle ids follow this order
   std::optional<Camera> camera;     // from the file (glTF camera or scene file), if any
   uint64_t dropped_degenerate = 0;  // zero-area triangles dropped while loading
+  // What the load read but could not take as it is, one line each naming the file and the
+  // element (a polygon whose edges cross, core/load/internal.h add_polygon); the CLI prints them
+  // on stderr, vismapd logs them. At most kMaxLoadWarnings, then one line saying how many more.
+  std::vector<std::string> warnings;
   std::string source;               // path it was loaded from
 
   size_t triangle_count() const;
   bool has_surfaces() const;  // any mesh is_surface(): Renderer::tessellate before render
   // Global id of mesh m's first source triangle: sum of source_triangles of meshes before it.
   std::vector<uint64_t> triangle_id_base() const;
-  // A hash of what a renderer uploads (every mesh's positions and indices, and their counts):
-  // two scenes with the same fingerprint upload the same buffers (up to a 64-bit collision).
-  // ~0.2 ms for the bunny, a few ms for a million triangles.
-  uint64_t geometry_fingerprint() const;
 };
 
 // The box of the vertices that triangles use (stray unused vertices do not move the framing).

@@ -5,7 +5,8 @@
 #                              clients' interpreters and packages, Chromium and playwright-core
 #                              (the web viewer's browser test), nginx (the scale-out test), clang
 #                              with libFuzzer (the fuzzers' short runs), oclgrind (the OpenCL
-#                              device simulator: scripts/oclgrind_check.sh)
+#                              device simulator: scripts/oclgrind_check.sh), assimp's test models
+#                              (real-world files the loader tests read where installed)
 # The bench peers have setup scripts of their own (bench/peers/setup.sh, bench/lines/setup.sh).
 # Idempotent: when every package is already there it only checks and returns.
 set -euo pipefail
@@ -34,6 +35,7 @@ TEST_PACKAGES=(
   chromium nodejs nginx
   clang libclang-rt-14-dev
   oclgrind
+  assimp-testmodels
 )
 [ "$TESTS" -eq 1 ] && PACKAGES+=("${TEST_PACKAGES[@]}")
 

@@ -69,12 +69,18 @@ struct Config {
 
 // Applies a JSON object (same keys as Config/Limits, e.g.
 // {"port":9000,"limits":{"max_sessions":8}}) to cfg. Unknown keys are an error: a typo must not
-// silently keep a default.
+// silently keep a default; so is a value of the wrong type or out of its key's range (an
+// integer key takes a JSON integer, not 2.5 or -1), with a message naming the key
+// (docs/SERVER.md lists every key's range).
 void apply_json(Config& cfg, const std::string& json_text, const std::string& origin);
 
 // Parses argv into cfg (after --config is applied). Returns false and sets `usage` on --help.
 // Throws std::runtime_error with a one-line message on a bad flag.
 bool parse_args(Config& cfg, int argc, char** argv, std::string& usage);
+
+// Throws std::runtime_error naming the first key whose value is out of its range (the ranges
+// apply_json checks). Server's constructor calls it, so a Config built in code is checked too.
+void validate(const Config& cfg, const std::string& origin);
 
 std::string read_file(const std::string& path);
 

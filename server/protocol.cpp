@@ -123,8 +123,9 @@ Hello parse_hello(const json& j, uint32_t max_viewport) {
   if (h.version >= 2) {  // version 1 ignores these fields, as any field it does not list
     if (field(j, "quantum")) {
       const json* v = field(j, "quantum");
-      if (!v->is_number_integer() || v->get<int64_t>() < 1 || v->get<int64_t>() > 256)
-        bad("'quantum' must be an integer from 1 to 256 (grid steps per pixel)");
+      if (!v->is_number_integer() || v->get<int64_t>() < int64_t{kMinQuantum} ||
+          v->get<int64_t>() > int64_t{kMaxQuantum})
+        bad("'quantum' must be an integer in " + quantum_range_text());
       h.quantum = v->get<uint32_t>();
     }
     if (field(j, "compression")) {

@@ -135,8 +135,10 @@ void Server::Impl::accept() {
   });
 }
 
-Server::Server(Config cfg, RenderQueue::RendererFactory make)
-    : impl_(std::make_unique<Impl>(std::move(cfg), std::move(make))) {}
+Server::Server(Config cfg, RenderQueue::RendererFactory make) {
+  validate(cfg, "config");
+  impl_ = std::make_unique<Impl>(std::move(cfg), std::move(make));
+}
 
 Server::~Server() {
   stop();

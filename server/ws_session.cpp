@@ -15,6 +15,7 @@
 #include "core/util/clock.h"
 #include "server/error_reply.h"
 #include "server/protocol.h"
+#include "server/tcp_send.h"
 
 namespace vismap::server {
 
@@ -88,9 +89,12 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     beast::get_lowest_layer(ws_).expires_never();
     auto t = websocket::stream_base::timeout::suggested(beast::role_type::server);
     t.handshake_timeout = seconds(L.handshake_timeout_s);
-    t.idle_timeout =
-        seconds(std::max(L.idle_timeout_s, 1.0));  // pings a silent peer, then drops it
-    t.keep_alive_pings = true;
+    // No Beast idle timeout: it counts only bytes received, and its keep-alive ping waits behind
+    // the frame being written, so a client reading a big frame slowly (it sends nothing until
+    // it has read through to the ping) was dropped mid-frame (issue 45, item 8). The session's
+    // own idle timer (check_idle) covers silent and dead peers.
+    t.idle_timeout = websocket::stream_base::none();
+    t.keep_alive_pings = false;
     ws_.set_option(t);
     ws_.read_message_max(0);  // no Beast limit: on_read enforces ours and answers too_large
     if (srv_.cfg.permessage_deflate) {
@@ -188,15 +192,80 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       fail(kShuttingDown, {});
   }
 
+  // The idle timer (limits.idle_timeout_s) counts from the later of the client's last message
+  // and the end of the server's last send, the moment the client's side acknowledged its last
+  // byte (issue 45, item 8: it counted from the client's last message, so a client reading a
+  // 2.7 MB frame at 150 KB/s was cut off mid-frame). It never fires while a frame renders or
+  // encodes, a scene loads, or a send makes progress; a send that makes none for a whole
+  // idle_timeout_s (the peer reads nothing, or is gone) ends the connection at once: the error
+  // could not get past the unread bytes. arm_idle: a client message just came.
   void arm_idle() {
-    idle_timer_.expires_after(seconds(srv_.cfg.limits.idle_timeout_s));
+    last_active_ = Clock::now();
+    schedule_idle_check(srv_.cfg.limits.idle_timeout_s);
+  }
+  void schedule_idle_check(double after_s) {
+    idle_timer_.expires_after(
+        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(after_s)));
     idle_timer_.async_wait([self = shared_from_this(), gen = ++idle_gen_](beast::error_code ec) {
       if (ec || gen != self->idle_gen_) return;
-      // A client waiting for a frame or a scene we owe it is not idle (found by server_bench:
-      // at 50 sessions a lock-step client waited longer than idle_timeout_s for its frame).
-      if (self->work_in_flight()) return self->arm_idle();
-      self->fail({code::timeout, "no message within the idle timeout", true}, {});
+      self->check_idle();
     });
+  }
+  void check_idle() {
+    if (!accepting_messages()) return;
+    const double idle = srv_.cfg.limits.idle_timeout_s;
+    auto now = Clock::now();
+    TcpSendState tcp = send_state();
+    bool sending = !out_.empty() || tcp.queued > 0;
+    if (sending) {
+      if (tcp.acked != last_acked_) last_active_ = now;  // the peer took bytes since the last look
+      send_tracked_ = true;
+    } else if (send_tracked_) {
+      last_active_ = now;  // the send ended since the last look, at most idle/4 ago
+      send_tracked_ = false;
+    }
+    last_acked_ = tcp.acked;
+    // A client waiting for a frame or a scene we owe it is not idle (found by server_bench:
+    // at 50 sessions a lock-step client waited longer than idle_timeout_s for its frame).
+    bool owed = frame_ == FramePhase::Rendering || frame_ == FramePhase::Encoding || loading_;
+    if (owed) last_active_ = now;
+    double since = std::chrono::duration<double>(now - last_active_).count();
+    if (since < idle) {
+      // While a send or a frame is under way, look again every quarter of the timeout: the end
+      // of the send is seen at most idle/4 late, so the client gets idle to 1.25 x idle after it.
+      double next = idle - since;
+      if (sending || owed) next = std::min(next, idle / 4);
+      return schedule_idle_check(next);
+    }
+    if (!sending) return fail({code::timeout, "no message within the idle timeout", true}, {});
+    // A send that made no progress for the whole timeout: the peer reads nothing, or is gone,
+    // and an error message could not get past the unread bytes. The pending write fails once
+    // the socket is closed (on_write cleans up).
+    srv_.metrics.error(code::timeout);
+    srv_.log.warn("error", {{"session", session_},
+                            {"peer", peer_},
+                            {"code", code::timeout},
+                            {"message", "the client read nothing of a send for the idle timeout"},
+                            {"fatal", true}});
+    finish("send_stalled");
+  }
+  TcpSendState send_state() {
+    auto& sock = beast::get_lowest_layer(ws_).socket();
+    return sock.is_open() ? tcp_send_state(sock.native_handle()) : TcpSendState{};
+  }
+  // The write queue just emptied: the send's end as far as the process can tell. Where the
+  // kernel still holds unacknowledged bytes, the idle check follows them within idle/4.
+  void note_send_done() {
+    last_active_ = Clock::now();
+    if (state_ != State::Open && state_ != State::Draining) return;
+    TcpSendState tcp = send_state();
+    last_acked_ = tcp.acked;
+    if (tcp.queued == 0) return;
+    send_tracked_ = true;
+    double quarter = srv_.cfg.limits.idle_timeout_s / 4;
+    if (idle_timer_.expiry() > Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                  std::chrono::duration<double>(quarter)))
+      schedule_idle_check(quarter);
   }
 
   // Reads in chunks so an over-limit message is answered with too_large and discarded, instead
@@ -410,6 +479,10 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
       }
       peak_bytes_ = std::max(peak_bytes_, scene_bytes(*scene));
       srv_.metrics.scenes_loaded++;
+      // What the load could not take as it is (a polygon whose edges cross): the operator's to
+      // see, in the log; the client gets the frames as they are.
+      for (const std::string& w : scene->warnings)
+        srv_.log.warn("scene_warning", {{"session", session_}, {"name", name}, {"message", w}});
       srv_.log.info("scene_loaded", {{"session", session_},
                                      {"name", name},
                                      {"triangles", scene->triangle_count()},
@@ -641,6 +714,7 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
     }
     out_.pop_front();
     if (!out_.empty()) return do_write();
+    note_send_done();
     if (state_ == State::Flushing) return do_close();
     do_read();
   }
@@ -712,6 +786,9 @@ class WsSession : public SessionHandle, public std::enable_shared_from_this<WsSe
   std::deque<Out> out_;
   std::optional<uint64_t> discarded_;  // bytes of an over-limit message being dropped
   uint64_t idle_gen_ = 0;
+  Clock::time_point last_active_;  // the client's last message or the send's last progress
+  uint64_t last_acked_ = 0;        // the peer's acknowledged bytes at the last idle check
+  bool send_tracked_ = false;      // the last look found bytes still on their way to the peer
   uint64_t peak_bytes_ = 0;  // largest message, frame, scene or frame's device memory
   websocket::close_code close_code_ = websocket::close_code::normal;
 

@@ -680,3 +680,65 @@ TEST(LoadErrors, PbrtIncludeDoesNotEchoTheIncludedText) {
   expect_error(dir.write("own.pbrt", "Frobnicate 1\n"), K::ParseError,
                {"unknown directive 'Frobnicate'"});
 }
+
+// Issue 45, item 9: formats we recognise but do not read get a message that says what they are,
+// not "no triangles". A UTF-16 text file (assimp's box_UTF16BE.obj), with a byte-order mark
+// either way round or without one; glTF 1.0 (assimp's glTF/ folder), as .gltf and as .glb.
+namespace {
+std::string utf16(const std::string& ascii, bool big_endian, bool bom) {
+  std::string out;
+  if (bom) out = big_endian ? std::string("\xFE\xFF", 2) : std::string("\xFF\xFE", 2);
+  for (char c : ascii) {
+    if (big_endian) out += '\0';
+    out += c;
+    if (!big_endian) out += '\0';
+  }
+  return out;
+}
+}  // namespace
+
+TEST(LoadErrors, Utf16TextSaysSo) {
+  TempDir dir;
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  int n = 0;
+  for (bool be : {true, false})
+    for (bool bom : {true, false}) {
+      const std::string name = "tri" + std::to_string(n++);
+      expect_error(dir.write(name + ".obj", utf16(tri, be, bom)), K::ParseError,
+                   {"UTF-16 text: save the file as UTF-8"});
+      expect_error(
+          dir.write(name + ".off", utf16("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", be, bom)),
+          K::ParseError, {"UTF-16"});
+      expect_error(dir.write(name + ".json", utf16(R"({"meshes":[]})", be, bom)), K::ParseError,
+                   {"UTF-16"});
+    }
+  // The same text as UTF-8 loads.
+  EXPECT_EQ(load_scene(dir.write("tri.obj", tri)).triangle_count(), 1u);
+}
+
+TEST(LoadErrors, Gltf1SaysSo) {
+  TempDir dir;
+  // glTF 1.0's dictionaries (a triangle's accessors, as collada2gltf wrote them).
+  const std::string gltf1 = R"({"asset": {"version": "1.0"},
+    "accessors": {"a": {"bufferView": "v", "byteOffset": 0, "componentType": 5126, "count": 3,
+                        "type": "VEC3"}},
+    "meshes": {"m": {"primitives": [{"attributes": {"POSITION": "a"}, "mode": 4}]}},
+    "scene": "s", "scenes": {"s": {"nodes": ["n"]}}, "nodes": {"n": {"meshes": ["m"]}}})";
+  expect_error(dir.write("box1.gltf", gltf1), K::UnknownFormat,
+               {"glTF 1.0 is not read, only glTF 2.0"});
+  std::string numbered = gltf1;  // some 1.0 exporters wrote the version as a number
+  numbered.replace(numbered.find("\"1.0\""), 5, "1");
+  expect_error(dir.write("box2.gltf", numbered), K::UnknownFormat, {"glTF 1.0"});
+  // A 1.0 binary container (KHR_binary_glTF): magic, version 1, length, content length, format 0.
+  std::string glb("glTF", 4);
+  const uint32_t head[4] = {1, 20 + 2, 2, 0};
+  glb.append(reinterpret_cast<const char*>(head), sizeof head);
+  glb += "{}";
+  expect_error(dir.write("box1.glb", glb), K::UnknownFormat, {"glTF 1.0 is not read"});
+  // assimp's own 1.0 files, where installed (assimp-testmodels).
+  const std::string assimp = "/usr/share/assimp/models/glTF/BoxTextured-glTF";
+  if (std::filesystem::exists(assimp + "/BoxTextured.gltf"))
+    expect_error(assimp + "/BoxTextured.gltf", K::UnknownFormat, {"glTF 1.0"});
+  if (std::filesystem::exists("/usr/share/assimp/models/OBJ/box_UTF16BE.obj"))
+    expect_error("/usr/share/assimp/models/OBJ/box_UTF16BE.obj", K::ParseError, {"UTF-16"});
+}

@@ -1,7 +1,10 @@
 // Each format loads with the counts SOURCES.md lists, faces in file order, transforms applied.
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "tests/loader_test_util.h"
 
@@ -556,4 +559,127 @@ TEST(LoadPatches, FromMemoryAndUnknownFormatListsThem) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find(".bpt .patches"), std::string::npos) << e.what();
   }
+}
+
+// Issue 45, item 5: polygons were fanned from their first corner, right only where they are
+// convex. Concave and self-touching faces are now cut into ears (core/util/polygon.h), the same
+// k - 2 triangles in the face's place; convex ones keep the fan exactly.
+namespace {
+// Twice the area of the triangles in the xy plane: unsigned (covered, counting overlaps twice)
+// and signed (counter-clockwise positive).
+std::pair<double, double> xy_area2(const Scene& s) {
+  double cover = 0, sum = 0;
+  for (const Mesh& m : s.meshes)
+    for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+      const float* a = &m.positions[3 * size_t(m.indices[t])];
+      const float* b = &m.positions[3 * size_t(m.indices[t + 1])];
+      const float* c = &m.positions[3 * size_t(m.indices[t + 2])];
+      const double d = (double(b[0]) - a[0]) * (double(c[1]) - a[1]) -
+                       (double(b[1]) - a[1]) * (double(c[0]) - a[0]);
+      cover += std::fabs(d);
+      sum += d;
+    }
+  return {cover, sum};
+}
+const std::string kPolygons = std::string(VISMAP_SOURCE_DIR) + "/tests/data/polygons/";
+}  // namespace
+
+TEST(LoadPolygons, CShapedOctagonLeavesItsOpeningOpen) {
+  // The fan from corner 1 covered 9 + the opening's 2 (area 7 + 2 over its own): every reader.
+  TempDir dir;
+  const std::string off =
+      "OFF\n8 1 0\n0 0 0\n3 0 0\n3 1 0\n1 1 0\n1 2 0\n3 2 0\n3 3 0\n0 3 0\n8 0 1 2 3 4 5 6 7\n";
+  const std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n3 0 0\n3 1 0\n1 1 0\n1 2 0\n3 2 0\n3 3 0\n0 3 0\n8 0 1 2 3 4 5 6 7\n";
+  for (const std::string& path :
+       {kPolygons + "c_shape.obj", dir.write("c.off", off), dir.write("c.ply", ply)}) {
+    Scene s = load_scene(path);
+    ASSERT_EQ(s.triangle_count(), 6u) << path;  // k - 2
+    EXPECT_EQ(s.meshes[0].face_ids, (std::vector<uint32_t>{0, 1, 2, 3, 4, 5})) << path;
+    const auto [cover, sum] = xy_area2(s);
+    EXPECT_DOUBLE_EQ(cover, 14.0) << path << ": covered twice the area 7, no more";
+    EXPECT_DOUBLE_EQ(sum, 14.0) << path << ": every triangle counter-clockwise, as the face";
+    EXPECT_TRUE(s.warnings.empty()) << s.warnings[0];
+  }
+}
+
+TEST(LoadPolygons, RingTouchingItselfIsCutRight) {
+  Scene s = load_scene(kPolygons + "ring.obj");
+  const auto [cover, sum] = xy_area2(s);
+  EXPECT_DOUBLE_EQ(cover, 24.0);  // 16 - 4, twice
+  EXPECT_DOUBLE_EQ(sum, 24.0);
+  EXPECT_LE(s.triangle_count(), 8u);  // k - 2, less the zero-area ones along the bridge
+  EXPECT_TRUE(s.warnings.empty());
+}
+
+// assimp's 66-gon ring (Debian's assimp-testmodels): a disk 13x its area when fanned.
+TEST(LoadPolygons, AssimpConcavePolygon) {
+  const std::string path = "/usr/share/assimp/models/OBJ/concave_polygon.obj";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " absent (assimp-testmodels)";
+  Scene s = load_scene(path);
+  // The face's own area (twice, shoelace in its plane x = -1.146: y, z), read from the file.
+  std::ifstream in(path);
+  std::vector<std::array<double, 2>> v;
+  std::string line;
+  double face2 = 0;
+  while (std::getline(in, line)) {
+    std::istringstream ls(line);
+    std::string kw;
+    ls >> kw;
+    if (kw == "v") {
+      double x, y, z;
+      ls >> x >> y >> z;
+      v.push_back({y, z});
+    } else if (kw == "f") {
+      std::vector<int> c;
+      for (std::string t; ls >> t;) c.push_back(std::stoi(t) - 1);
+      for (size_t i = 0; i < c.size(); ++i) {
+        const auto& a = v[c[i]];
+        const auto& b = v[c[(i + 1) % c.size()]];
+        face2 += a[0] * b[1] - b[0] * a[1];
+      }
+    }
+  }
+  double cover = 0;
+  const Mesh& m = s.meshes[0];
+  for (size_t t = 0; t < m.indices.size(); t += 3) {
+    const float* a = &m.positions[3 * size_t(m.indices[t])];
+    const float* b = &m.positions[3 * size_t(m.indices[t + 1])];
+    const float* c = &m.positions[3 * size_t(m.indices[t + 2])];
+    cover += std::fabs((double(b[1]) - a[1]) * (double(c[2]) - a[2]) -
+                       (double(b[2]) - a[2]) * (double(c[1]) - a[1]));
+  }
+  EXPECT_NEAR(cover, std::fabs(face2), 1e-4 * std::fabs(face2))
+      << "covered area against the ring's own; the fan covered 13x";
+  EXPECT_TRUE(s.warnings.empty());
+}
+
+TEST(LoadPolygons, ConvexPolygonsKeepTheFan) {
+  // A convex hexagon, a quad out of plane (a saddle), a square with a flat corner on an edge:
+  // each exactly the fan from its first corner, as before.
+  TempDir dir;
+  std::string p = dir.write("convex.obj",
+                            "v 2 0 0\nv 1 1.7 0\nv -1 1.7 0\nv -2 0 0\nv -1 -1.7 0\nv 1 -1.7 0\n"
+                            "v 0 0 1\nv 1 0 0\nv 1 1 1\nv 0 1 0\n"
+                            "v 0 0 0\nv 2 0 0\nv 2 2 0\nv 1 2 0\nv 0 2 0\n"
+                            "f 1 2 3 4 5 6\nf 7 8 9 10\nf 11 12 13 14 15\n");
+  Scene s = load_scene(p);
+  const std::vector<uint32_t> fan = {0, 1, 2, 0, 2,  3,  0,  3,  4,  0,  4,  5,  6, 7,
+                                     8, 6, 8, 9, 10, 11, 12, 10, 12, 13, 10, 13, 14};
+  EXPECT_EQ(s.meshes[0].indices, fan);
+}
+
+// A polygon whose edges cross is not simple: it keeps the fan, and the load warns, naming the
+// file, the face and its line (the CLI prints it on stderr).
+TEST(LoadPolygons, StarPentagonIsWarnedOf) {
+  const std::string path = kPolygons + "star.obj";
+  Scene s = load_scene(path);
+  EXPECT_EQ(s.triangle_count(), 4u);  // the triangle and the pentagon's 3
+  ASSERT_EQ(s.warnings.size(), 1u);
+  const std::string& w = s.warnings[0];
+  for (const std::string& part :
+       {path, std::string("face 1"), std::string("line 9"), std::string("not simple")})
+    EXPECT_NE(w.find(part), std::string::npos) << part << " not in: " << w;
 }

@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <set>
 
@@ -488,6 +490,127 @@ TEST(Stages, ASceneChangedInPlaceIsUploadedAgain) {
   const PlanarMap c = fresh.render(s, cam);
   EXPECT_NE(a.xy, b.xy);
   EXPECT_EQ(b.xy, c.xy);
+}
+
+// The 64-bit fingerprint the Renderer keyed its upload by at a3eef30 (Scene::geometry_fingerprint,
+// since removed), for crafting a collision with it: four multiply-xor lanes over 32-byte
+// blocks, each lane's step invertible, so one block can bring the lanes back to any state.
+namespace old_fingerprint {
+constexpr uint64_t kMul = 0x9E3779B97F4A7C15ull;
+struct Lanes {
+  uint64_t l[4];
+};
+Lanes start(uint64_t seed) {
+  return {{seed, seed ^ 0x243F6A8885A308D3ull, seed ^ 0x13198A2E03707344ull,
+           seed ^ 0xA4093822299F31D0ull}};
+}
+void block(Lanes& s, const unsigned char* p) {
+  for (int k = 0; k < 4; ++k) {
+    uint64_t w;
+    std::memcpy(&w, p + 8 * k, 8);
+    s.l[k] = (s.l[k] ^ w) * kMul;
+    s.l[k] ^= s.l[k] >> 29;
+  }
+}
+uint64_t words(const void* data, size_t bytes, uint64_t seed) {
+  Lanes s = start(seed);
+  const unsigned char* p = static_cast<const unsigned char*>(data);
+  size_t i = 0;
+  for (; i + 32 <= bytes; i += 32) block(s, p + i);
+  uint64_t tail[4] = {0, 0, 0, 0};
+  std::memcpy(tail, p + i, bytes - i);
+  uint64_t h = bytes * kMul;
+  for (int k = 0; k < 4; ++k) {
+    s.l[k] = (s.l[k] ^ tail[k]) * kMul;
+    h = (h ^ (s.l[k] ^ (s.l[k] >> 31))) * kMul;
+    h ^= h >> 32;
+  }
+  return h;
+}
+uint64_t of(const Scene& sc) {
+  uint64_t h = sc.meshes.size();
+  for (const Mesh& m : sc.meshes) {
+    h = words(m.positions.data(), m.positions.size() * sizeof(float), h);
+    h = words(m.indices.data(), m.indices.size() * sizeof(uint32_t), h);
+  }
+  return h;
+}
+}  // namespace old_fingerprint
+
+// Issue 45, item 4: the Renderer skipped an upload when the 64-bit fingerprint matched, and
+// that hash is not collision resistant: one 32-byte block of positions cancels any change
+// before it. Here scene b moves a vertex of scene a (a different picture) and then sets the
+// next 32-byte block (the positions of vertices no triangle uses) so that both fingerprints
+// are equal. A renderer that drew a must draw b as a fresh renderer does; at a3eef30 it kept
+// a's upload and drew a's frame again.
+TEST(Stages, ACraftedFingerprintCollisionIsUploadedAgain) {
+  // 8 used vertices (a 4 x 2 strip, 6 triangles) and 3 that no triangle uses: 33 floats, the
+  // fourth 32-byte block (floats 24 ... 31) in the unused ones, float 32 in the tail.
+  auto make = [](float moved_x, float moved_y, const float(&stray)[9]) {
+    Mesh m;
+    m.name = "strip";
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 4; ++i) m.positions.insert(m.positions.end(), {float(i), float(j), 0.f});
+    m.positions[3 * 5] = moved_x;  // vertex 5, (1, 1, 0) in scene a
+    m.positions[3 * 5 + 1] = moved_y;
+    m.positions.insert(m.positions.end(), std::begin(stray), std::end(stray));
+    for (uint32_t i = 0; i < 3; ++i) {
+      const uint32_t a = i, b = i + 1, c = i + 4, d = i + 5;
+      m.indices.insert(m.indices.end(), {a, b, d, a, d, c});
+      m.face_ids.insert(m.face_ids.end(), {2 * i, 2 * i + 1});
+    }
+    m.source_triangles = 6;
+    Scene s;
+    s.meshes.push_back(std::move(m));
+    return s;
+  };
+  const float stray_a[9] = {0.25f, 0.5f, 0.75f, 1.25f, 1.5f, 1.75f, 2.25f, 2.5f, 2.75f};
+  const Scene a = make(1.f, 1.f, stray_a);
+  // The lanes after the first three blocks (floats 0 ... 23) of a mesh's positions.
+  auto lanes_after_3 = [](const Scene& s) {
+    old_fingerprint::Lanes l = old_fingerprint::start(1);  // seed: the mesh count
+    for (int b = 0; b < 3; ++b)
+      old_fingerprint::block(
+          l, reinterpret_cast<const unsigned char*>(s.meshes[0].positions.data()) + 32 * b);
+    return l;
+  };
+  const old_fingerprint::Lanes la = lanes_after_3(a);
+  std::optional<Scene> b;
+  for (int t = 0; t < 100000 && !b; ++t) {
+    float stray_b[9];
+    std::copy(std::begin(stray_a), std::end(stray_a), stray_b);
+    Scene trial = make(1.3f + 1e-4f * float(t), 1.4f + 1e-4f * float(t), stray_a);
+    const old_fingerprint::Lanes lb = lanes_after_3(trial);
+    // Block 3 of b: a's words xor the lanes' difference, so that both lanes agree after it.
+    unsigned char blk[32];
+    std::memcpy(blk, a.meshes[0].positions.data() + 24, 32);
+    for (int k = 0; k < 4; ++k) {
+      uint64_t w;
+      std::memcpy(&w, blk + 8 * k, 8);
+      w ^= la.l[k] ^ lb.l[k];
+      std::memcpy(blk + 8 * k, &w, 8);
+    }
+    std::memcpy(stray_b, blk, 32);  // floats 24 ... 31 are stray_b[0 ... 7]
+    // Tame values only (finite, |x| <= 1e4), so that nothing but the moved vertex can matter.
+    bool tame = true;
+    for (int k = 0; k < 8; ++k)
+      tame = tame && std::isfinite(stray_b[k]) && std::fabs(stray_b[k]) <= 1e4f;
+    if (tame) b = make(1.3f + 1e-4f * float(t), 1.4f + 1e-4f * float(t), stray_b);
+  }
+  ASSERT_TRUE(b) << "no tame collision block found";
+  ASSERT_EQ(old_fingerprint::of(a), old_fingerprint::of(*b)) << "the crafted collision";
+  ASSERT_NE(a.meshes[0].positions, b->meshes[0].positions);
+
+  const Camera cam = frame_scene(a, 96, 64);
+  Renderer r;
+  const PlanarMap pa = r.render(a, cam);
+  const PlanarMap pb = r.render(*b, cam);
+  Renderer fresh;
+  const PlanarMap want = fresh.render(*b, cam);
+  EXPECT_NE(pa.xy, want.xy) << "the two scenes must draw differently";
+  EXPECT_EQ(pb.xy, want.xy) << "scene b drew scene a's upload";
+  // And back: a again after b is a's picture, not b's.
+  EXPECT_EQ(r.render(a, cam).xy, pa.xy);
 }
 
 }  // namespace

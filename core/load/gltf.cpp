@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 
@@ -231,6 +232,32 @@ struct Loader {
 
 // tinygltf reports errors as text; a GLB container we check ourselves so that a cut-short file
 // is "truncated", not a vague parse error.
+// glTF 1.0 (2015: dictionaries where 2.0 has arrays, a different binary container) is a format of
+// its own that tinygltf reads as an empty 2.0 scene: "no triangles" said nothing of why (issue
+// 45, item 9).
+constexpr const char* kGltf1 = "glTF 1.0 is not read, only glTF 2.0";
+
+// Whether a .gltf's JSON is glTF 1.0: asset.version 1.x (a string, or a number as some 1.0
+// exporters wrote it), or no version and 1.0's dictionaries of accessors or meshes. Looked at only
+// where the file gave no triangles or did not parse, so a 2.0 file is never parsed twice.
+bool is_gltf1(std::string_view text) {
+  const nlohmann::json j = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return false;
+  const auto asset = j.find("asset");
+  if (asset != j.end() && asset->is_object()) {
+    const auto v = asset->find("version");
+    if (v != asset->end()) {
+      if (v->is_number()) return v->get<double>() < 2;
+      if (v->is_string()) return v->get<std::string>().rfind('1', 0) == 0;
+    }
+  }
+  for (const char* key : {"accessors", "meshes"}) {
+    const auto a = j.find(key);
+    if (a != j.end() && a->is_object() && !a->empty()) return true;
+  }
+  return false;
+}
+
 void check_glb(const Source& src, std::string_view b) {
   if (b.size() < 12) {
     bool prefix =
@@ -240,6 +267,9 @@ void check_glb(const Source& src, std::string_view b) {
   }
   if (b.substr(0, 4) != "glTF")
     fail(InputErrorKind::ParseError, src, "", "", -1, "not a GLB file (no 'glTF' magic)");
+  uint32_t version;
+  std::memcpy(&version, b.data() + 4, 4);
+  if (version == 1) fail(InputErrorKind::UnknownFormat, src, "", "", -1, kGltf1);
   uint32_t length;
   std::memcpy(&length, b.data() + 8, 4);
   if (length > b.size())
@@ -343,6 +373,8 @@ Scene read_gltf(const Source& src, std::string_view bytes, bool binary, const Lo
     throw InputError(e.kind(), e.file(), "", "", -1,
                      e.detail() + " (referenced by " + src.file + ")");
   }
+  if (!ok && !binary && is_gltf1(bytes))
+    fail(InputErrorKind::UnknownFormat, src, "", "", -1, kGltf1);
   if (!ok) {
     while (!err.empty() && (err.back() == '\n' || err.back() == '\r')) err.pop_back();
     for (char& ch : err)
@@ -368,6 +400,8 @@ Scene read_gltf(const Source& src, std::string_view bytes, bool binary, const Lo
       if (!child[i]) roots.push_back(int(i));
   }
   for (int r : roots) L.visit(r);
+  if (L.scene.triangle_count() == 0 && !binary && is_gltf1(bytes))
+    fail(InputErrorKind::UnknownFormat, src, "", "", -1, kGltf1);
   if (L.scene.triangle_count() == 0)
     fail(InputErrorKind::EmptyMesh, src, "", "", -1,
          L.scene.meshes.empty() ? "no triangles in the scene"

@@ -62,13 +62,30 @@ class ByteBudget {
   std::chrono::steady_clock::time_point until_;
 };
 
+// A load's warnings (Scene::warnings): the first kMaxLoadWarnings lines, and how many more.
+inline constexpr size_t kMaxLoadWarnings = 20;
+struct LoadWarnings {
+  std::vector<std::string> lines;
+  uint64_t more = 0;
+  void add(std::string line) {
+    if (lines.size() < kMaxLoadWarnings)
+      lines.push_back(std::move(line));
+    else
+      ++more;
+  }
+  // Into the scene's, with the count of those left out.
+  void move_to(std::vector<std::string>& out);
+};
+
 // Where a load happens: the name used in messages and the folder relative references resolve
 // against (empty for bytes from memory: external references are then refused), and the budget
-// every file of the load is charged against (one per load_scene / load_scene_from_memory call).
+// every file of the load is charged against (one per load_scene / load_scene_from_memory call),
+// and where its warnings go.
 struct Source {
   std::string file;
   std::string base_dir;
   ByteBudget* budget = nullptr;
+  LoadWarnings* warnings = nullptr;  // none: warnings are dropped
 };
 
 // Lower-cased extension, compound for ".ply.gz" (".ply.gz", ".obj", ... or "" if none).
@@ -119,6 +136,11 @@ Mesh implicit_object(const Source& src, std::string_view text, const std::string
                      const std::optional<std::array<double, 6>>& bounds);
 Scene read_sexp(const Source& src, std::string_view bytes, const LoadOptions& opts);
 
+// Throws ParseError "UTF-16 text: save the file as UTF-8" when a text file's bytes are UTF-16 (a
+// byte-order mark, or a NUL in every other one of its first bytes): every reader read it as no
+// triangles before (issue 45, item 9).
+void refuse_utf16(const Source& src, std::string_view bytes);
+
 // Loads a mesh file (any format but .json) from bytes into a scene.
 Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptions& opts);
 
@@ -131,14 +153,16 @@ uint64_t finish_mesh(Mesh& m, const Source& src);
 void check_size(uint64_t triangles, const LoadOptions& opts, const Source& src,
                 const std::string& mesh);
 
-// Appends the fan triangulation of polygon `corners` (k >= 3) to m.indices.
-inline void add_fan(Mesh& m, const uint32_t* corners, size_t k) {
-  for (size_t i = 2; i < k; ++i) {
-    m.indices.push_back(corners[0]);
-    m.indices.push_back(corners[i - 1]);
-    m.indices.push_back(corners[i]);
-  }
-}
+// Appends polygon `corners`' k - 2 triangles (k >= 3) to `indices`, in the face's place (the
+// global triangle id rule: a k-gon counts as k - 2 triangles in face order): the fan from its
+// first corner where it is convex, as always; ear clipping in its plane where it is not
+// (core/util/polygon.h: concave and self-touching faces). `positions` holds the vertices the
+// corners index (every corner checked in range by the caller). A polygon whose edges cross, or
+// one too large to cut, is fanned and warned of (src.warnings), naming the file, the mesh, the
+// face and, where `line` >= 0, the line.
+void add_polygon(std::vector<uint32_t>& indices, const std::vector<float>& positions,
+                 const uint32_t* corners, size_t k, const Source& src, const std::string& mesh,
+                 int64_t face, int64_t line);
 
 [[noreturn]] inline void fail(InputErrorKind kind, const Source& src, const std::string& mesh,
                               const std::string& element, int64_t index, const std::string& msg) {

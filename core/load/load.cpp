@@ -13,6 +13,7 @@
 #include <limits>
 
 #include "core/load/internal.h"
+#include "core/util/polygon.h"
 #include "core/util/weld.h"
 
 namespace vismap {
@@ -279,8 +280,55 @@ uint64_t finish_mesh(Mesh& m, const Source& src) {
   return nt - kept;
 }
 
-Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptions& opts) {
+void LoadWarnings::move_to(std::vector<std::string>& out) {
+  for (std::string& l : lines) out.push_back(std::move(l));
+  if (more) out.push_back(std::to_string(more) + " more warnings like these not shown");
+  lines.clear();
+  more = 0;
+}
+
+void add_polygon(std::vector<uint32_t>& indices, const std::vector<float>& positions,
+                 const uint32_t* corners, size_t k, const Source& src, const std::string& mesh,
+                 int64_t face, int64_t line) {
+  const size_t at = indices.size();
+  indices.resize(at + 3 * (k - 2));
+  const PolygonShape shape = triangulate_polygon(positions.data(), corners, k, indices.data() + at);
+  if (shape == PolygonShape::Convex) return;
+  if (shape != PolygonShape::Concave && src.warnings) {
+    std::string where = src.file + ": mesh '" + mesh + "': face " + std::to_string(face);
+    if (line >= 0) where += " (line " + std::to_string(line) + ")";
+    src.warnings->add(where + ": polygon of " + std::to_string(k) + " corners " +
+                      (shape == PolygonShape::TooLarge
+                           ? "is not convex and has more than " +
+                                 std::to_string(kMaxEarClipCorners) + ": fanned, not cut into ears"
+                           : "is not simple (its edges cross): its triangles may overlap"));
+  }
+  // Ear clipping is quadratic in the corners: the load's time limit is kept between polygons.
+  if (src.budget) src.budget->check_time(src.file, "polygon triangulation");
+}
+
+void refuse_utf16(const Source& src, std::string_view b) {
+  auto byte = [&](size_t i) { return static_cast<unsigned char>(b[i]); };
+  bool utf16 = b.size() >= 2 && ((byte(0) == 0xFE && byte(1) == 0xFF) ||
+                                 (byte(0) == 0xFF && byte(1) == 0xFE));  // a byte-order mark
+  if (!utf16 && b.size() >= 4) {
+    // No mark: ASCII saved as UTF-16 has a NUL in every other byte (and text formats none).
+    const size_t n = std::min<size_t>(b.size() & ~size_t(1), 64);
+    size_t nul[2] = {0, 0};
+    for (size_t i = 0; i < n; ++i) nul[i & 1] += b[i] == '\0';
+    utf16 = (nul[0] == n / 2 && nul[1] == 0) || (nul[1] == n / 2 && nul[0] == 0);
+  }
+  if (utf16)
+    fail(InputErrorKind::ParseError, src, "", "", -1, "UTF-16 text: save the file as UTF-8");
+}
+
+Scene load_mesh_bytes(const Source& given, std::string_view bytes, const LoadOptions& opts) {
+  LoadWarnings warnings;
+  Source src = given;
+  src.warnings = &warnings;
   std::string ext = format_extension(src.file);
+  // Every format but binary STL (any 80-byte header), GLB and gzip is text or starts with some.
+  if (ext != ".stl" && ext != ".glb" && ext != ".ply.gz") refuse_utf16(src, bytes);
   if (ext == ".gltf" || ext == ".glb") return read_gltf(src, bytes, ext == ".glb", opts);
   if (ext == ".pbrt") return read_pbrt(src, bytes, opts);
   // Patch meshes have no triangles: the tail below (finish_mesh, "every triangle is degenerate")
@@ -293,6 +341,7 @@ Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptio
     meshes = read_ply(src, bytes, opts);
   } else if (ext == ".ply.gz") {
     std::string plain = gunzip(src, bytes);
+    refuse_utf16(src, plain);
     meshes = read_ply(src, plain, opts);
   } else if (ext == ".obj") {
     meshes = read_obj(src, bytes, opts);
@@ -316,6 +365,7 @@ Scene load_mesh_bytes(const Source& src, std::string_view bytes, const LoadOptio
   s.meshes = std::move(meshes);
   if (s.triangle_count() == 0)
     fail(InputErrorKind::EmptyMesh, src, "", "", -1, "every triangle is degenerate (zero area)");
+  warnings.move_to(s.warnings);
   return s;
 }
 
@@ -340,7 +390,10 @@ Scene load_file(const std::string& path, const LoadOptions& opts, ByteBudget& bu
          "unknown format '" + ext +
              "' (expected " + std::string(kFormats) + ")");
   std::string bytes = read_input_file(path, opts, budget);
-  if (ext == ".json") return read_scene_file(src, bytes, opts);
+  if (ext == ".json") {
+    refuse_utf16(src, bytes);
+    return read_scene_file(src, bytes, opts);
+  }
   return load_mesh_bytes(src, bytes, opts);
 }
 }  // namespace detail
@@ -363,7 +416,10 @@ Scene load_scene_from_memory(const std::string& name, const std::string& bytes,
         InputErrorKind::UnknownFormat, src, "", "", -1,
         "unknown format '" + ext +
             "' (expected " + std::string(detail::kFormats) + ")");
-  if (ext == ".json") return detail::read_scene_file(src, bytes, opts);
+  if (ext == ".json") {
+    detail::refuse_utf16(src, bytes);
+    return detail::read_scene_file(src, bytes, opts);
+  }
   return detail::load_mesh_bytes(src, bytes, opts);
 }
 

@@ -1,9 +1,8 @@
-// Wavefront OBJ reader: v and f (polygons fan-triangulated; "i", "i/t", "i//n", "i/t/n", negative
-// = relative), split into one Mesh per material (or per group / object where no material is
-// used) in order of first use, each
-// colored by its material's Kd from the mtllib. Other statements are ignored. Own reader, not
-// OpenMesh's: OpenMesh does not split by group, drops faces at non-manifold edges and does not
-// say which line is bad.
+// Wavefront OBJ reader: v and f (polygons triangulated by add_polygon: fanned where convex; "i",
+// "i/t", "i//n", "i/t/n", negative = relative), split into one Mesh per material (or per group /
+// object where no material is used) in order of first use, each colored by its material's Kd from
+// the mtllib. Other statements are ignored. Own reader, not OpenMesh's: OpenMesh does not split by
+// group, drops faces at non-manifold edges and does not say which line is bad.
 #include <sys/stat.h>
 
 #include <cmath>
@@ -113,8 +112,9 @@ std::vector<Mesh> read_obj(const Source& src, std::string_view bytes, const Load
                   " vertices so far)");
         poly.push_back(uint32_t(v));
       }
-      for (size_t k = 2; k < poly.size(); ++k)
-        part->indices.insert(part->indices.end(), {poly[0], poly[k - 1], poly[k]});
+      if (poly.size() >= 3)
+        add_polygon(part->indices, positions, poly.data(), poly.size(), src,
+                    group.empty() ? stem : group, face, int64_t(c.line()));
       triangles += poly.size() >= 3 ? poly.size() - 2 : 0;
       check_size(triangles, opts, src, group.empty() ? stem : group);
       ++face;

@@ -72,7 +72,9 @@ std::vector<Mesh> read_off(const Source& src, std::string_view bytes, const Load
                  " vertices)");
       poly.push_back(uint32_t(v));
     }
-    if (poly.size() >= 3) add_fan(m, poly.data(), poly.size());
+    if (poly.size() >= 3)
+      add_polygon(m.indices, m.positions, poly.data(), poly.size(), src, m.name, f,
+                  int64_t(c.line()));
     skip_rest_of_line();
   }
   std::vector<Mesh> out;

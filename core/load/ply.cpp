@@ -1,7 +1,7 @@
 // PLY reader (ascii, binary little and big endian): a "vertex" element with x, y, z and either a
-// "face" element (list vertex_indices / vertex_index, polygons fan-triangulated) or a "tristrips"
-// element (lists with -1 restarting a strip). Other elements and properties are skipped.
-// Our own reader rather than OpenMesh's: OpenMesh's PolyMesh drops or splits faces at
+// "face" element (list vertex_indices / vertex_index, polygons triangulated by add_polygon) or a
+// "tristrips" element (lists with -1 restarting a strip). Other elements and properties are
+// skipped. Our own reader rather than OpenMesh's: OpenMesh's PolyMesh drops or splits faces at
 // non-manifold edges (happy_vrip_res3.ply), cannot read tristrips (igea.ply) and is slower on the
 // ascii bunny (52 ms against about 15 ms here); the renderer must see every face in file order.
 #include <algorithm>
@@ -213,8 +213,10 @@ struct Reader {
                " out of range (" + std::to_string(nv) + " vertices)");
     return static_cast<uint32_t>(v);
   }
-  void end_face() {
-    if (poly.size() >= 3) add_fan(m, poly.data(), poly.size());
+  // line: the face's in an ascii file, -1 in a binary one.
+  void end_face(uint64_t face, int64_t line) {
+    if (poly.size() >= 3)
+      add_polygon(m.indices, m.positions, poly.data(), poly.size(), src, mesh, int64_t(face), line);
   }
   // Strips: -1 restarts; every other triangle flips so all keep the strip's orientation.
   void end_strip(const std::vector<double>& raw, uint64_t elem) {
@@ -350,7 +352,7 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
               index(v);
               r.poly.push_back(r.vertex_index(v, "face", i));
             }
-            r.end_face();
+            r.end_face(i, int64_t(c.line()));
           } else {
             raw.resize(k);
             for (size_t j = 0; j < k; ++j) number(raw[j]);
@@ -407,7 +409,7 @@ std::vector<Mesh> read_ply(const Source& src, std::string_view bytes, const Load
             r.poly.clear();
             for (size_t j = 0; j < k; ++j)
               r.poly.push_back(r.vertex_index(b.number(pr.type), "face", i));
-            r.end_face();
+            r.end_face(i, -1);
           } else {
             raw.resize(k);
             for (size_t j = 0; j < k; ++j) raw[j] = b.number(pr.type);

@@ -261,6 +261,9 @@ Scene read_scene_file(const Source& src, std::string_view bytes, const LoadOptio
         throw InputError(e.kind(), e.file(), e.mesh(), e.element(), e.index(),
                          e.detail() + " (referenced by " + src.file + " " + path + ")");
       }
+      // Its warnings once, however many entries name it.
+      scene.warnings.insert(scene.warnings.end(), it->second.warnings.begin(),
+                            it->second.warnings.end());
       const uint64_t copies = std::max<uint64_t>(references[full], 1);
       uint64_t tris = 0, bytes = 0;
       for (const Mesh& pm : it->second.meshes) {

@@ -37,7 +37,14 @@ std::vector<cl_int4> plan_buckets(ClRuntime& rt, const SceneBuffers& sb, Frame& 
   // render's buffers may still be on their way, and the plan must not depend on timing.
   // An eighth of the budget is left for what the allocator holds beyond the live buffers
   // (rounding to huge pages, freed blocks kept for reuse).
-  const uint64_t held = sb.bytes + rt.allocated_bytes(), fixed = held + budget / 8;
+  // The scene's facts are not counted (issue 45, item 9: with --scene-facts their bytes made 3
+  // buckets where there were 2, and so other bytes for the same picture): the plan, and every
+  // decision that follows from it, must be the same with and without them. They are held only
+  // where they fit in half of that eighth (Renderer::Impl::take_facts); nothing else a frame
+  // allocates depends on them (the same crossing pairs are found either way, and the apart
+  // flags are allocated either way: snap_depths).
+  const uint64_t facts = sb.facts ? sb.facts->bytes() : 0;
+  const uint64_t held = sb.bytes - facts + rt.allocated_bytes(), fixed = held + budget / 8;
   if (budget <= fixed + (held >> 3))
     throw InputError(InputErrorKind::TooLarge, "", "", "", -1,
                      "memory budget of " + mib(budget) + " is too small: the scene alone holds " +

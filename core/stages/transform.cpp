@@ -95,7 +95,9 @@ void snap_depths(ClRuntime& rt, Frame& fr, ScreenSet& s, Stage stage, const Scen
   s.bb = rt.alloc(std::max<size_t>(s.count, 1) * sizeof(cl_int4), "triangle boxes");
   s.qr = rt.alloc(std::max<size_t>(s.count, 1) * sizeof(cl_double2), "triangle depth ranges");
   const bool on = apart.on && sb != nullptr;
-  s.apart = rt.alloc(on ? std::max<size_t>(s.count, 4) : 16, "apart triangles");
+  // Allocated whether the facts are on or not, so that a region's bytes (and so its memory
+  // budget's halving, core/stages/budget.h) are the same with and without them.
+  s.apart = rt.alloc(std::max<size_t>(s.count, 4), "apart triangles");
   rt.launch(stage, "snap_depth_planes", s.count, s.tris, s.count, fr.depth_ex, s.bb, s.qr,
             cl_int(on ? 1 : 0), on ? sb->clearance : s.apart, apart.need, apart.qmax, s.apart);
 }

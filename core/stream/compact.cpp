@@ -278,8 +278,8 @@ CompactFrame read_compact(const std::string& bytes) {
     malformed(InputErrorKind::ParseError, "header", -1, "unknown flag bits");
   if (f.width < 1 || f.height < 1 || f.width > 65536 || f.height > 65536)
     malformed(InputErrorKind::ParseError, "header", -1, "viewport out of range");
-  if (f.quantum < 1 || f.quantum > 256)
-    malformed(InputErrorKind::ParseError, "header", -1, "quantum out of 1 ... 256");
+  if (f.quantum < kMinQuantum || f.quantum > kMaxQuantum)
+    malformed(InputErrorKind::ParseError, "header", -1, "quantum out of " + quantum_range_text());
   if (uint64_t(f.width) * f.quantum >= (1u << 31) || uint64_t(f.height) * f.quantum >= (1u << 31))
     malformed(InputErrorKind::ParseError, "header", -1, "viewport times quantum over 2^31");
   if (nt > kMaxTriangles || nv > 3ull * nt || (nt > 0 && nv < 3) || nm == 0 || nm > (1u << 24))

@@ -17,8 +17,22 @@
 
 namespace vismap {
 
+// The grid's steps per pixel (quantum): the one range that every reader of a quantum checks
+// (the CLI's --quantum, vismapd's hello, vismap-client, the compact and delta decoders) and the
+// docs state (issue 45, item 9: the CLI said 1..16384 for some values and 1 ... 256 for others).
+// 256 keeps the grid within 2^22 steps a side at the largest viewport (kMaxViewport 2^14).
+inline constexpr uint32_t kMinQuantum = 1;
+inline constexpr uint32_t kMaxQuantum = 256;
+// "1 ... 256 grid steps per pixel": the words every message about a bad quantum uses (inline:
+// the protocol fuzzer links server/protocol.cpp without this module).
+inline std::string quantum_range_text() {
+  return std::to_string(kMinQuantum) + " ... " + std::to_string(kMaxQuantum) +
+         " grid steps per pixel";
+}
+
 struct CompactOptions {
-  uint32_t quantum = 16;  // grid steps per pixel, 1 ... 256 (positions within 1/(2*quantum) px)
+  uint32_t quantum = 16;  // grid steps per pixel, kMinQuantum ... kMaxQuantum (positions within
+                          // 1/(2*quantum) px)
   bool shade = false;     // a shade byte per source triangle (the SVG writer's Lambert shade)
   Compression compression = Compression::Zstd;
   int level = 0;  // the coder's level: 0 its default (zstd 3, deflate 6); zstd 1 ... 19,

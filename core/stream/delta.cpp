@@ -230,7 +230,8 @@ Header decode_header(const std::string& bytes) {
   if (h.sources && flags != kSources) malformed("header", -1, "sources with other flags");
   if (h.width < 1 || h.height < 1 || h.width > 65536 || h.height > 65536)
     malformed("header", -1, "viewport out of range");
-  if (h.quantum < 1 || h.quantum > 256) malformed("header", -1, "quantum out of 1 ... 256");
+  if (h.quantum < kMinQuantum || h.quantum > kMaxQuantum)
+    malformed("header", -1, "quantum out of " + quantum_range_text());
   if (h.compression != uint32_t(Compression::Zstd) &&
       h.compression != uint32_t(Compression::Deflate))
     malformed("header", -1, "unknown compression");

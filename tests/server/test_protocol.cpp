@@ -60,6 +60,14 @@ TEST(Protocol, CompactRefusals) {
   EXPECT_EQ(code_of(R"({"type":"hello","version":2,"quantum":256})"), "ok");
   EXPECT_EQ(code_of(R"({"type":"hello","version":2,"quantum":1})"), "ok");
   EXPECT_EQ(code_of(R"({"type":"hello","version":2,"quantum":1e3})"), "bad_message");
+  // The CLI's words and range (issue 45, item 9: one constant, kMaxQuantum).
+  try {
+    parse_request(R"({"type":"hello","version":2,"quantum":300})", 1000, 4096);
+    ADD_FAILURE() << "quantum 300 was accepted";
+  } catch (const ProtoError& e) {
+    EXPECT_NE(std::string(e.what()).find("1 ... 256 grid steps per pixel"), std::string::npos)
+        << e.what();
+  }
   EXPECT_EQ(code_of(R"({"type":"hello","version":2,"compression":"gzip"})"), "bad_message");
   EXPECT_EQ(code_of(R"({"type":"hello","version":2,"format":"delta"})"), "ok");
   EXPECT_EQ(code_of(R"({"type":"hello","version":1,"format":"delta"})"), "bad_message");

@@ -1,8 +1,11 @@
 // vismapd on loopback, in process, with the real pipeline: handshake, uploads, frames in both
 // formats, every error code a session can get, every limit, concurrency, slow and vanishing
 // clients, a bounded soak and the graceful stop. Every wait is bounded.
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
@@ -391,6 +394,156 @@ TEST_F(ServerTest, SlowClientGetsTheLatestCamera) {
   }
   EXPECT_EQ(frames + skipped, uint64_t(kCameras));
   EXPECT_THROW(c.read(0.3), Timeout);  // nothing left queued behind the last frame
+}
+
+// A WebSocket client on a raw socket that reads at a set rate, for the slow-reader test: its
+// receive buffer is small (SO_RCVBUF before connect), so the server's send can only go as fast
+// as it reads, as over a slow link. Unmasked server frames, masked client frames (RFC 6455).
+class ThrottledClient {
+ public:
+  ThrottledClient(const std::string& port, int rcvbuf) {
+    fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
+    ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+    timeval tv{20, 0};  // no read or write waits longer
+    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    ::setsockopt(fd_, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(static_cast<uint16_t>(std::stoi(port)));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0)
+      throw std::runtime_error("connect failed");
+    write_all(
+        "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+        "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n");
+    std::string head;
+    while (head.size() < 4 || head.compare(head.size() - 4, 4, "\r\n\r\n") != 0) head += take(1);
+    if (head.find(" 101 ") == std::string::npos) throw std::runtime_error("upgrade: " + head);
+  }
+  ~ThrottledClient() { ::close(fd_); }
+  void send(const std::string& payload, bool binary) {
+    std::string f(1, static_cast<char>(binary ? 0x82 : 0x81));
+    size_t n = payload.size();
+    if (n < 126) {
+      f += static_cast<char>(0x80 | n);
+    } else if (n < 65536) {
+      f += static_cast<char>(0x80 | 126);
+      for (int k = 1; k >= 0; --k) f += static_cast<char>((n >> (8 * k)) & 0xff);
+    } else {
+      f += static_cast<char>(0x80 | 127);
+      for (int k = 7; k >= 0; --k) f += static_cast<char>((uint64_t(n) >> (8 * k)) & 0xff);
+    }
+    const char mask[4] = {0x12, 0x34, 0x56, 0x78};
+    f.append(mask, 4);
+    for (size_t i = 0; i < n; ++i) f += static_cast<char>(payload[i] ^ mask[i % 4]);
+    write_all(f);
+  }
+  // The next data message; reads at most bytes_per_s (0: as fast as it comes). Answers pings;
+  // throws on a close frame or a dropped connection.
+  std::string read_message(double bytes_per_s = 0) {
+    rate_ = bytes_per_s;
+    std::string msg;
+    for (;;) {
+      std::string h = take(2);
+      int op = h[0] & 0x0f;
+      bool fin = (h[0] & 0x80) != 0;
+      uint64_t n = h[1] & 0x7f;
+      if (n >= 126) {
+        std::string e = take(n == 126 ? 2 : 8);
+        n = 0;
+        for (char c : e) n = (n << 8) | static_cast<uint8_t>(c);
+      }
+      std::string payload = take(n);
+      if (op == 0x8) throw std::runtime_error("closed by the server");
+      if (op == 0x9) {
+        send_control(0xA, payload);
+        continue;
+      }
+      if (op == 0xA) continue;
+      msg += payload;
+      if (fin) return msg;
+    }
+  }
+
+ private:
+  void send_control(int op, const std::string& payload) {
+    std::string f(1, static_cast<char>(0x80 | op));
+    f += static_cast<char>(0x80 | payload.size());
+    f.append(4, '\0');  // mask key 0: the payload as is
+    write_all(f + payload);
+  }
+  void write_all(const std::string& s) {
+    for (size_t off = 0; off < s.size();) {
+      ssize_t k = ::send(fd_, s.data() + off, s.size() - off, MSG_NOSIGNAL);
+      if (k <= 0) throw std::runtime_error("send failed");
+      off += static_cast<size_t>(k);
+    }
+  }
+  // n bytes, in reads of at most 8 KiB paced to rate_.
+  std::string take(uint64_t n) {
+    std::string out;
+    while (out.size() < n) {
+      if (!buf_.empty()) {
+        size_t k = std::min<size_t>(buf_.size(), n - out.size());
+        out.append(buf_, 0, k);
+        buf_.erase(0, k);
+        continue;
+      }
+      char tmp[8192];
+      ssize_t k = ::recv(fd_, tmp, sizeof tmp, 0);
+      if (k <= 0)
+        throw std::runtime_error("connection dropped after " + std::to_string(total_) + " bytes");
+      total_ += static_cast<uint64_t>(k);
+      buf_.append(tmp, static_cast<size_t>(k));
+      if (rate_ > 0) std::this_thread::sleep_for(std::chrono::duration<double>(k / rate_));
+    }
+    return out;
+  }
+  int fd_ = -1;
+  std::string buf_;
+  double rate_ = 0;
+  uint64_t total_ = 0;
+};
+
+// Issue 45, item 8: the idle timeout counted from the client's last message, and Beast's own
+// idle timeout (keep-alive pings queued behind the frame) counted bytes received only, so a
+// client reading a big frame slowly was cut off mid-frame (a 2.7 MB frame read at 150 KB/s).
+// Here a 2 s idle timeout and a ~0.9 MB frame read at 150 kB/s (about six seconds): the whole
+// frame arrives, and the session still answers the next camera. On a3eef30 the connection
+// dropped mid-frame, or the frame was followed by a timeout error.
+TEST_F(ServerTest, SlowReaderIsNotCutOffMidFrame) {
+  cfg_.limits.idle_timeout_s = 2;
+  start();
+  ThrottledClient c(port_, 32 << 10);
+  c.send(json{{"type", "hello"},
+              {"version", 1},
+              {"format", "svg"},
+              {"viewport", {{"width", 1024}, {"height", 1024}}}}
+             .dump(),
+         false);
+  ASSERT_EQ(json::parse(c.read_message())["type"], "welcome");
+  const std::string scene = grid_obj(100);  // 20,000 triangles, nearly all visible: ~0.9 MB SVG
+  c.send(json{{"type", "scene"}, {"name", "grid.obj"}, {"size", scene.size()}}.dump(), false);
+  c.send(scene, true);
+  json r = json::parse(c.read_message());
+  ASSERT_EQ(r["type"], "scene_ready") << r.dump();
+  constexpr double kRate = 150e3;  // bytes per second, as the issue's reader
+  for (uint64_t seq = 1; seq <= 2; ++seq) {
+    c.send(json{{"type", "camera"},
+                {"seq", seq},
+                {"eye", {0.5, 1.6, 0.5 + 0.01 * seq}},
+                {"target", {0.5, 0, 0.5}},
+                {"up", {0, 0, -1}}}
+               .dump(),
+           false);
+    json h = json::parse(c.read_message());
+    ASSERT_EQ(h["type"], "frame") << h.dump();
+    std::string payload = c.read_message(kRate);  // paced: 5 s or more for 750 kB
+    EXPECT_EQ(payload.size(), h["bytes"].get<uint64_t>());
+    if (seq == 1) {
+      ASSERT_GT(payload.size(), 750'000u) << "the frame must take several idle timeouts to read";
+    }
+  }
 }
 
 TEST_F(ServerTest, DisconnectMidFrameLeavesOthersServing) {
