@@ -44,7 +44,7 @@ seed 9 "$root/../shared/data/teapot/teapot.bpt"
 seed 10 "$root/../shared/data/teapot/newell_teaspoon.patches"
 printf '\x01' > "$out/empty_gz.1"
 printf '\x04solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid x\n' > "$out/ascii.stl.4"
-# Regressions of issue 15 (tests/test_loader_errors.cpp has each as a named test):
+# Regressions of issue 15 (tests/test_load_errors.cpp has each as a named test):
 # PropertylessElementWithHugeCountHang: an element of 2^63-1 items without properties.
 printf '\x00ply\nformat ascii 1.0\nelement junk 9223372036854775807\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n' > "$out/propertyless_huge_count.ply.0"
 # ListCountTimesSizeWrapsReadPastBuffer: a binary list count of 2^62 (double) times 4 bytes wraps.

@@ -7,7 +7,7 @@
 // Orientation: both files list a patch's 16 points in four rows of four; point k is control
 // point (i, j) = (k / 4, k % 4), the index inside a row runs along u. Stored as is, the
 // Utah teapot's normals S_u x S_v point outward (its control nets, as triangles (i,j) (i,j+1)
-// (i+1,j+1) and (i,j) (i+1,j+1) (i+1,j), enclose +32.1, a positive volume; tests/test_loaders.cpp
+// (i+1,j+1) and (i,j) (i+1,j+1) (i+1,j), enclose +32.1, a positive volume; tests/test_load_readers.cpp
 // LoadPatches), and teapot.bpt and newell_teapot.patches hold the same 32 patches in the same
 // order, point for point.
 #include <cmath>

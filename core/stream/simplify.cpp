@@ -33,7 +33,7 @@ size_t index_of(const Ring& r, uint32_t v) {
 // A and B (of one source) share the edge u -> v of A (v -> u in B). The union along the whole
 // path they share, when it is one convex polygon without a repeated point: into A. (Checked at
 // every corner, not only where the two meet: with the zero-length edges a map can have, a
-// union convex at those two corners was not convex; tests/test_delta.cpp,
+// union convex at those two corners was not convex; tests/test_stream_delta.cpp,
 // MergedPolygonsTileTheSameArea, the Cornell box.)
 bool try_merge(Ring& A, const Ring& B, uint32_t u, uint32_t v, const std::vector<double>& xy) {
   const size_t na = A.size(), nb = B.size();

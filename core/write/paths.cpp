@@ -21,7 +21,7 @@
 // Measured with rsvg-convert on a mid-grey square of 288 triangles: without stroke seams lift
 // interior pixels from 128 to 171; with a 1 px stroke on every edge to 131 but outlines gain
 // half a pixel; with shared-edge strokes only, interior 131 and outline pixels equal to a
-// single-polygon reference (tests/test_output.cpp checks the structure).
+// single-polygon reference (tests/test_write_svg_bin.cpp checks the structure).
 //
 // Fill::Id: no stroke (aliased rendering has no conflation seams).
 #include "core/write/paths.h"

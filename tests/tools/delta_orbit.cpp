@@ -1,7 +1,7 @@
 // Writes a delta stream (proto/DELTA.md) of an orbit, one file per frame, for the clients' delta
 // decoders to check against `vismap decode FRAME... --json` (clients/python/tests/test_delta.py,
 // clients/js/test_delta.mjs). Frame i: the framing camera turned by `step` degrees about +Y, as
-// tests/test_delta.cpp's orbit.
+// tests/test_stream_delta.cpp's orbit.
 //   vismap_delta_orbit SCENE OUTDIR [--frames N] [--width W] [--height H] [--quantum Q]
 //                      [--compression zstd|deflate] [--step DEG] [--keyframe-every K]
 //                      [--version 1|2] [--held 0|1]
