@@ -11,6 +11,7 @@
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -120,6 +121,27 @@ TEST_F(Cli, QuantumStatesOneRange) {
         << q << ": " << r.err;
     EXPECT_EQ(r.err.find("16384"), std::string::npos) << q << ": " << r.err;
   }
+}
+
+// Issue 45: a Cornell box view drew two zero-length intersection paths ("M649.53 824.9l0 0",
+// a dot of the line's width where a crossing line passes a rounding's length between two
+// silhouettes). A chain whose points all round to one is no line: every path has two points.
+TEST_F(Cli, NoZeroLengthLinePaths) {
+  const fs::path out = dir / "lines.svg";
+  const std::string box = std::string(VISMAP_SOURCE_DIR) + "/data/cornell_box/CornellBox-Original.obj";
+  CliRun r = run("render " + box + " -o " + out.string() +
+                     " --style lines --eye -1.8,0.4,3.0 --target 0,0.6,0 --up 0,1,0",
+                 dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string svg = slurp(out);
+  const std::regex path("<path d=\"M([-0-9.]+) ([-0-9.]+)l([^\"]*)\"");
+  size_t paths = 0;
+  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), path); it != std::sregex_iterator();
+       ++it) {
+    ++paths;
+    EXPECT_NE((*it)[3].str(), "0 0") << "a zero-length path at " << (*it)[1] << "," << (*it)[2];
+  }
+  EXPECT_GT(paths, 10u);
 }
 
 TEST_F(Cli, BinaryOutputRoundTrips) {

@@ -115,12 +115,10 @@ void draw_lines(cairo_t* cr, const LineSet& lines, const SvgStyle& style) {
       for (size_t c = 0; c < lines.chain_count(); ++c) {
         if (size_t(lines.kind[c]) != k || lines.hidden[c] != hidden) continue;
         detail::chain_points(lines, c, pts);
-        if (pts.empty()) continue;
+        if (pts.size() < 2) continue;  // shorter than a unit: no line, as in the SVG
         any = true;
         cairo_move_to(cr, px(pts[0].x), px(pts[0].y));
         for (size_t i = 1; i < pts.size(); ++i) cairo_line_to(cr, px(pts[i].x), px(pts[i].y));
-        // A chain shorter than a unit: a dot (round caps draw it).
-        if (pts.size() == 1) cairo_line_to(cr, px(pts[0].x), px(pts[0].y));
         if (lines.closed[c] && pts.size() > 2) cairo_close_path(cr);
       }
       if (!any) continue;

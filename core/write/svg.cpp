@@ -168,7 +168,10 @@ std::string hex_color(uint32_t rgb) {
 
 // The lines over the fills: <g class="lines"> holding one <g class="KIND"> per kind that has
 // chains, one <path> per chain. Points rounded to units as the fills' (a chain's point that is
-// a fragment's vertex prints as that vertex); points that round onto the previous are skipped.
+// a fragment's vertex prints as that vertex); points that round onto the previous are skipped,
+// and a chain whose points all round to one is not drawn: a line shorter than the output's unit
+// (1/100 px) is no line (it was drawn as a dot of the line's width, "M649.53 824.9l0 0", where a
+// crossing line passes a rounding's length between two silhouettes; issue 45).
 void write_lines(std::string& out, const LineSet& lines, const SvgStyle& style) {
   if (!(style.line_width > 0) || !std::isfinite(style.line_width))
     throw InputError(InputErrorKind::BadScene, "svg", "", "line width", -1,
@@ -186,6 +189,8 @@ void write_lines(std::string& out, const LineSet& lines, const SvgStyle& style) 
       bool open = false;
       for (size_t c = 0; c < lines.chain_count(); ++c) {
         if (size_t(lines.kind[c]) != k || lines.hidden[c] != hidden) continue;
+        detail::chain_points(lines, c, pts);
+        if (pts.size() < 2) continue;  // shorter than a unit: nothing to draw (issue 45)
         if (!any && hidden) {
           char dash[64];
           std::snprintf(dash, sizeof dash, "%g %g", 4 * style.line_width, 3 * style.line_width);
@@ -199,12 +204,9 @@ void write_lines(std::string& out, const LineSet& lines, const SvgStyle& style) 
         }
         out += "<path d=\"";
         PathData d(out, true);
-        detail::chain_points(lines, c, pts);
         d.move(pts[0]);
         for (size_t i = 1; i < pts.size(); ++i) d.line(pts[i]);
-        const size_t n = pts.size();
-        if (n == 1) d.line(pts[0]);  // a chain shorter than a unit: a dot (round caps draw it)
-        if (lines.closed[c] && n > 2) d.close();
+        if (lines.closed[c] && pts.size() > 2) d.close();
         out += "\"/>\n";
       }
       if (open) out += "</g>\n";
