@@ -500,15 +500,15 @@ Scene Renderer::tessellate(const Scene& scene, const Camera& camera, const Tesse
     out.source = scene.source;
     out.meshes.reserve(scene.meshes.size());
     const stages::Deadline deadline(opts.time_limit_s, scene.source, opts.started, opts.cancel);
-    const stages::TimeCheck check_time = [&] { deadline.check(Stage::Tessellate); };
+    const surfaces::TimeCheck check_time = [&] { deadline.check(Stage::Tessellate); };
     for (const Mesh& m : scene.meshes) {
       check_time();
       if (m.implicit)
-        out.meshes.push_back(stages::dice_implicit(impl_->rt, m, camera, opts, st, check_time));
+        out.meshes.push_back(surfaces::dice_implicit(impl_->rt, m, camera, opts, st, check_time));
       else if (!m.patches.empty())
-        out.meshes.push_back(stages::dice_patches(impl_->rt, m, camera, opts, st, check_time));
+        out.meshes.push_back(surfaces::dice_patches(impl_->rt, m, camera, opts, st, check_time));
       else if (m.subdivision)
-        out.meshes.push_back(stages::dice_subdivision(
+        out.meshes.push_back(surfaces::dice_subdivision(
             impl_->rt, m, camera, opts, opts.loop_plans ? *opts.loop_plans : impl_->loop_plans, st,
             check_time));
       else
@@ -526,7 +526,7 @@ implicit::Regions2D Renderer::implicit_2d(const implicit::Tape& tape, const impl
   return device_errors(impl_->rt, [&] {
     return implicit::contour_2d(
         impl_->rt, tape, view, tolerance_px, [&] { deadline.check(Stage::Implicit); },
-        stages::implicit_queue_cap(memory_budget));
+        surfaces::implicit_queue_cap(memory_budget));
   });
 }
 

@@ -252,7 +252,7 @@ ClRuntime& implicit_runtime() {
 }
 
 // The leaf with its tape as a SlotTape (for the host's evaluation of the device's tape).
-implicit::SlotTape leaf_tape(const implicit::SlotTape& full, const stages::ImplicitQueue& q, size_t i) {
+implicit::SlotTape leaf_tape(const implicit::SlotTape& full, const surfaces::ImplicitQueue& q, size_t i) {
   implicit::SlotTape t;
   t.slots = full.slots;
   t.root_slot = full.root_slot;
@@ -284,7 +284,7 @@ TEST(Implicit, DeviceQueueClassifiesAndShortensLikeTheHost) {
   const SlotTape s = allocate_slots(t);
   const float lo[3] = {-19.f, -19.f, -19.f};
   const float size = 38.f;
-  const stages::ImplicitQueue q = stages::run_implicit_queue(rt, s, lo, size, 3, {4, 4, 4});
+  const surfaces::ImplicitQueue q = surfaces::run_implicit_queue(rt, s, lo, size, 3, {4, 4, 4});
   ASSERT_EQ(q.rounds.size(), 4u);
   for (const auto& r : q.rounds) {
     std::printf("round: %llu regions, %llu full, %llu empty, %llu ambiguous, %llu clauses\n",
@@ -320,7 +320,7 @@ TEST(Implicit, DeviceQueueClassifiesAndShortensLikeTheHost) {
   std::vector<float> xyz;
   for (const VmIRegion& L : q.leaves)
     for (int k = 0; k < 3; ++k) xyz.push_back(L.lo[k] + 0.5f * L.size);
-  const std::vector<float> v = stages::eval_leaf_points(rt, s, q, xyz, 1);
+  const std::vector<float> v = surfaces::eval_leaf_points(rt, s, q, xyz, 1);
   for (size_t i = 0; i < q.leaves.size(); i += 13) {
     const double want = eval_slots(s, xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
     EXPECT_NEAR(v[i], want, 1e-3 * std::max(1.0, std::abs(want))) << "leaf " << i;
@@ -333,7 +333,7 @@ TEST(Implicit, DeviceQueueOnKnownShapes) {
   // passes, and full regions only inside it.
   const SlotTape s = allocate_slots(parse("(- (sqrt (+ (square x) (square y) (square z))) 1)", "sphere"));
   const float lo[3] = {-2.f, -2.f, -2.f};
-  const stages::ImplicitQueue q = stages::run_implicit_queue(rt, s, lo, 4.f, 3, {8, 8});
+  const surfaces::ImplicitQueue q = surfaces::run_implicit_queue(rt, s, lo, 4.f, 3, {8, 8});
   ASSERT_EQ(q.rounds.size(), 3u);
   EXPECT_EQ(q.rounds[0].ambiguous, 1u);
   for (const VmIRegion& L : q.leaves) {
@@ -347,12 +347,12 @@ TEST(Implicit, DeviceQueueOnKnownShapes) {
   EXPECT_LT(q.leaves.size(), 20000u);
   // 2D: a disc, split 4 ways twice in x and y only.
   const SlotTape d = allocate_slots(parse("(- (+ (square x) (square y)) 1)", "disc"));
-  const stages::ImplicitQueue q2 = stages::run_implicit_queue(rt, d, lo, 4.f, 2, {4, 4});
+  const surfaces::ImplicitQueue q2 = surfaces::run_implicit_queue(rt, d, lo, 4.f, 2, {4, 4});
   EXPECT_EQ(q2.rounds[1].regions, 16u);
   for (const VmIRegion& L : q2.leaves) EXPECT_EQ(L.lo[2], -2.f);
   // Division by an interval holding 0 and sqrt at 0: ambiguous, not NaN, never dropped.
   const SlotTape w = allocate_slots(parse("(- (/ 1 (sqrt (+ (square x) (square y) (square z)))) 2)", "pole"));
-  const stages::ImplicitQueue q3 = stages::run_implicit_queue(rt, w, lo, 4.f, 3, {2, 2});
+  const surfaces::ImplicitQueue q3 = surfaces::run_implicit_queue(rt, w, lo, 4.f, 3, {2, 2});
   EXPECT_GT(q3.leaves.size(), 0u);
   bool has_origin = false;
   for (const VmIRegion& L : q3.leaves)
@@ -361,7 +361,7 @@ TEST(Implicit, DeviceQueueOnKnownShapes) {
   EXPECT_TRUE(has_origin);
   // A memory cap that a round passes is an error naming the round, not a silent drop.
   try {
-    stages::run_implicit_queue(rt, s, lo, 4.f, 3, {8, 8, 8}, 1 << 20);
+    surfaces::run_implicit_queue(rt, s, lo, 4.f, 3, {8, 8, 8}, 1 << 20);
     FAIL() << "no error";
   } catch (const InputError& e) {
     EXPECT_EQ(e.kind(), InputErrorKind::TooLarge);

@@ -4,7 +4,7 @@
 
 #include "core/error.h"
 
-namespace vismap::stages {
+namespace vismap::surfaces {
 
 namespace {
 
@@ -253,4 +253,4 @@ std::vector<float> eval_leaf_points(ClRuntime& rt, const implicit::SlotTape& tap
   return out;
 }
 
-}  // namespace vismap::stages
+}  // namespace vismap::surfaces

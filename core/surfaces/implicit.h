@@ -13,7 +13,7 @@
 #include "core/device/cl_runtime.h"
 #include "core/implicit/implicit.h"
 
-namespace vismap::stages {
+namespace vismap::surfaces {
 
 struct ImplicitRound {
   uint64_t regions = 0, full = 0, empty = 0, ambiguous = 0;
@@ -90,4 +90,4 @@ std::vector<float> eval_leaf_points(ClRuntime& rt, const implicit::SlotTape& tap
                                     uint32_t m, uint32_t* launches = nullptr,
                                     const std::function<void()>& check_time = {});
 
-}  // namespace vismap::stages
+}  // namespace vismap::surfaces

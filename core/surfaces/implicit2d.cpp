@@ -91,8 +91,8 @@ Regions2D contour_2d(ClRuntime& rt, const Tape& tape, const View2D& v, double to
   const Tape clipped = clipped_to_box(tape, wlo, whi, 2);
   const SlotTape st = allocate_slots(clipped);
   const float lo[3] = {float(v.x0), float(v.y0), 0.f};
-  const stages::ImplicitQueue q =
-      stages::run_implicit_queue(rt, st, lo, float(size), 2, splits, max_bytes, {}, check_time);
+  const surfaces::ImplicitQueue q =
+      surfaces::run_implicit_queue(rt, st, lo, float(size), 2, splits, max_bytes, {}, check_time);
   for (const auto& r : q.rounds) {
     out.clauses_per_round.push_back(r.clauses);
     out.full_cells += r.full;
@@ -112,7 +112,7 @@ Regions2D contour_2d(ClRuntime& rt, const Tape& tape, const View2D& v, double to
       xyz.insert(xyz.end(), {float(v.x0 + double(i) * h), float(v.y0 + double(j) * h), 0.f});
     }
   }
-  const std::vector<float> val = stages::eval_leaf_points(rt, st, q, xyz, 4, nullptr, check_time);
+  const std::vector<float> val = surfaces::eval_leaf_points(rt, st, q, xyz, 4, nullptr, check_time);
   out.queue_ms = ms_since(t0);
   const auto t1 = Clock::now();
   // Corner values by grid index (every copy of a corner holds the same value: the shortened

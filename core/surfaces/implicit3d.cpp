@@ -31,7 +31,7 @@
 #include "core/util/clock.h"
 #include "core/util/weld.h"
 
-namespace vismap::stages {
+namespace vismap::surfaces {
 
 namespace {
 
@@ -608,4 +608,4 @@ Mesh dice_implicit(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   return out;
 }
 
-}  // namespace vismap::stages
+}  // namespace vismap::surfaces

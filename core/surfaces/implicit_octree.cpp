@@ -4,7 +4,7 @@
 
 #include "core/error.h"
 
-namespace vismap::stages {
+namespace vismap::surfaces {
 
 namespace {
 
@@ -235,4 +235,4 @@ DualMesh dual_contour(const OctreeLeaves& c, const std::vector<float>& val, cons
   return m;
 }
 
-}  // namespace vismap::stages
+}  // namespace vismap::surfaces

@@ -9,7 +9,7 @@
 
 #include "core/surfaces/implicit.h"
 
-namespace vismap::stages {
+namespace vismap::surfaces {
 
 // The object's cube [lo, lo + size]^3 and its finest grid: 2^levels cells per axis of side unit.
 // A leaf of level l has side size / 2^l and its corners are points lo + i unit of the finest grid
@@ -56,4 +56,4 @@ struct DualMesh {
 DualMesh dual_contour(const OctreeLeaves& c, const std::vector<float>& val, const OctreeGrid& g,
                       const std::string& name);
 
-}  // namespace vismap::stages
+}  // namespace vismap::surfaces

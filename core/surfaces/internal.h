@@ -19,7 +19,7 @@
 #include "core/scene.h"
 #include "core/surfaces/tessellate.h"
 
-namespace vismap::stages {
+namespace vismap::surfaces {
 
 // The view a dicer measures with: the camera, near and far fitted to the control points (x, y, z
 // each) when not given; the view-projection as float rows for the kernels' culling; pixels per
@@ -79,4 +79,4 @@ Mesh dice_subdivision(ClRuntime& rt, const Mesh& mesh, const Camera& cam,
                       const TessellateOptions& o, LoopPlans& plans, TessellateStats& st,
                       const TimeCheck& check_time);
 
-}  // namespace vismap::stages
+}  // namespace vismap::surfaces

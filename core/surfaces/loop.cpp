@@ -14,7 +14,7 @@
 #include "core/surfaces/internal.h"
 #include "core/util/format.h"
 
-namespace vismap::stages {
+namespace vismap::surfaces {
 
 namespace {
 
@@ -353,4 +353,4 @@ Mesh dice_subdivision(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in,
   return out;
 }
 
-}  // namespace vismap::stages
+}  // namespace vismap::surfaces

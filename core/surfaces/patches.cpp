@@ -18,7 +18,7 @@
 #include "core/util/format.h"
 #include "core/util/weld.h"
 
-namespace vismap::stages {
+namespace vismap::surfaces {
 
 namespace {
 
@@ -198,7 +198,7 @@ Mesh dice_patches(ClRuntime& rt, const Mesh& mesh, const Camera& cam_in, const T
   return out;
 }
 
-}  // namespace vismap::stages
+}  // namespace vismap::surfaces
 
 namespace vismap {
 

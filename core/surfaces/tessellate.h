@@ -16,7 +16,7 @@ namespace vismap {
 
 struct Mesh;
 
-namespace stages {
+namespace surfaces {
 struct LoopPlan;  // core/surfaces/loop.cpp
 }
 
@@ -27,7 +27,7 @@ struct LoopPlan;  // core/surfaces/loop.cpp
 // max_session_bytes). Used by one tessellate() at a time; the device copies are remade when
 // another Renderer dices the mesh.
 struct LoopPlans {
-  std::map<const Mesh*, std::shared_ptr<stages::LoopPlan>> by_mesh;
+  std::map<const Mesh*, std::shared_ptr<surfaces::LoopPlan>> by_mesh;
   uint64_t clock = 0;  // uses so far: each plan's last one orders the eviction
 };
 
