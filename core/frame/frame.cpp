@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "core/error.h"
+#include "core/stages/deadline.h"
 
 namespace vismap::frame {
 
@@ -20,19 +21,10 @@ double seconds_left(const FrameSpec& spec, Clock::time_point started) {
 }
 
 // Host work that is not interrupted (the lines, the encoding) does not start past the frame's
-// limit or once it is cancelled.
+// limit or once it is cancelled: the render's own check (stages::Deadline), at that point.
 void check_before(const FrameSpec& spec, Clock::time_point started, const char* what) {
-  const std::string& source = spec.scene->scene()->source;
-  if (spec.cancel && spec.cancel->load(std::memory_order_relaxed))
-    throw InputError(InputErrorKind::Cancelled, source, "", "", -1,
-                     std::string("the frame was cancelled (before ") + what + ")");
-  if (spec.time_limit_s > 0 && ms_since(started) / 1000 > spec.time_limit_s) {
-    char limit[32];
-    std::snprintf(limit, sizeof limit, "%g", spec.time_limit_s);
-    throw InputError(InputErrorKind::TimeLimit, source, "", "", -1,
-                     std::string("the frame passed its time limit of ") + limit + " s (before " +
-                         what + ")");
-  }
+  stages::Deadline(spec.time_limit_s, spec.scene->scene()->source, started, spec.cancel)
+      .check_at(std::string("before ") + what);
 }
 
 TessellateOptions dice_options(const FrameSpec& spec, Clock::time_point started) {
@@ -57,7 +49,7 @@ std::shared_ptr<const facts::SceneFacts> frame_facts(const FrameSpec& spec, cons
   if (!spec.cull || spec.facts == FactsPolicy::Off) return nullptr;
   const Clock::time_point t0 = Clock::now();
   std::shared_ptr<const facts::SceneFacts> f;
-  if (rendered.has_surfaces() || spec.scene->scene()->has_surfaces()) {
+  if (spec.scene->scene()->has_surfaces()) {
     if (spec.facts == FactsPolicy::Now &&
         facts::scene_facts_fit(rendered.triangle_count(), spec.memory_budget)) {
       f = std::make_shared<const facts::SceneFacts>(

@@ -27,16 +27,18 @@ class Deadline {
             std::chrono::duration_cast<Clock::duration>(
                 std::chrono::duration<double>(seconds > 0 ? seconds : 0))),
         cancel_(cancel) {}
-  void check(Stage stage) const {
+  void check(Stage stage) const { check_at(std::string("in stage ") + stage_name(stage)); }
+  // The same for work outside a stage; `where` ends the message: "(before drawing its lines)".
+  void check_at(const std::string& where) const {
     if (cancel_ && cancel_->load(std::memory_order_relaxed))
       throw InputError(InputErrorKind::Cancelled, source_, "", "", -1,
-                       std::string("the frame was cancelled (in stage ") + stage_name(stage) + ")");
+                       "the frame was cancelled (" + where + ")");
     if (!limited_ || Clock::now() <= at_) return;
     char limit[32];
     std::snprintf(limit, sizeof limit, "%g", seconds_);
     throw InputError(InputErrorKind::TimeLimit, source_, "", "", -1,
-                     std::string("the frame passed its time limit of ") + limit + " s (in stage " +
-                         stage_name(stage) + ")");
+                     std::string("the frame passed its time limit of ") + limit + " s (" + where +
+                         ")");
   }
 
  private:
